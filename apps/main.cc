@@ -1,0 +1,52 @@
+// gonio: one binary, one subcommand per capability (the command table is in commands.h).
+// Exit codes: 0 success, 2 bad input (one line naming the file or parameter), 3 a numerical
+// method could not give a valid result, 1 anything else.
+#include <algorithm>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "apps/commands.h"
+#include "common/error.h"
+#include "common/log.h"
+#include "common/provenance.h"
+
+namespace {
+
+std::string OneLine(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  gonio::SetCommandLine(argc, argv);
+  CLI::App app{"gonio: turn a camera into a gonioreflectometer"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", gonio::Version());
+  int verbosity = 1;
+  app.add_option("-v,--verbosity", verbosity, "0 = warnings, 1 = info, 2 = debug")
+      ->check(CLI::Range(0, 2));
+  app.parse_complete_callback([&] { gonio::InitLogging(verbosity); });
+
+  gonio::cli::AddBrdfCommand(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << "gonio: error: " << OneLine(e.what()) << " (see gonio --help)" << std::endl;
+    return 2;
+  } catch (const gonio::InputError& e) {
+    std::cerr << "gonio: error: " << OneLine(e.what()) << std::endl;
+    return 2;
+  } catch (const gonio::NumericalError& e) {
+    std::cerr << "gonio: numerical error: " << OneLine(e.what()) << std::endl;
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "gonio: internal error: " << OneLine(e.what()) << std::endl;
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,46 @@
+// The uniform model interface and the metadata every registry entry carries.
+//
+// A model is a struct with
+//   static constexpr int kNumParams;
+//   static ModelInfo Info();
+//   template <typename T> static T Evaluate(const T* params, const Angles<T>& a);
+// Evaluate returns f_r in 1/sr (radiance / (E0 cos theta_i)); it branches only on values and
+// never throws, so the same code runs in double and as ceres::Jet inside fits.
+// Optionally a model may add
+//   static const char* Invalid(const double* params, const Angles<double>& a);
+// returning nullptr when it can give a valid value there, or the reason it cannot.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace gonio {
+
+struct ParamInfo {
+  std::string name;
+  std::string unit;  // "1", "rad", "um", ...
+  double min = 0.0;
+  double max = 1.0;
+  double default_value = 0.5;
+  std::string description;
+  // True for parameters that scale the whole BRDF linearly (albedo, ks, scale): a fit with a
+  // free overall scale (--relative) or an unknown lamp intensity cannot separate them.
+  bool is_scale = false;
+};
+
+struct ModelInfo {
+  std::string name;  // CLI name, e.g. "oren-nayar"
+  std::vector<ParamInfo> params;
+  std::string description;  // one line
+  std::string reference;    // paper and equation numbers
+  // Evaluation method: "closed-form", "numerical" (quadrature) or "sampling".
+  std::string method = "closed-form";
+  // Name of the registry model this one approximates (its most exact counterpart), or empty.
+  std::string reference_model;
+  // Relative evaluation cost, used to order candidates "cheapest first".
+  int cost_rank = 0;
+
+  int num_params() const { return static_cast<int>(params.size()); }
+};
+
+}  // namespace gonio

@@ -1,0 +1,105 @@
+#include "reflectance/registry.h"
+
+#include <cmath>
+
+#include "common/error.h"
+#include "common/math.h"
+#include "common/parallel.h"
+
+namespace gonio {
+namespace {
+
+template <typename M, typename = void>
+struct HasInvalid : std::false_type {};
+template <typename M>
+struct HasInvalid<M, std::void_t<decltype(M::Invalid(nullptr, Angles<double>{}))>>
+    : std::true_type {};
+
+}  // namespace
+
+const std::vector<ModelInfo>& RegisteredModels() {
+  static const std::vector<ModelInfo> models = [] {
+    std::vector<ModelInfo> all;
+    ForEachModel([&](auto tag) {
+      using M = typename decltype(tag)::type;
+      ModelInfo info = M::Info();
+      if (info.num_params() != M::kNumParams) {
+        throw std::logic_error("model " + info.name + ": kNumParams does not match Info()");
+      }
+      all.push_back(std::move(info));
+    });
+    return all;
+  }();
+  return models;
+}
+
+const ModelInfo& FindModel(const std::string& name) {
+  for (const auto& m : RegisteredModels()) {
+    if (m.name == name) return m;
+  }
+  std::string known;
+  for (const auto& m : RegisteredModels()) known += (known.empty() ? "" : ", ") + m.name;
+  throw InputError("unknown model '" + name + "' (known: " + known + ")");
+}
+
+void CheckParams(const ModelInfo& info, const std::vector<double>& params) {
+  if (static_cast<int>(params.size()) != info.num_params()) {
+    throw InputError("model " + info.name + " takes " + std::to_string(info.num_params()) +
+                     " parameters, got " + std::to_string(params.size()));
+  }
+  for (size_t k = 0; k < params.size(); ++k) {
+    const ParamInfo& p = info.params[k];
+    if (!std::isfinite(params[k]) || params[k] < p.min || params[k] > p.max) {
+      throw InputError("model " + info.name + ": parameter " + p.name + " = " +
+                       std::to_string(params[k]) + " is outside [" + std::to_string(p.min) +
+                       ", " + std::to_string(p.max) + "] " + p.unit);
+    }
+  }
+}
+
+std::string EvaluateChecked(const std::string& model, const std::vector<double>& params,
+                            const Angles<double>& a, double* value) {
+  *value = 0.0;
+  if (!std::isfinite(a.theta_i) || !std::isfinite(a.theta_r) || !std::isfinite(a.phi)) {
+    return "non-finite angle";
+  }
+  // A tiny tolerance so 90 deg given in degrees still counts as on the horizon.
+  const double kHorizon = kHalfPi + 1e-12;
+  if (a.theta_i < 0 || a.theta_i > kHorizon) return "theta_i outside [0, 90] deg";
+  if (a.theta_r < 0 || a.theta_r > kHorizon) return "theta_r outside [0, 90] deg";
+  std::string reason;
+  bool found = VisitModel(model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    if constexpr (HasInvalid<M>::value) {
+      if (const char* why = M::Invalid(params.data(), a)) {
+        reason = why;
+        return;
+      }
+    }
+    const double v = M::Evaluate(params.data(), a);
+    if (!std::isfinite(v)) {
+      reason = "model gave a non-finite value";
+    } else {
+      *value = v;
+    }
+  });
+  if (!found) FindModel(model);  // throws the unknown-model error
+  return reason;
+}
+
+void EvaluateBatch(const std::string& model, const std::vector<double>& params,
+                   const double* theta_i, const double* theta_r, const double* phi, size_t n,
+                   double* out, int threads) {
+  bool found = VisitModel(model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    const double* p = params.data();
+    ParallelFor(n, threads, [&](size_t begin, size_t end) {
+      for (size_t k = begin; k < end; ++k) {
+        out[k] = M::Evaluate(p, Angles<double>{theta_i[k], theta_r[k], phi[k]});
+      }
+    });
+  });
+  if (!found) FindModel(model);
+}
+
+}  // namespace gonio

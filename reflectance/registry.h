@@ -1,0 +1,82 @@
+// The model registry: every model, by CLI name, with its metadata and evaluation.
+//
+// AllModels is a compile-time list, so estimation can instantiate any model with ceres::Jet
+// through VisitModel without reflectance depending on Ceres. To add a model: write its header
+// (see docs/adding-a-model.md) and append it to AllModels.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "reflectance/angles.h"
+#include "reflectance/lambert.h"
+#include "reflectance/model.h"
+
+namespace gonio {
+
+using AllModels = std::tuple<Lambert>;
+
+template <typename M>
+struct ModelTag {
+  using type = M;
+};
+
+namespace internal {
+template <size_t I, typename F>
+bool VisitModelImpl(const std::string& name, F&& f) {
+  if constexpr (I == std::tuple_size_v<AllModels>) {
+    return false;
+  } else {
+    using M = std::tuple_element_t<I, AllModels>;
+    if (M::Info().name == name) {
+      f(ModelTag<M>{});
+      return true;
+    }
+    return VisitModelImpl<I + 1>(name, std::forward<F>(f));
+  }
+}
+template <size_t I, typename F>
+void ForEachModelImpl(F&& f) {
+  if constexpr (I < std::tuple_size_v<AllModels>) {
+    f(ModelTag<std::tuple_element_t<I, AllModels>>{});
+    ForEachModelImpl<I + 1>(std::forward<F>(f));
+  }
+}
+}  // namespace internal
+
+// Calls f(ModelTag<M>{}) for the model named `name`; false when there is none.
+template <typename F>
+bool VisitModel(const std::string& name, F&& f) {
+  return internal::VisitModelImpl<0>(name, std::forward<F>(f));
+}
+
+// Calls f(ModelTag<M>{}) for every registered model, in registry order.
+template <typename F>
+void ForEachModel(F&& f) {
+  internal::ForEachModelImpl<0>(std::forward<F>(f));
+}
+
+// Metadata of every model, in registry order.
+const std::vector<ModelInfo>& RegisteredModels();
+// InputError "unknown model 'x' (known: ...)" when absent.
+const ModelInfo& FindModel(const std::string& name);
+
+// Checks a parameter vector against the registry bounds; InputError naming the parameter.
+void CheckParams(const ModelInfo& info, const std::vector<double>& params);
+
+// The reason no valid value exists at these angles (angles outside [0, 90] deg, non-finite
+// input, a model-specific domain limit, or a non-finite result), or empty when `value` holds
+// a valid, finite, non-negative-or-model-allowed BRDF.
+std::string EvaluateChecked(const std::string& model, const std::vector<double>& params,
+                            const Angles<double>& a, double* value);
+
+// Batch evaluation over structure-of-arrays angles with `threads` threads (<= 0: all cores).
+// Out-of-domain entries are evaluated as the model's formula gives them; use EvaluateChecked
+// for per-row validity.
+void EvaluateBatch(const std::string& model, const std::vector<double>& params,
+                   const double* theta_i, const double* theta_r, const double* phi, size_t n,
+                   double* out, int threads);
+
+}  // namespace gonio
