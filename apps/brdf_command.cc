@@ -91,10 +91,9 @@ void RunEval(const EvalArgs& args) {
     throw InputError("brdf eval needs --theta-i and --theta-r (degrees), or --angles IN.csv");
   }
   double v = 0.0;
-  const std::string reason =
-      EvaluateChecked(info.name, params,
-                      {DegToRad(args.theta_i_deg), DegToRad(args.theta_r_deg), DegToRad(args.phi_deg)},
-                      &v);
+  const std::string reason = EvaluateChecked(
+      info.name, params,
+      {DegToRad(args.theta_i_deg), DegToRad(args.theta_r_deg), DegToRad(args.phi_deg)}, &v);
   if (!reason.empty()) throw InputError("model " + info.name + ": " + reason);
   PrintJson({{"model", info.name},
              {"params", ParamsToJson(info, params)},
@@ -139,8 +138,9 @@ void RunPlot(const PlotArgs& args) {
   spec.extra = "set xrange [-90:90]\nset yrange [0:*]";
   const fs::path png = fs::path(args.out_dir) / (info.name + "_plane_of_incidence.png");
   RenderPlot(spec, png);
-  WriteJsonAtomically(fs::path(args.out_dir) / (info.name + "_plane_of_incidence.json"),
-                      {{"model", info.name}, {"params", ParamsToJson(info, params)}, {"samples", table}});
+  WriteJsonAtomically(
+      fs::path(args.out_dir) / (info.name + "_plane_of_incidence.json"),
+      {{"model", info.name}, {"params", ParamsToJson(info, params)}, {"samples", table}});
   PrintJson({{"model", info.name}, {"params", ParamsToJson(info, params)}, {"plot", png.string()}});
 }
 

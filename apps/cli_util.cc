@@ -37,8 +37,8 @@ std::vector<double> ParseModelParams(const ModelInfo& info, const std::vector<st
     if (!found) {
       std::string names;
       for (const auto& p : info.params) names += (names.empty() ? "" : ", ") + p.name;
-      throw InputError("model " + info.name + " has no parameter '" + key + "' (its parameters: " +
-                       names + ")");
+      throw InputError("model " + info.name + " has no parameter '" + key +
+                       "' (its parameters: " + names + ")");
     }
   }
   CheckParams(info, params);

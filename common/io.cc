@@ -1,9 +1,9 @@
 #include "common/io.h"
 
+#include <unistd.h>
 #include <fstream>
 #include <sstream>
 #include <system_error>
-#include <unistd.h>
 
 #include "common/error.h"
 #include "common/provenance.h"
@@ -19,9 +19,8 @@ void WriteAtomically(const fs::path& path,
     throw InputError(path.string() + ": output folder " + dir.string() + " does not exist");
   }
   // Same extension so format-by-extension writers keep working; pid keeps parallel runs apart.
-  const fs::path tmp_path =
-      dir / ("." + path.stem().string() + ".partial-" + std::to_string(::getpid()) +
-             path.extension().string());
+  const fs::path tmp_path = dir / ("." + path.stem().string() + ".partial-" +
+                                   std::to_string(::getpid()) + path.extension().string());
   bool ok = false;
   try {
     ok = write(tmp_path);

@@ -27,11 +27,11 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
   const std::string ext = out.extension().string();
   std::string terminal;
   if (ext == ".png") {
-    terminal = "pngcairo size " + std::to_string(spec.width) + "," +
-               std::to_string(spec.height) + " font 'Sans,11'";
+    terminal = "pngcairo size " + std::to_string(spec.width) + "," + std::to_string(spec.height) +
+               " font 'Sans,11'";
   } else if (ext == ".svg") {
-    terminal = "svg size " + std::to_string(spec.width) + "," + std::to_string(spec.height) +
-               " dynamic";
+    terminal =
+        "svg size " + std::to_string(spec.width) + "," + std::to_string(spec.height) + " dynamic";
   } else {
     throw InputError(out.string() + ": plots are written as .png or .svg");
   }
@@ -41,7 +41,8 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     {
       std::ofstream d(data);
       for (const auto& s : spec.series) {
-        for (size_t k = 0; k < s.x.size() && k < s.y.size(); ++k) d << s.x[k] << ' ' << s.y[k] << '\n';
+        for (size_t k = 0; k < s.x.size() && k < s.y.size(); ++k)
+          d << s.x[k] << ' ' << s.y[k] << '\n';
         d << "\n\n";  // gnuplot data block separator: addressed by "index k"
       }
     }
@@ -58,8 +59,8 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     gp << "plot ";
     for (size_t k = 0; k < spec.series.size(); ++k) {
       if (k) gp << ", \\\n     ";
-      gp << Quote(data.string()) << " index " << k << " using 1:2 with "
-         << spec.series[k].style << " title " << Quote(spec.series[k].label);
+      gp << Quote(data.string()) << " index " << k << " using 1:2 with " << spec.series[k].style
+         << " title " << Quote(spec.series[k].label);
     }
     if (spec.series.empty()) gp << "NaN notitle";
     gp << "\n";
@@ -75,7 +76,8 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     fs::remove(script, ec);
     fs::remove(fs::path(tmp).replace_extension(".log"), ec);
     if (rc != 0) {
-      throw InputError(out.string() + ": gnuplot failed (is gnuplot-nox installed? run scripts/setup)");
+      throw InputError(out.string() +
+                       ": gnuplot failed (is gnuplot-nox installed? run scripts/setup)");
     }
     return fs::exists(tmp);
   });

@@ -51,8 +51,8 @@ void CheckParams(const ModelInfo& info, const std::vector<double>& params) {
     const ParamInfo& p = info.params[k];
     if (!std::isfinite(params[k]) || params[k] < p.min || params[k] > p.max) {
       throw InputError("model " + info.name + ": parameter " + p.name + " = " +
-                       std::to_string(params[k]) + " is outside [" + std::to_string(p.min) +
-                       ", " + std::to_string(p.max) + "] " + p.unit);
+                       std::to_string(params[k]) + " is outside [" + std::to_string(p.min) + ", " +
+                       std::to_string(p.max) + "] " + p.unit);
     }
   }
 }

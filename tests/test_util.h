@@ -1,12 +1,12 @@
 // Helpers for tests: paths to the real data and the gonio binary, and running the CLI.
 #pragma once
 
+#include <sys/wait.h>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <random>
 #include <string>
-#include <sys/wait.h>
 
 namespace gonio::testing {
 
@@ -22,8 +22,7 @@ struct CommandResult {
 inline CommandResult RunGonio(const std::string& args) {
   const auto err_file = std::filesystem::temp_directory_path() /
                         ("gonio_test_err_" + std::to_string(std::random_device{}()));
-  const std::string cmd =
-      std::string(GONIO_BINARY) + " " + args + " 2>" + err_file.string();
+  const std::string cmd = std::string(GONIO_BINARY) + " " + args + " 2>" + err_file.string();
   CommandResult r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) return r;
@@ -38,6 +37,19 @@ inline CommandResult RunGonio(const std::string& args) {
   }
   std::filesystem::remove(err_file);
   return r;
+}
+
+// Lines of stderr that are not log lines ("[hh:mm:ss] level ..."): what the user is told.
+inline int MessageLines(const std::string& err) {
+  int n = 0;
+  size_t start = 0;
+  while (start < err.size()) {
+    size_t end = err.find('\n', start);
+    if (end == std::string::npos) end = err.size();
+    if (end > start && err[start] != '[') ++n;
+    start = end + 1;
+  }
+  return n;
 }
 
 // A fresh empty folder under the system temp dir, removed by the destructor.

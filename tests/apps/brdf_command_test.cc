@@ -26,13 +26,15 @@ TEST(BrdfCli, ListHasEveryFieldTheIssueNames) {
     }
     EXPECT_EQ(m["params"].size(), m["n_params"].get<size_t>());
     for (const auto& p : m["params"]) {
-      for (const char* key : {"name", "unit", "min", "max", "default"}) EXPECT_TRUE(p.contains(key));
+      for (const char* key : {"name", "unit", "min", "max", "default"})
+        EXPECT_TRUE(p.contains(key));
     }
   }
 }
 
 TEST(BrdfCli, EvalLambert) {
-  const auto r = RunGonio("brdf eval --model lambert --param albedo=0.8 --theta-i 30 --theta-r 10 --phi 0");
+  const auto r =
+      RunGonio("brdf eval --model lambert --param albedo=0.8 --theta-i 30 --theta-r 10 --phi 0");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["model"], "lambert");
@@ -41,15 +43,16 @@ TEST(BrdfCli, EvalLambert) {
 }
 
 TEST(BrdfCli, BadInputIsOneLineAndExitTwo) {
-  for (const char* args : {"brdf eval --model nope --theta-i 0 --theta-r 0",
-                           "brdf eval --model lambert --param albedo=2 --theta-i 0 --theta-r 0",
-                           "brdf eval --model lambert --param rough=1 --theta-i 0 --theta-r 0",
-                           "brdf eval --model lambert --param albedo=x --theta-i 0 --theta-r 0",
-                           "brdf eval --model lambert --theta-i 95 --theta-r 0",
-                           "brdf eval --model lambert --angles /nonexistent.csv --out /tmp/x.csv"}) {
+  for (const char* args :
+       {"brdf eval --model nope --theta-i 0 --theta-r 0",
+        "brdf eval --model lambert --param albedo=2 --theta-i 0 --theta-r 0",
+        "brdf eval --model lambert --param rough=1 --theta-i 0 --theta-r 0",
+        "brdf eval --model lambert --param albedo=x --theta-i 0 --theta-r 0",
+        "brdf eval --model lambert --theta-i 95 --theta-r 0",
+        "brdf eval --model lambert --angles /nonexistent.csv --out /tmp/x.csv"}) {
     const auto r = RunGonio(args);
     EXPECT_EQ(r.exit_code, 2) << args;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
+    EXPECT_EQ(testing::MessageLines(r.err), 1) << args << ": " << r.err;
     EXPECT_TRUE(r.out.empty()) << args;
   }
 }
@@ -59,7 +62,8 @@ TEST(BrdfCli, BatchMarksInvalidRowsWithReasonNeverNaN) {
   const auto in = dir.path() / "in.csv";
   std::ofstream(in) << "theta_i_deg,theta_r_deg,phi_deg\n10,20,0\n95,0,0\n45,45,180\n";
   const auto out = dir.path() / "out.csv";
-  const auto r = RunGonio("brdf eval --model lambert --angles " + in.string() + " --out " + out.string());
+  const auto r =
+      RunGonio("brdf eval --model lambert --angles " + in.string() + " --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto t = CsvTable::Read(out);
   ASSERT_EQ(t.num_rows(), 3u);
@@ -75,7 +79,8 @@ TEST(BrdfCli, MalformedCsvIsExitTwo) {
   const auto in = dir.path() / "in.csv";
   std::ofstream(in) << "theta_i_deg,theta_r_deg\n10,20\n";
   const auto out = dir.path() / "out.csv";
-  const auto r = RunGonio("brdf eval --model lambert --angles " + in.string() + " --out " + out.string());
+  const auto r =
+      RunGonio("brdf eval --model lambert --angles " + in.string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("missing column 'phi_deg'"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(out));

@@ -49,14 +49,17 @@ TEST(CameraModel, WriteReadRoundTrip) {
   const CameraModel r = CameraModel::Read(dir.path() / "c.cameramodel");
   EXPECT_EQ(r.lens_model, m.lens_model);
   ASSERT_EQ(r.intrinsics.size(), m.intrinsics.size());
-  for (size_t k = 0; k < m.intrinsics.size(); ++k) EXPECT_DOUBLE_EQ(r.intrinsics[k], m.intrinsics[k]);
+  for (size_t k = 0; k < m.intrinsics.size(); ++k)
+    EXPECT_DOUBLE_EQ(r.intrinsics[k], m.intrinsics[k]);
   EXPECT_EQ(r.width, 1280);
 }
 
 TEST(CameraModel, BadFilesAreInputErrors) {
   testing::TempDir dir;
   EXPECT_THROW(CameraModel::Read(dir.path() / "none.cameramodel"), InputError);
-  WriteTextAtomically(dir.path() / "bad.cameramodel", "{'lensmodel': 'LENSMODEL_OPENCV8', 'intrinsics': [1,2,3], 'imagersize': [10, 10]}");
+  WriteTextAtomically(
+      dir.path() / "bad.cameramodel",
+      "{'lensmodel': 'LENSMODEL_OPENCV8', 'intrinsics': [1,2,3], 'imagersize': [10, 10]}");
   EXPECT_THROW(CameraModel::Read(dir.path() / "bad.cameramodel"), InputError);
 }
 

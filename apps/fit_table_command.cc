@@ -1,0 +1,104 @@
+// gonio fit-table: fit registry models to a measured BRDF table and choose the simplest model
+// the data supports.
+#include <iostream>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+
+#include "apps/cli_util.h"
+#include "apps/commands.h"
+#include "common/csv.h"
+#include "common/error.h"
+#include "common/io.h"
+#include "estimation/brdf_table.h"
+#include "estimation/fit_plots.h"
+#include "estimation/model_selection.h"
+
+namespace gonio::cli {
+namespace {
+
+struct FitTableArgs {
+  std::string table, sample, models = "auto", criterion = "bic", value_column = "brdf";
+  std::string robust = "none", out, plot_dir;
+  bool relative = false, degrees = false;
+  int threads = 0;
+};
+
+std::vector<std::string> SplitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+void RunFitTable(const FitTableArgs& args) {
+  const CsvTable csv = CsvTable::Read(args.table);
+  BrdfTableOptions topt;
+  topt.value_column = args.value_column;
+  topt.degrees = args.degrees;
+  const auto ids = SampleIds(csv);
+  if (!args.sample.empty()) {
+    topt.sample = args.sample;
+  } else if (ids.size() > 1) {
+    std::string list;
+    for (const auto& id : ids) list += (list.empty() ? "" : ",") + id;
+    throw InputError(args.table + ": holds " + std::to_string(ids.size()) +
+                     " samples; choose one with --sample (" + list + ")");
+  }
+  const BrdfTable table = LoadBrdfTable(csv, topt);
+
+  ModelSelectionOptions opt;
+  if (args.models != "auto") opt.candidates = SplitList(args.models);
+  opt.criterion = args.criterion;
+  opt.threads = args.threads;
+  opt.fit.relative_scale = args.relative;
+  opt.fit.robust_loss = args.robust;
+  opt.Check();
+  if (!args.plot_dir.empty()) EnsureDirectory(args.plot_dir);
+
+  spdlog::info("fitting {} samples{} with {} candidate models", table.samples.size(),
+               table.sample_id.empty() ? "" : " of sample " + table.sample_id,
+               opt.candidates.empty() ? AutoCandidates().size() : opt.candidates.size());
+  const ModelSelectionResult sel = SelectModel(table.samples, opt);
+  nlohmann::json j = ToJson(sel);
+  j["table"] = args.table;
+  j["sample"] = table.sample_id;
+  j["material"] = table.material;
+  j["relative"] = args.relative;
+  if (!args.plot_dir.empty()) {
+    nlohmann::json plots = nlohmann::json::array();
+    for (const auto& p : WriteFitPlots(sel, table.samples, args.plot_dir))
+      plots.push_back(p.string());
+    j["plots"] = plots;
+  }
+  WriteJsonAtomically(args.out, j);
+  std::cout << sel.Report();
+}
+
+}  // namespace
+
+void AddFitTableCommand(CLI::App& app) {
+  auto args = std::make_shared<FitTableArgs>();
+  auto* cmd = app.add_subcommand("fit-table", "Fit models to a measured BRDF table (CSV)");
+  cmd->add_option("--table", args->table, "CSV with theta_i,phi_i,theta_r,phi_r and brdf")
+      ->required();
+  cmd->add_option("--sample", args->sample, "Keep rows whose 'sample' column equals this");
+  cmd->add_option("--models", args->models, "auto, or a comma-separated list")
+      ->capture_default_str();
+  cmd->add_option("--criterion", args->criterion, "bic, aic or cv")->capture_default_str();
+  cmd->add_flag("--relative", args->relative, "Data scale is arbitrary: fit a free scale");
+  cmd->add_flag("--degrees", args->degrees, "Angle columns are in degrees");
+  cmd->add_option("--value-column", args->value_column, "Name of the value column")
+      ->capture_default_str();
+  cmd->add_option("--robust", args->robust, "Robust loss: none, huber, cauchy")
+      ->capture_default_str();
+  cmd->add_option("--threads", args->threads, "Threads (0 = all cores)");
+  cmd->add_option("--out", args->out, "fit.json")->required();
+  cmd->add_option("--plot", args->plot_dir, "Folder for PNG plots of measured vs fitted");
+  cmd->callback([args] { RunFitTable(*args); });
+}
+
+}  // namespace gonio::cli

@@ -1,0 +1,54 @@
+// Model selection: fit every candidate, compare by AIC, BIC or K-fold cross-validation, and
+// choose the simplest model the data supports ("model no more than a scene needs").
+//
+// Rule: find the best criterion value; among candidates within `margin` of it (AIC/BIC: an
+// absolute margin, 2 by default, the usual "substantial support" threshold of Burnham and
+// Anderson; CV: a relative margin on cv_rms), choose the one with the fewest parameters, and
+// among those the best criterion.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "estimation/brdf_fit.h"
+
+namespace gonio {
+
+struct ModelSelectionOptions {
+  std::vector<std::string> candidates;  // empty: AutoCandidates()
+  std::string criterion = "bic";        // "aic", "bic" or "cv"
+  double ic_margin = 2.0;
+  double cv_margin = 0.02;
+  int cv_folds = 5;
+  int threads = 0;  // candidates are fitted in parallel; <= 0: all cores
+  BrdfFitOptions fit;
+
+  void Check() const;
+};
+
+struct ModelSelectionResult {
+  std::vector<BrdfFitResult> candidates;
+  int selected = -1;
+  std::string criterion;
+  std::string reason;
+  std::vector<std::string> skipped;  // "model: why"
+
+  const BrdfFitResult& Selected() const { return candidates.at(selected); }
+  double CriterionValue(const BrdfFitResult& r) const;
+  std::string Report() const;
+};
+
+// Every registered model that is not the numerical reference of another model (fitting the
+// reference duplicates its closed form at many times the cost), cheapest first.
+std::vector<std::string> AutoCandidates();
+
+// InputError when no candidate can be fitted (e.g. fewer samples than any model's parameters).
+ModelSelectionResult SelectModel(const std::vector<BrdfSample>& samples,
+                                 const ModelSelectionOptions& options);
+
+nlohmann::json ToJson(const BrdfFitResult& fit);
+nlohmann::json ToJson(const ModelSelectionResult& selection);
+
+}  // namespace gonio

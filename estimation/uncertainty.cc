@@ -1,0 +1,56 @@
+#include "estimation/uncertainty.h"
+
+#include <cmath>
+
+#include <Eigen/SVD>
+
+namespace gonio {
+
+UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
+                                     const std::vector<double>& ranges, double weighted_ssr,
+                                     const std::vector<bool>& check_fraction,
+                                     const UncertaintyOptions& options) {
+  const int n = static_cast<int>(jacobian.rows());
+  const int p = static_cast<int>(jacobian.cols());
+  UncertaintyResult out;
+  out.covariance = Eigen::MatrixXd::Zero(p, p);
+  out.stddev.assign(p, std::nullopt);
+  out.undetermined.assign(p, false);
+  if (p == 0) return out;
+
+  Eigen::VectorXd range(p);
+  for (int k = 0; k < p; ++k) range[k] = ranges[k] > 0 ? ranges[k] : 1.0;
+  const Eigen::MatrixXd scaled = jacobian * range.asDiagonal();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  const Eigen::MatrixXd& V = svd.matrixV();
+  const double largest = sv.size() ? sv[0] : 0.0;
+  int rank = 0;
+  for (int j = 0; j < sv.size(); ++j) {
+    if (largest > 0 && sv[j] > options.rank_tolerance * largest && std::isfinite(sv[j])) ++rank;
+  }
+  out.rank = rank;
+  const int dof = n - rank;
+  out.residual_variance = dof > 0 ? weighted_ssr / dof : 0.0;
+
+  Eigen::MatrixXd cov_scaled = Eigen::MatrixXd::Zero(p, p);
+  for (int j = 0; j < rank; ++j) {
+    cov_scaled += V.col(j) * V.col(j).transpose() / (sv[j] * sv[j]);
+  }
+  cov_scaled *= out.residual_variance;
+  out.covariance = range.asDiagonal() * cov_scaled * range.asDiagonal();
+
+  for (int k = 0; k < p; ++k) {
+    bool unseen = false;
+    for (int j = rank; j < p; ++j) {
+      if (std::abs(V(k, j)) > options.null_loading) unseen = true;
+    }
+    const double sd = std::sqrt(std::max(0.0, out.covariance(k, k)));
+    const bool too_wide = check_fraction[k] && sd > options.undetermined_fraction * range[k];
+    out.undetermined[k] = unseen || too_wide || !std::isfinite(sd);
+    if (!out.undetermined[k]) out.stddev[k] = sd;
+  }
+  return out;
+}
+
+}  // namespace gonio
