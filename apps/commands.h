@@ -8,5 +8,6 @@ namespace gonio::cli {
 
 void AddBrdfCommand(CLI::App& app);
 void AddFitTableCommand(CLI::App& app);
+void AddPhotometricCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
 
   gonio::cli::AddBrdfCommand(app);
   gonio::cli::AddFitTableCommand(app);
+  gonio::cli::AddPhotometricCommand(app);
 
   try {
     app.parse(argc, argv);
