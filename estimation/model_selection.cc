@@ -85,6 +85,13 @@ ModelSelectionResult SelectModel(const std::vector<BrdfSample>& samples,
     }
   });
 
+  ChooseSimplestAdequate(options, &out);
+  return out;
+}
+
+void ChooseSimplestAdequate(const ModelSelectionOptions& options, ModelSelectionResult* result) {
+  ModelSelectionResult& out = *result;
+  out.criterion = options.criterion;
   int best = -1;
   for (int k = 0; k < static_cast<int>(out.candidates.size()); ++k) {
     const auto& c = out.candidates[k];
@@ -127,7 +134,6 @@ ModelSelectionResult SelectModel(const std::vector<BrdfSample>& samples,
     for (const auto& u : sel.undetermined) names_text += (names_text.empty() ? "" : ", ") + u;
     out.reason += "; the data cannot determine: " + names_text;
   }
-  return out;
 }
 
 std::string ModelSelectionResult::Report() const {

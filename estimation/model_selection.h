@@ -48,6 +48,10 @@ std::vector<std::string> AutoCandidates();
 ModelSelectionResult SelectModel(const std::vector<BrdfSample>& samples,
                                  const ModelSelectionOptions& options);
 
+// Fills selected, criterion and reason from already fitted candidates (AIC/BIC/cv_rms set) by
+// the rule above. NumericalError when no candidate converged. Shared with the joint fit.
+void ChooseSimplestAdequate(const ModelSelectionOptions& options, ModelSelectionResult* result);
+
 nlohmann::json ToJson(const BrdfFitResult& fit);
 nlohmann::json ToJson(const ModelSelectionResult& selection);
 
