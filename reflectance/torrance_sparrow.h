@@ -54,11 +54,36 @@ namespace gonio {
 
 namespace torrance_sparrow_internal {
 
-// 2 pi int_0^{pi/2} exp(-t^2/(2 s^2)) sin t dt: the normaliser 1/c of eq. 26. 24-point
-// Gauss-Legendre on [0, min(pi/2, 8 s)] (the integrand is smooth there; relative error
-// < 1e-12 over the registry range, tested against 96 points).
-template <typename T, int N = 24>
+// 2 pi int_0^{pi/2} exp(-t^2/(2 s^2)) sin t dt: the normaliser 1/c of eq. 26, in closed form
+// (no guessed approximation): expanding sin t in its Taylor series,
+//   int_0^L t^(2k+1) exp(-t^2/(2 s^2)) dt = (2 s^2)^(k+1) k!/2 * P(k+1, x),  x = L^2/(2 s^2),
+// with P the regularised lower incomplete gamma function, P(k+1, x) = 1 - e^-x sum_{j<=k} x^j/j!
+// (updated recursively). The series terms fall like (2 s^2)^k k!/(2k+1)!: 16 terms reach
+// double precision for s <= 0.9 rad (tested against 96-point Gauss-Legendre). One exp, Jet-safe.
+template <typename T>
 T SlopeAreaNormaliser(const T& sigma) {
+  using std::exp;
+  const T two_s2 = T(2) * sigma * sigma;
+  const T x = T(kHalfPi * kHalfPi) / two_s2;
+  const T e = exp(-x);
+  T poisson = e;         // e^-x x^k / k!
+  T p_lower = T(1) - e;  // P(k+1, x)
+  T power = two_s2;      // (2 s^2)^(k+1)
+  double coeff = 0.5;    // (-1)^k k! / (2 (2k+1)!)
+  T sum = coeff * power * p_lower;
+  for (int k = 1; k < 16; ++k) {
+    poisson = poisson * x / T(k);
+    p_lower -= poisson;
+    power *= two_s2;
+    coeff *= -static_cast<double>(k) / ((2.0 * k) * (2.0 * k + 1.0));
+    sum += coeff * power * p_lower;
+  }
+  return T(2 * kPi) * sum;
+}
+
+// Reference for the closed form above: N-point Gauss-Legendre on [0, min(pi/2, 8 s)].
+template <typename T, int N>
+T SlopeAreaNormaliserQuadrature(const T& sigma) {
   using std::exp;
   using std::sin;
   const T upper = T(8) * sigma < T(kHalfPi) ? T(8) * sigma : T(kHalfPi);
