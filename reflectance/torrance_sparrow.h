@@ -32,13 +32,15 @@
 //   and albedo keeps the meaning of the facet albedo rho (paper's rho, its k_b*rho product is
 //   (1 - ks) albedo here, and its k_s/k_b ratio is ks / (1 - ks) up to the lobe constant).
 //
-// | model / parameter | unit | range       | default | meaning                              |
-// |-------------------|------|-------------|---------|--------------------------------------|
-// | ks                | 1    | [0, 1]      | 0.05 / 1 (tson / lobes) | specular fraction (lobe
-// albedo at normal incidence, F = 1) | | sigma_s           | rad  | [0.01, 0.9] | 0.15    | std.
-// dev. of facet slope for the lobe | | n                 | 1    | [1.05, 3]   | 1.5     |
-// refractive index (torrance-sparrow only) | | albedo, sigma     |      |             |         |
-// as in oren-nayar (tson only)          |
+// | model               | parameter | unit | range       | default | meaning                   |
+// |---------------------|-----------|------|-------------|---------|---------------------------|
+// | torrance-sparrow(-f1) | ks      | 1    | [0, 1]      | 1       | lobe albedo at normal incidence (F = 1) |
+// |                     | sigma_s   | rad  | [0.01, 0.9] | 0.15    | facet slope std. dev. of the lobe |
+// | torrance-sparrow    | n         | 1    | [1.05, 3]   | 1.5     | refractive index (Fresnel)  |
+// | tson                | albedo    | 1    | [0, 1]      | 0.5     | facet albedo rho (oren-nayar) |
+// |                     | sigma     | rad  | [0, 0.9]    | 0.35    | body roughness (oren-nayar) |
+// |                     | ks        | 1    | [0, 1]      | 0.05    | specular fraction, k_b = 1 - ks |
+// |                     | sigma_s   | rad  | [0.01, 0.9] | 0.15    | lobe roughness              |
 #pragma once
 
 #include <cmath>
