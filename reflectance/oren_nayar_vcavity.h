@@ -69,6 +69,34 @@ struct CriticalAngle {
   }
 };
 
+// Sub-interval edges of [0, min(pi/2, 8 sigma)] for the theta_a quadrature: where shadowing
+// and masking start (tan(theta_a) tan(alpha or beta) = 1, eq. 39: square-root onsets) and where
+// their azimuth ranges start to overlap in the perpendicular plane (phi_c^i + phi_c^r = pi/2
+// <=> tan^2 theta_a = cot^2 theta_i + cot^2 theta_r; A3 switches on there). The Gaussian
+// beyond 8 sigma weighs < 1.3e-14 and is dropped.
+template <typename T>
+void SlopeEdges(const T& sigma, const T& alpha, const T& beta, T edge[5]) {
+  using std::atan2;
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const T theta_max = T(8) * sigma < T(kHalfPi) ? T(8) * sigma : T(kHalfPi);
+  T b[3];
+  b[0] = T(kHalfPi) - alpha;
+  b[1] = T(kHalfPi) - beta;
+  const T sa = sin(alpha), sb = sin(beta), cosa = cos(alpha), cosb = cos(beta);
+  if (sb > T(0)) {
+    b[2] = atan2(sqrt(cosa * cosa * sb * sb + cosb * cosb * sa * sa), sa * sb);
+  } else {
+    b[2] = T(kHalfPi);
+  }
+  edge[0] = T(0);
+  for (int k = 0; k < 3; ++k) {
+    edge[k + 1] = b[k] < T(0) ? T(0) : (b[k] > theta_max ? theta_max : b[k]);
+  }
+  edge[4] = theta_max;
+}
+
 }  // namespace oren_nayar_internal
 
 // tan_alpha = tan(max(ti, tr)), tan_beta = tan(min(ti, tr)), cos_phi = cos(phi_r - phi_i).
@@ -144,23 +172,8 @@ struct OrenNayarVCavityN {
     oren_nayar_internal::AlphaBeta(a, &alpha, &beta);
     const T tan_alpha = tan(alpha), tan_beta = tan(beta);
     const T cos_phi = cos(a.phi);
-    const T theta_max = T(8) * sigma < T(kHalfPi) ? T(8) * sigma : T(kHalfPi);
-    // Breakpoints: shadow/mask onsets (eq. 39) and the A3 overlap onset.
-    T b[3];
-    b[0] = T(kHalfPi) - alpha;
-    b[1] = T(kHalfPi) - beta;
-    const T sa = sin(alpha), sb = sin(beta), cosa = cos(alpha), cosb = cos(beta);
-    if (sb > T(0)) {
-      b[2] = atan2(sqrt(cosa * cosa * sb * sb + cosb * cosb * sa * sa), sa * sb);
-    } else {
-      b[2] = T(kHalfPi);
-    }
     T edge[5];
-    edge[0] = T(0);
-    for (int k = 0; k < 3; ++k) {
-      edge[k + 1] = b[k] < T(0) ? T(0) : (b[k] > theta_max ? theta_max : b[k]);
-    }
-    edge[4] = theta_max;
+    oren_nayar_internal::SlopeEdges(sigma, alpha, beta, edge);
     const auto& rule = GaussLegendreRule<N>();
     const T inv_two_s2 = T(0.5) / (sigma * sigma);
     T z(0), i1(0), i2(0);

@@ -34,13 +34,14 @@
 //
 // | model               | parameter | unit | range       | default | meaning                   |
 // |---------------------|-----------|------|-------------|---------|---------------------------|
-// | torrance-sparrow(-f1) | ks      | 1    | [0, 1]      | 1       | lobe albedo at normal incidence (F = 1) |
-// |                     | sigma_s   | rad  | [0.01, 0.9] | 0.15    | facet slope std. dev. of the lobe |
-// | torrance-sparrow    | n         | 1    | [1.05, 3]   | 1.5     | refractive index (Fresnel)  |
-// | tson                | albedo    | 1    | [0, 1]      | 0.5     | facet albedo rho (oren-nayar) |
-// |                     | sigma     | rad  | [0, 0.9]    | 0.35    | body roughness (oren-nayar) |
-// |                     | ks        | 1    | [0, 1]      | 0.05    | specular fraction, k_b = 1 - ks |
-// |                     | sigma_s   | rad  | [0.01, 0.9] | 0.15    | lobe roughness              |
+// | torrance-sparrow(-f1) | ks      | 1    | [0, 1]      | 1       | lobe albedo at normal
+// incidence (F = 1) | |                     | sigma_s   | rad  | [0.01, 0.9] | 0.15    | facet
+// slope std. dev. of the lobe | | torrance-sparrow    | n         | 1    | [1.05, 3]   | 1.5     |
+// refractive index (Fresnel)  | | tson                | albedo    | 1    | [0, 1]      | 0.5     |
+// facet albedo rho (oren-nayar) | |                     | sigma     | rad  | [0, 0.9]    | 0.35 |
+// body roughness (oren-nayar) | |                     | ks        | 1    | [0, 1]      | 0.05    |
+// specular fraction, k_b = 1 - ks | |                     | sigma_s   | rad  | [0.01, 0.9] | 0.15
+// | lobe roughness              |
 #pragma once
 
 #include <cmath>
