@@ -125,6 +125,42 @@ TEST(OrenNayarFacet, ApproximationErrorsAgainstExactModel) {
   EXPECT_LT(vc.max, 0.1);
 }
 
+// The full table of docs/models/oren-nayar.md (about 20 s of CPU, so disabled in CI; run with
+// --gtest_also_run_disabled_tests --gtest_filter='*Report*'). Reports only.
+TEST(OrenNayarFacet, DISABLED_ReportErrorBands) {
+  struct Band {
+    double lo, hi, step;
+  };
+  for (const Band band :
+       {Band{0, 70, 5}, Band{70.01, 80, 1}, Band{80.01, 85, 1}, Band{85.01, 89, 1}}) {
+    for (const std::vector<double>& phis : {std::vector<double>{0, 90, 180}, {45, 135}}) {
+      double m[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+      int n = 0;
+      for (double sigma : {10.0, 20.0, 30.0, 40.0}) {
+        for (double ti = 0; ti <= 89; ti += band.step) {
+          for (double tr = 0; tr <= 89; tr += band.step) {
+            const double larger = std::max(ti, tr);
+            if (larger < band.lo || larger > band.hi) continue;
+            for (double phi_deg : phis) {
+              const double phi = DegToRad(phi_deg), sg = DegToRad(sigma);
+              const double exact = Full{}.operator()<OrenNayarFacet>(sg, ti, tr, phi);
+              const double d[3] = {
+                  std::abs(Full{}.operator()<OrenNayar>(sg, ti, tr, phi) - exact),
+                  std::abs(Full{}.operator()<OrenNayarQualitative>(sg, ti, tr, phi) - exact),
+                  std::abs(Full{}.operator()<OrenNayarVCavity>(sg, ti, tr, phi) - exact)};
+              for (int k = 0; k < 3; ++k) m[k] = std::max(m[k], d[k]), s2[k] += d[k] * d[k];
+              ++n;
+            }
+          }
+        }
+      }
+      std::printf("larger angle [%.0f, %.0f] phi %s: on %.3f/%.3f qual %.3f/%.3f vcav %.3f/%.3f\n",
+                  band.lo, band.hi, phis.size() == 3 ? "0/90/180" : "45/135", m[0],
+                  std::sqrt(s2[0] / n), m[1], std::sqrt(s2[1] / n), m[2], std::sqrt(s2[2] / n));
+    }
+  }
+}
+
 // The exact two-bounce model conserves energy (it drops the higher bounces).
 TEST(OrenNayarFacet, DirectionalAlbedoAtMostOne) {
   for (double sigma : {0.3, 0.9}) {
