@@ -18,7 +18,8 @@
 //   C3 = 0.125 s2/(s2 + 0.09) (4 alpha beta / pi^2)^2.
 // Both reduce to rho/pi at sigma = 0 (paper footnote 6) and are reciprocal (symmetric in
 // alpha, beta). The numerical reference they approximate is oren-nayar-vcavity
-// (oren_nayar_vcavity.h); measured errors are in docs/models/oren-nayar.md.
+// (oren_nayar_vcavity.h); oren-nayar-facet (oren_nayar_facet.h) integrates the V-cavity model
+// without the paper's eq. 44/48 approximations. Measured errors: docs/models/oren-nayar.md.
 //
 // | parameter | unit | range    | default | meaning                                         |
 // |-----------|------|----------|---------|-------------------------------------------------|

@@ -25,6 +25,7 @@
 #pragma once
 
 #include <cmath>
+#include <utility>
 
 #include "common/math.h"
 #include "reflectance/angles.h"
