@@ -12,11 +12,17 @@
 
 #include "reflectance/angles.h"
 #include "reflectance/lambert.h"
+#include "reflectance/minnaert.h"
 #include "reflectance/model.h"
+#include "reflectance/oren_nayar.h"
+#include "reflectance/oren_nayar_facet.h"
+#include "reflectance/oren_nayar_vcavity.h"
+#include "reflectance/torrance_sparrow.h"
 
 namespace gonio {
 
-using AllModels = std::tuple<Lambert>;
+using AllModels = std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity,
+                             OrenNayarFacet, TorranceSparrow, TorranceSparrowF1, Tson>;
 
 template <typename M>
 struct ModelTag {
