@@ -13,10 +13,11 @@
 #include "reflectance/angles.h"
 #include "reflectance/lambert.h"
 #include "reflectance/model.h"
+#include "reflectance/pitted.h"
 
 namespace gonio {
 
-using AllModels = std::tuple<Lambert>;
+using AllModels = std::tuple<Lambert, Pitted, PittedHemispherical>;
 
 template <typename M>
 struct ModelTag {
