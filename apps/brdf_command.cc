@@ -91,10 +91,9 @@ void RunEval(const EvalArgs& args) {
     throw InputError("brdf eval needs --theta-i and --theta-r (degrees), or --angles IN.csv");
   }
   double v = 0.0;
-  const std::string reason =
-      EvaluateChecked(info.name, params,
-                      {DegToRad(args.theta_i_deg), DegToRad(args.theta_r_deg), DegToRad(args.phi_deg)},
-                      &v);
+  const std::string reason = EvaluateChecked(
+      info.name, params,
+      {DegToRad(args.theta_i_deg), DegToRad(args.theta_r_deg), DegToRad(args.phi_deg)}, &v);
   if (!reason.empty()) throw InputError("model " + info.name + ": " + reason);
   PrintJson({{"model", info.name},
              {"params", ParamsToJson(info, params)},
@@ -139,15 +138,16 @@ void RunPlot(const PlotArgs& args) {
   spec.extra = "set xrange [-90:90]\nset yrange [0:*]";
   const fs::path png = fs::path(args.out_dir) / (info.name + "_plane_of_incidence.png");
   RenderPlot(spec, png);
-  WriteJsonAtomically(fs::path(args.out_dir) / (info.name + "_plane_of_incidence.json"),
-                      {{"model", info.name}, {"params", ParamsToJson(info, params)}, {"samples", table}});
+  WriteJsonAtomically(
+      fs::path(args.out_dir) / (info.name + "_plane_of_incidence.json"),
+      {{"model", info.name}, {"params", ParamsToJson(info, params)}, {"samples", table}});
   PrintJson({{"model", info.name}, {"params", ParamsToJson(info, params)}, {"plot", png.string()}});
 }
 
 }  // namespace
 
 void AddBrdfCommand(CLI::App& app) {
-  auto* brdf = app.add_subcommand("brdf", "BRDF models: list, evaluate, plot");
+  auto* brdf = app.add_subcommand("brdf", "BRDF models: list, evaluate, plot, texton");
   brdf->require_subcommand(1);
 
   auto* list = brdf->add_subcommand("list", "Print every registered model as JSON");
@@ -173,6 +173,8 @@ void AddBrdfCommand(CLI::App& app) {
       ->capture_default_str();
   plot->add_option("--out", plot_args->out_dir, "Output folder")->capture_default_str();
   plot->callback([plot_args] { RunPlot(*plot_args); });
+
+  AddBrdfTextonCommand(*brdf);
 }
 
 }  // namespace gonio::cli

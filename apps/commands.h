@@ -7,5 +7,7 @@
 namespace gonio::cli {
 
 void AddBrdfCommand(CLI::App& app);
+// `gonio brdf texton`, added by AddBrdfCommand.
+void AddBrdfTextonCommand(CLI::App& brdf);
 
 }  // namespace gonio::cli
