@@ -31,14 +31,15 @@ void RunTexton(const TextonArgs& args) {
   const ModelInfo& info = FindModel(args.model);
   const std::vector<double> params = ParseModelParams(info, args.params);
   double albedo = params[0], aperture = kHalfPi, coverage = 1.0;
-  if (info.name == "pitted") {
+  if (info.name == "pitted" || info.name == "pitted-exact") {
     aperture = params[1];
     coverage = params[2];
   } else if (info.name == "pitted-hemispherical") {
     coverage = params[1];
   } else {
-    throw InputError("brdf texton: --model must be pitted or pitted-hemispherical, not " +
-                     info.name);
+    throw InputError(
+        "brdf texton: --model must be pitted, pitted-exact or pitted-hemispherical, not " +
+        info.name);
   }
   if (std::isnan(args.theta_i_deg) || std::isnan(args.theta_r_deg)) {
     throw InputError("brdf texton needs --theta-i and --theta-r (degrees)");
@@ -103,7 +104,8 @@ void AddBrdfTextonCommand(CLI::App& brdf) {
   auto args = std::make_shared<TextonArgs>();
   auto* cmd = brdf.add_subcommand(
       "texton", "Per-pit texton PNG and radiance histogram JSON of a pitted model");
-  cmd->add_option("--model", args->model, "pitted or pitted-hemispherical")->capture_default_str();
+  cmd->add_option("--model", args->model, "pitted, pitted-exact or pitted-hemispherical")
+      ->capture_default_str();
   cmd->add_option("--param", args->params, "KEY=VALUE, registry units; repeatable");
   cmd->add_option("--theta-i", args->theta_i_deg, "Incidence polar angle, deg")->required();
   cmd->add_option("--theta-r", args->theta_r_deg, "Viewing polar angle, deg")->required();

@@ -37,6 +37,7 @@
 // docs/models/pitted.md.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
@@ -205,6 +206,105 @@ T HemisphereSingleScatter(const T& theta_l, const T& theta_v, const T& phi, int 
   return mean * TwoDeltaOverSin(delta > T(0) ? delta : T(0)) / cos_v;
 }
 
+// Any aperture, single scattering, by quadrature in the space of wall normals: the wall point
+// p with inward normal m is p = C - m, so the pit is the cap m.z >= cos Psi (dOmega = da),
+// the lit set is m.s >= -cos Psi and the visible set m.t >= -cos Psi, t = 2 (v.z) v - z (the
+// half-space of PitGeometry::PrimaryAt written in m). Returns the integral of (m.l)(m.v) over
+// the intersection. On each ring of polar angle g around z, m = (sin g cos w, sin g sin w,
+// cos g), both conditions are arcs in w (|w| <= acos k_s, |w - phi| <= acos k_t) and the
+// integrand is a trigonometric polynomial, so the w-integral is analytic; the g-integral is
+// Gauss-Legendre, split where a ring starts or stops meeting a shadow circle (k = +-1) and
+// mapped with a smoothstep so the sqrt behaviour of acos there is integrated smoothly.
+template <typename T>
+T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& phi, int nodes) {
+  using std::acos;
+  using std::cos;
+  using std::sin;
+  const T c = cos(psi);
+  const T sl = sin(theta_l), cl = cos(theta_l), sv = sin(theta_v), cv = cos(theta_v);
+  const T cp = cos(phi), sp = sin(phi);
+  const T s2l = T(2) * sl * cl, c2l = cl * cl - sl * sl;
+  const T s2v = T(2) * sv * cv, c2v = cv * cv - sv * sv;
+  // Half-width of the arc of a ring where m.axis >= -c, axis at polar angle with sin/cos
+  // (sa, ca): sin g sa cos w + cos g ca >= -c.
+  auto half_width = [&](const T& sg, const T& cg, const T& sa, const T& ca) {
+    const T num = -c - cg * ca;
+    const T den = sg * sa;
+    if (!(den > T(1e-300))) return num <= T(0) ? T(kPi) : T(0);
+    const T k = num / den;
+    if (k >= T(1)) return T(0);
+    if (k <= T(-1)) return T(kPi);
+    return acos(k);
+  };
+  auto ring = [&](const T& g) {
+    const T sg = sin(g), cg = cos(g);
+    const T ws = half_width(sg, cg, s2l, c2l);
+    const T wt = half_width(sg, cg, s2v, c2v);
+    const T a1 = sg * sl, b1 = cg * cl, a2 = sg * sv, b2 = cg * cv;
+    // Antiderivative in w of (a1 cos w + b1)(a2 cos(w - phi) + b2).
+    auto F = [&](const T& w) {
+      const T s2 = sin(T(2) * w) * cp - cos(T(2) * w) * sp;  // sin(2w - phi)
+      const T sm = sin(w) * cp - cos(w) * sp;                // sin(w - phi)
+      return a1 * a2 * (s2 / T(4) + w * cp / T(2)) + a1 * b2 * sin(w) + b1 * a2 * sm + b1 * b2 * w;
+    };
+    T sum(0);
+    for (int shift = -1; shift <= 1; ++shift) {
+      const T lo2 = phi - wt + T(2 * kPi * shift), hi2 = phi + wt + T(2 * kPi * shift);
+      const T lo = lo2 > -ws ? lo2 : -ws;
+      const T hi = hi2 < ws ? hi2 : ws;
+      if (hi > lo) sum += F(hi) - F(lo);
+    }
+    return sum * sg;
+  };
+  // Breakpoints in g: a ring touches the shadow circle of an axis at polar angle a (radius
+  // pi - Psi) from outside or inside at |g - a| = pi - Psi, g + a = pi - Psi, g + a = pi + Psi.
+  T breaks[16];
+  int nb = 0;
+  breaks[nb++] = T(0);
+  const T rad = T(kPi) - psi;
+  for (const T& a : {T(2) * theta_l, T(2) * theta_v}) {
+    for (const T& g : {a - rad, a + rad, rad - a, T(kPi) + psi - a}) {
+      if (g > T(0) && g < psi) breaks[nb++] = g;
+    }
+  }
+  // ... and where the two shadow circles cross (there the two arcs' ends meet): m.s = m.t = -c
+  // gives m = x (s + t) + z (s x t), x = -c / (1 + s.t), z^2 = (1 - 2 c x') / (1 - (s.t)^2).
+  {
+    using std::sqrt;
+    const T sx = s2l, sz = c2l, tx = s2v * cp, ty = s2v * sp, tz = c2v;
+    const T G = sx * tx + sz * tz;
+    const T one_m_g2 = T(1) - G * G;
+    if (one_m_g2 > T(1e-12) && G > T(-1) + T(1e-12)) {
+      const T x = -c / (T(1) + G);
+      const T z2 = (T(1) - T(2) * c * c / (T(1) + G)) / one_m_g2;
+      if (z2 >= T(0)) {
+        const T nz = sx * ty;  // z-component of s x t (s has no y-component)
+        const T z = sqrt(z2 + T(1e-300));
+        for (const T& mz : {x * (sz + tz) + z * nz, x * (sz + tz) - z * nz}) {
+          if (mz > T(-1) && mz < T(1)) {
+            const T g = acos(mz);
+            if (g > T(0) && g < psi) breaks[nb++] = g;
+          }
+        }
+      }
+    }
+  }
+  breaks[nb++] = psi;
+  std::sort(breaks, breaks + nb, [](const T& x, const T& y) { return x < y; });
+  const auto& gl = GaussLegendre01(nodes);
+  T total(0);
+  for (int k = 0; k + 1 < nb; ++k) {
+    const T w = breaks[k + 1] - breaks[k];
+    if (!(w > T(0))) continue;
+    for (const auto& q : gl) {
+      const double u = q[0];
+      // Smoothstep g = lo + w (3u^2 - 2u^3), dg = 6 w u (1 - u) du.
+      total += T(q[1] * 6.0 * u * (1.0 - u)) * w * ring(breaks[k] + w * T(u * u * (3.0 - 2.0 * u)));
+    }
+  }
+  return total;
+}
+
 }  // namespace pitted_internal
 
 // Plane-of-incidence closed form for the hemispherical pit, eq. 26-29. `backscatter` selects
@@ -247,7 +347,7 @@ struct Pitted {
         "orifice sampling";
     info.reference = "Koenderink, van Doorn, Dana, Nayar 1999, eq. 9-12 and sec. 4.1";
     info.method = "sampling";
-    info.reference_model = "";
+    info.reference_model = "pitted-exact";
     info.cost_rank = 50;
     return info;
   }
@@ -277,6 +377,50 @@ struct Pitted {
     if (cos_l < T(1e-12)) cos_l = T(1e-12);
     const T pit_gain = excess / cos_l + pitted_internal::DiffuseFactor(p[0], p[1]);
     return p[0] * T(kInvPi) * (T(1) + p[2] * pit_gain);
+  }
+};
+
+// Any aperture, single scattering by the quadrature CapSingleScatter (deterministic, smooth in
+// every parameter), interreflection closed form (eq. 11). The exact reference for `pitted`.
+struct PittedExact {
+  static constexpr int kNumParams = 3;
+  static ModelInfo Info() {
+    ModelInfo info = Pitted::Info();
+    info.name = "pitted-exact";
+    info.description =
+        "Lambertian surface pitted with spherical caps: exact shadowing and interreflection, "
+        "quadrature over the pit wall";
+    info.reference = "Koenderink, van Doorn, Dana, Nayar 1999, eq. 9-12, sec. 2.1";
+    info.method = "numerical";
+    info.reference_model = "";
+    info.cost_rank = 30;
+    return info;
+  }
+
+  template <typename T>
+  static T Evaluate(const T* p, const Angles<T>& a) {
+    using std::cos;
+    using std::sin;
+    const T& rho = p[0];
+    const T& psi = p[1];
+    T theta_i = a.theta_i, theta_r = a.theta_r;
+    // The lit (visible) band shrinks like cos theta at the horizon; stop 1e-7 rad short so the
+    // ratio below stays the finite limit instead of 0/0.
+    const T kMax(kHalfPi - 1e-7);
+    if (theta_i > kMax) theta_i = kMax;
+    if (theta_r > kMax) theta_r = kMax;
+    // Orifice -> 0: the cap is flat and f_pit = rho/pi to O(Psi^2); avoid 0/0 at Psi = 0.
+    if (!(psi > T(1e-6))) return rho * T(kInvPi);
+    const T sp = sin(psi);
+    const T single =
+        pitted_internal::CapSingleScatter(psi, theta_i, theta_r, a.phi, kPittedQuadratureNodes) /
+        (T(kPi) * sp * sp * cos(theta_i) * cos(theta_r));
+    const T pit_gain = single - T(1) + pitted_internal::DiffuseFactor(rho, psi);
+    return rho * T(kInvPi) * (T(1) + p[2] * pit_gain);
+  }
+
+  static const char* Invalid(const double* p, const Angles<double>& a) {
+    return Pitted::Invalid(p, a);
   }
 };
 

@@ -17,7 +17,7 @@
 
 namespace gonio {
 
-using AllModels = std::tuple<Lambert, Pitted, PittedHemispherical>;
+using AllModels = std::tuple<Lambert, Pitted, PittedExact, PittedHemispherical>;
 
 template <typename M>
 struct ModelTag {

@@ -36,6 +36,8 @@ TEST(Pitted, ApertureZeroOrCoverageZeroIsExactlyLambert) {
           EXPECT_EQ(Pitted::Evaluate(flat_pits, a), flat);
           const double no_pits[3] = {rho, 1.2, 0.0};
           EXPECT_EQ(Pitted::Evaluate(no_pits, a), flat);
+          EXPECT_EQ(PittedExact::Evaluate(flat_pits, a), flat);
+          EXPECT_EQ(PittedExact::Evaluate(no_pits, a), flat);
           const double no_hemi_pits[2] = {rho, 0.0};
           EXPECT_EQ(PittedHemispherical::Evaluate(no_hemi_pits, a), flat);
         }
@@ -99,6 +101,50 @@ TEST(Pitted, SamplingMatchesHemisphereQuadratureOffThePlane) {
   }
 }
 
+// Two independent exact routes to the hemispherical pit: eq. 21 (paper's coordinates, integral
+// over the lit range of f) and the ring quadrature over the normal cap used for any aperture.
+TEST(Pitted, CapQuadratureMatchesEq21AtHemisphereAndConverges) {
+  for (double ti : {0.0, 25.0, 50.0, 75.0, 89.0}) {
+    for (double tr : {0.0, 35.0, 60.0, 85.0}) {
+      for (double ph : {0.0, 20.0, 90.0, 160.0, 180.0}) {
+        const Angles<double> a{ti * kDeg, tr * kDeg, ph * kDeg};
+        const double hemi[2] = {0.7, 1.0};
+        const double exact[3] = {0.7, kHalfPi, 1.0};
+        EXPECT_NEAR(PittedExact::Evaluate(exact, a) / PittedHemispherical::Evaluate(hemi, a), 1.0,
+                    1e-9)
+            << ti << " " << tr << " " << ph;
+        for (double psi : {0.2, 0.7, 1.3}) {
+          const double coarse = pitted_internal::CapSingleScatter(psi, a.theta_i, a.theta_r, a.phi,
+                                                                  kPittedQuadratureNodes);
+          const double fine =
+              pitted_internal::CapSingleScatter(psi, a.theta_i, a.theta_r, a.phi, 96);
+          EXPECT_NEAR(coarse, fine, 1e-9 * std::max(1e-3, std::abs(fine)))
+              << psi << " " << ti << " " << tr << " " << ph;
+        }
+      }
+    }
+  }
+}
+
+// Shallow pits: orifice sampling (sec. 4.1) against the exact cap quadrature.
+TEST(Pitted, OrificeSamplingMatchesExactForShallowPits) {
+  double worst = 0;
+  for (double psi : {0.3, 0.8, 1.2}) {
+    for (double ti : {0.0, 30.0, 60.0, 80.0}) {
+      for (double tr : {0.0, 20.0, 50.0, 80.0}) {
+        for (double ph : {0.0, 60.0, 120.0, 180.0}) {
+          const Angles<double> a{ti * kDeg, tr * kDeg, ph * kDeg};
+          const double p[3] = {0.8, psi, 1.0};
+          const double rel = Pitted::Evaluate(p, a) / PittedExact::Evaluate(p, a) - 1.0;
+          EXPECT_LT(std::abs(rel), 0.005) << psi << " " << ti << " " << tr << " " << ph;
+          worst = std::max(worst, std::abs(rel));
+        }
+      }
+    }
+  }
+  RecordProperty("worst_rel_error", std::to_string(worst));
+}
+
 // Quadrature without the model's canonical ordering: the lit set is a range of f and the
 // visible set a t-limit, so swapping source and viewer changes the integrand entirely.
 TEST(Pitted, HemisphereQuadratureIsReciprocal) {
@@ -145,6 +191,8 @@ TEST(Pitted, JetDerivativesMatchFiniteDifferences) {
     testing::ExpectJetMatchesFiniteDifference<PittedHemispherical>({0.8, 0.7}, a, 1e-5);
     testing::ExpectJetMatchesFiniteDifference<Pitted>({0.8, 0.9, 0.7}, a, 1e-4);
     testing::ExpectJetMatchesFiniteDifference<Pitted>({0.5, 0.3, 1.0}, a, 1e-4);
+    testing::ExpectJetMatchesFiniteDifference<PittedExact>({0.8, 0.9, 0.7}, a, 1e-5);
+    testing::ExpectJetMatchesFiniteDifference<PittedExact>({0.5, 0.3, 1.0}, a, 1e-5);
   }
 }
 
@@ -158,6 +206,9 @@ TEST(Pitted, NonNegativeAndFiniteUpTo89Point9Degrees) {
             const double p3[3] = {rho, psi, 1.0};
             const double v = Pitted::Evaluate(p3, a);
             EXPECT_TRUE(std::isfinite(v) && v >= 0) << rho << " " << psi << " " << ti << " " << tr;
+            EXPECT_TRUE(std::isfinite(PittedExact::Evaluate(p3, a)) &&
+                        PittedExact::Evaluate(p3, a) >= 0)
+                << rho << " " << psi << " " << ti << " " << tr;
             const double p2[2] = {rho, 1.0};
             const double h = PittedHemispherical::Evaluate(p2, a);
             EXPECT_TRUE(std::isfinite(h) && h >= 0) << rho << " " << ti << " " << tr << " " << ph;
@@ -183,6 +234,8 @@ TEST(Pitted, DirectionalAlbedoIsOneForWhiteSubstrate) {
     EXPECT_NEAR(hemi, 1.0, 0.01) << ti;
     const double shallow = testing::DirectionalAlbedo<Pitted>({1.0, 0.8, 1.0}, ti * kDeg, 20);
     EXPECT_NEAR(shallow, 1.0, 0.01) << ti;
+    const double exact = testing::DirectionalAlbedo<PittedExact>({1.0, 0.8, 1.0}, ti * kDeg, 30);
+    EXPECT_NEAR(exact, 1.0, 0.01) << ti;
     // A grey substrate loses light at every bounce.
     const double grey = testing::DirectionalAlbedo<PittedHemispherical>({0.5, 1.0}, ti * kDeg, 45);
     EXPECT_LT(grey, 0.5);
