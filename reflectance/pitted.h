@@ -50,7 +50,7 @@ namespace gonio {
 
 // Orifice samples per `pitted` evaluation (sec. 4.1). The measured error at Psi = pi/2 against
 // the exact hemispherical integral is in docs/models/pitted.md.
-inline constexpr int kPittedOrificeSamples = 2048;
+inline constexpr int kPittedOrificeSamples = 4096;
 // Gauss-Legendre nodes per sub-interval of the eq. 21 quadrature.
 inline constexpr int kPittedQuadratureNodes = 32;
 
