@@ -10,13 +10,13 @@
 //
 // | model                 | parameter | unit | range      | meaning                          |
 // |-----------------------|-----------|------|------------|----------------------------------|
-// | pitted                | albedo    | 1    | [0, 1]     | micro-scale Lambertian albedo rho |
+// | pitted, pitted-exact  | albedo    | 1    | [0, 1]     | micro-scale Lambertian albedo rho |
 // |                       | aperture  | rad  | [0, pi/2]  | pit aperture Psi (half-angle)    |
 // |                       | coverage  | 1    | [0, 1]     | area fraction covered by orifices |
 // | pitted-hemispherical  | albedo    | 1    | [0, 1]     | as above, Psi = pi/2 fixed       |
 // |                       | coverage  | 1    | [0, 1]     | as above                         |
 //
-// Both models: f_r = coverage * f_pit + (1 - coverage) * rho / pi, because orifices and flat
+// All models: f_r = coverage * f_pit + (1 - coverage) * rho / pi, because orifices and flat
 // area lie in the same plane and so have the same projected-area fraction from any direction.
 // f_pit = rho/pi * (<H_prim>_visible / cos theta_i + K) with the constant diffuse irradiance
 // K = H_diff / (H_perp cos theta_i) of eq. 11 (closed-form interreflection, eq. 9-12).
@@ -24,6 +24,10 @@
 // `pitted` averages the primary irradiance over the orifice by deterministic sampling (sec.
 // 4.1): a Fibonacci (Vogel) lattice of kPittedOrificeSamples points on the orifice disc, the
 // same points on every call, so results are reproducible and Jet-differentiable.
+// `pitted-exact` integrates the same single-scattering term over the cap of wall normals
+// (analytic azimuthal arcs, Gauss-Legendre in polar angle): deterministic, smooth, the
+// reference for `pitted` and the one to fit with (its Jet derivatives include the motion of
+// the shadow boundary, which the sampled estimator's cannot).
 // `pitted-hemispherical` integrates eq. 21 (one-dimensional Gauss-Legendre quadrature of the
 // analytic inner integral, eq. 22-25) and has the plane-of-incidence closed form (eq. 26-29)
 // as the cross-check PittedHemisphericalPlaneOfIncidence.
