@@ -159,6 +159,16 @@ TEST(Pitted, HemisphereQuadratureIsReciprocal) {
       }
     }
   }
+  // The closed form eq. 26-29: A and B swap into each other, C and D are symmetric.
+  for (double al = 0; al < 90; al += 7) {
+    for (double be = 0; be < 90; be += 5) {
+      for (bool back : {true, false}) {
+        EXPECT_NEAR(PittedHemisphericalPlaneOfIncidence(0.8, al * kDeg, be * kDeg, back),
+                    PittedHemisphericalPlaneOfIncidence(0.8, be * kDeg, al * kDeg, back), 1e-12)
+            << al << " " << be << " " << back;
+      }
+    }
+  }
   // The model itself is symmetric by construction; check it stays so through EvaluateChecked.
   double f1, f2;
   EXPECT_EQ(EvaluateChecked("pitted-hemispherical", {0.7, 0.6}, {0.3, 1.1, 2.0}, &f1), "");
@@ -193,6 +203,39 @@ TEST(Pitted, JetDerivativesMatchFiniteDifferences) {
     testing::ExpectJetMatchesFiniteDifference<Pitted>({0.5, 0.3, 1.0}, a, 1e-4);
     testing::ExpectJetMatchesFiniteDifference<PittedExact>({0.8, 0.9, 0.7}, a, 1e-5);
     testing::ExpectJetMatchesFiniteDifference<PittedExact>({0.5, 0.3, 1.0}, a, 1e-5);
+  }
+}
+
+// Fits start anywhere in the bounds: values and derivatives stay finite at the edges.
+template <typename M>
+void ExpectFiniteJet(const std::vector<double>& params, const Angles<double>& a) {
+  using Jet = ceres::Jet<double, M::kNumParams + 3>;
+  std::vector<Jet> p(M::kNumParams);
+  for (int k = 0; k < M::kNumParams; ++k) p[k] = Jet(params[k], k);
+  const Angles<Jet> aj{Jet(a.theta_i, M::kNumParams), Jet(a.theta_r, M::kNumParams + 1),
+                       Jet(a.phi, M::kNumParams + 2)};
+  const Jet f = M::Evaluate(p.data(), aj);
+  EXPECT_TRUE(std::isfinite(f.a)) << a.theta_i << " " << a.theta_r << " " << a.phi;
+  for (int k = 0; k < M::kNumParams + 3; ++k) {
+    EXPECT_TRUE(std::isfinite(f.v[k])) << k << ": " << a.theta_i << " " << a.theta_r;
+  }
+}
+
+TEST(Pitted, JetsFiniteAtParameterAndAngleEdges) {
+  for (double ti : {0.0, 1.0, kHalfPi}) {
+    for (double tr : {0.0, 0.5, kHalfPi}) {
+      for (double ph : {0.0, 1.0, kPi}) {
+        if (ti == kHalfPi && tr == kHalfPi) continue;  // diverges, reported by Invalid()
+        const Angles<double> a{ti, tr, ph};
+        for (double rho : {0.0, 1.0}) {
+          for (double psi : {0.0, 1e-7, kHalfPi}) {
+            ExpectFiniteJet<Pitted>({rho, psi, 1.0}, a);
+            ExpectFiniteJet<PittedExact>({rho, psi, 1.0}, a);
+          }
+          ExpectFiniteJet<PittedHemispherical>({rho, 1.0}, a);
+        }
+      }
+    }
   }
 }
 
