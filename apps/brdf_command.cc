@@ -147,7 +147,7 @@ void RunPlot(const PlotArgs& args) {
 }  // namespace
 
 void AddBrdfCommand(CLI::App& app) {
-  auto* brdf = app.add_subcommand("brdf", "BRDF models: list, evaluate, plot");
+  auto* brdf = app.add_subcommand("brdf", "BRDF models: list, evaluate, plot, texton");
   brdf->require_subcommand(1);
 
   auto* list = brdf->add_subcommand("list", "Print every registered model as JSON");
@@ -173,6 +173,8 @@ void AddBrdfCommand(CLI::App& app) {
       ->capture_default_str();
   plot->add_option("--out", plot_args->out_dir, "Output folder")->capture_default_str();
   plot->callback([plot_args] { RunPlot(*plot_args); });
+
+  AddBrdfTextonCommand(*brdf);
 }
 
 }  // namespace gonio::cli

@@ -9,5 +9,7 @@ namespace gonio::cli {
 void AddBrdfCommand(CLI::App& app);
 void AddFitTableCommand(CLI::App& app);
 void AddPhotometricCommand(CLI::App& app);
+// `gonio brdf texton`, added by AddBrdfCommand.
+void AddBrdfTextonCommand(CLI::App& brdf);
 
 }  // namespace gonio::cli

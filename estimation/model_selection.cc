@@ -24,13 +24,9 @@ void ModelSelectionOptions::Check() const {
 }
 
 std::vector<std::string> AutoCandidates() {
-  std::set<std::string> references;
-  for (const auto& m : RegisteredModels()) {
-    if (!m.reference_model.empty()) references.insert(m.reference_model);
-  }
   std::vector<ModelInfo> models;
   for (const auto& m : RegisteredModels()) {
-    if (!references.count(m.name)) models.push_back(m);
+    if (m.auto_candidate) models.push_back(m);
   }
   std::stable_sort(models.begin(), models.end(), [](const ModelInfo& a, const ModelInfo& b) {
     return a.cost_rank != b.cost_rank ? a.cost_rank < b.cost_rank : a.num_params() < b.num_params();

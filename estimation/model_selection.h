@@ -40,8 +40,7 @@ struct ModelSelectionResult {
   std::string Report() const;
 };
 
-// Every registered model that is not the numerical reference of another model (fitting the
-// reference duplicates its closed form at many times the cost), cheapest first.
+// Every registered model marked auto_candidate (ModelInfo), cheapest first.
 std::vector<std::string> AutoCandidates();
 
 // InputError when no candidate can be fitted (e.g. fewer samples than any model's parameters).

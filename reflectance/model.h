@@ -39,6 +39,10 @@ struct ModelInfo {
   std::string reference_model;
   // Relative evaluation cost, used to order candidates "cheapest first".
   int cost_rank = 0;
+  // Part of the default candidate set of fits (`--models auto`). False for numerical
+  // references that duplicate a closed form's physics at many times its cost, and for
+  // sampling estimators whose derivatives miss moving shadow edges.
+  bool auto_candidate = true;
 
   int num_params() const { return static_cast<int>(params.size()); }
 };

@@ -103,6 +103,7 @@ struct OrenNayarFacetN {
     info.reference = "Oren & Nayar 1994, eq. 8, 10, Table 1, 11/38, 15-20, 23, 25, 26";
     info.method = "numerical";
     info.cost_rank = 30;
+    info.auto_candidate = false;
     return info;
   }
 

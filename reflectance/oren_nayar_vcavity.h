@@ -150,6 +150,7 @@ struct OrenNayarVCavityN {
     info.reference = "Oren & Nayar 1994, eq. 25, 26, 24/45 (A1-A3), 49";
     info.method = "numerical";
     info.cost_rank = 20;
+    info.auto_candidate = false;
     return info;
   }
 

@@ -17,12 +17,15 @@
 #include "reflectance/oren_nayar.h"
 #include "reflectance/oren_nayar_facet.h"
 #include "reflectance/oren_nayar_vcavity.h"
+#include "reflectance/pitted.h"
 #include "reflectance/torrance_sparrow.h"
 
 namespace gonio {
 
-using AllModels = std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity,
-                             OrenNayarFacet, TorranceSparrow, TorranceSparrowF1, Tson>;
+using AllModels =
+    std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity,
+               OrenNayarFacet, TorranceSparrow, TorranceSparrowF1, Tson, Pitted, PittedExact,
+               PittedHemispherical>;
 
 template <typename M>
 struct ModelTag {
