@@ -12,11 +12,14 @@
 
 #include "reflectance/angles.h"
 #include "reflectance/lambert.h"
+#include "reflectance/li_torrance.h"
 #include "reflectance/model.h"
+#include "reflectance/van_ginneken.h"
 
 namespace gonio {
 
-using AllModels = std::tuple<Lambert>;
+using AllModels = std::tuple<Lambert, VanGinneken, VanGinnekenFresnel, LiTorranceFull, LiTorranceDd,
+                             LiTorranceDdUdf, LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
 
 template <typename M>
 struct ModelTag {
