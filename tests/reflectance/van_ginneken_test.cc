@@ -97,6 +97,37 @@ TEST(VanGinneken, DiffuseBackscattersAndConservesEnergy) {
   }
 }
 
+// eq. 30-33 with the allowed phi_a range of eq. 9-10 against a brute-force double integral
+// of the definition: P_ill+vis / cos(theta_i) * E[max(cos i', 0) max(cos r', 0) /
+// (pi cos(theta_a) cos(theta_r))] over the Rayleigh slope magnitude and uniform phi_a.
+TEST(VanGinneken, DiffuseMatchesBruteForceFacetIntegral) {
+  for (double r : {0.2, 0.7}) {
+    for (const Angles<double>& a : {Angles<double>{0.2, 1.3, 0.4}, Angles<double>{1.2, 1.1, 2.9},
+                                    Angles<double>{1.4, 0.9, 1.6}, Angles<double>{0.9, 0.9, 0.0}}) {
+      const int nt = 600, np = 720;
+      const double tmax = 8.0;
+      double sum = 0;
+      for (int i = 0; i < nt; ++i) {
+        const double t = (i + 0.5) * tmax / nt;
+        const double ta = std::atan(r * t);
+        const double w_t = t * std::exp(-0.5 * t * t) * tmax / nt;
+        for (int j = 0; j < np; ++j) {
+          const double pa = (j + 0.5) * 2 * kPi / np;
+          const double cip = std::cos(pa) * std::sin(a.theta_i) * std::sin(ta) +
+                             std::cos(a.theta_i) * std::cos(ta);
+          const double crp = std::cos(pa - a.phi) * std::sin(a.theta_r) * std::sin(ta) +
+                             std::cos(a.theta_r) * std::cos(ta);
+          if (cip <= 0 || crp <= 0) continue;
+          sum += w_t / np * cip * crp / (kPi * std::cos(ta) * std::cos(a.theta_r));
+        }
+      }
+      const vg::Terms<double> terms = vg::Evaluate(r, a);
+      const double brute = terms.shadowing * sum / std::cos(a.theta_i);
+      EXPECT_NEAR(terms.diffuse, brute, 2e-3 * brute) << "r " << r << " phi " << a.phi;
+    }
+  }
+}
+
 // At normal incidence the specular facet normal is at theta_r/2 (eq. 25), so eq. 28 reads
 // f_s cos(theta_r) = P exp(-tan^2(theta_r/2)/(2r^2)) / (4 N(r) cos^4(theta_r/2)).
 TEST(VanGinneken, SpecularLobeMatchesEq28AtNormalIncidence) {
