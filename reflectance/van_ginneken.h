@@ -109,6 +109,17 @@ T SlopeNormalization(const T& r) {
   return r * sum;
 }
 
+// Which normalisation the specular term uses (see docs/models/van-ginneken.md).
+enum class SpecularNorm {
+  // Eq. 8 as printed, N(r) = sqrt(pi) U(-1/2, 0, 1/(2r^2)) r^2 (the registry models). It
+  // normalises exp(-tan^2/(2r^2))/cos^3 over d theta_a, not over solid angle, so the specular
+  // directional albedo is about 2 pi r^2 / N(r): 0.10 at r = 0.02, 1.4 at r = 0.3.
+  kEq8,
+  // The density the text before eq. 8 derives, P_theta_a / (2 pi sin theta_a) per steradian,
+  // i.e. N = 2 pi r^2: the Beckmann distribution, specular albedo <= 1 (shadowing only).
+  kSolidAngle,
+};
+
 // Fresnel reflectance of unpolarised light, eq. 36, written with cosines
 // (rs = (cos i - n cos t)/(cos i + n cos t), rp = (n cos i - cos t)/(n cos i + cos t)),
 // which equals the sin/tan form of eq. 36 for real n > 1 and stays regular at theta_i = 0.
@@ -175,7 +186,7 @@ T ArcHalfWidth(const T& tan_theta, const T& tan_a) {
 
 // All three terms. Order: Gauss-Legendre points per panel of the theta_a integral.
 template <typename T, int Order = 12>
-Terms<T> Evaluate(const T& r, const Angles<T>& a_in) {
+Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = SpecularNorm::kEq8) {
   using std::cos;
   using std::exp;
   using std::sin;
@@ -196,7 +207,8 @@ Terms<T> Evaluate(const T& r, const Angles<T>& a_in) {
     const T hx = si + sr * cp, hy = sr * sp, hz = ci + cr;
     const T tan2 = (hx * hx + hy * hy) / (hz * hz);
     const T lobe = exp(-tan2 / (T(2.0) * r * r)) * (T(1.0) + tan2) * (T(1.0) + tan2);
-    out.specular = out.shadowing * lobe / (T(4.0) * SlopeNormalization(r) * ci * cr);
+    const T n_r = norm == SpecularNorm::kEq8 ? SlopeNormalization(r) : T(2.0 * kPi) * r * r;
+    out.specular = out.shadowing * lobe / (T(4.0) * n_r * ci * cr);
   }
 
   // Diffuse, eq. 30-33. With t = tan(theta_a)/r, P_theta_a d theta_a (eq. 7) is the

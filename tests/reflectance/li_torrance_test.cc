@@ -117,6 +117,20 @@ TEST(LiTorrance, DirectionalDiffuseIsBeckmannWithEffectiveSlope) {
   }
 }
 
+// k_dd is the directional-hemispherical reflectance of dd (sec. 3.1): with F = 1 the albedo
+// is k_dd times the unshadowed fraction, <= 1 and ~1 at normal incidence for a smooth slope.
+TEST(LiTorrance, DirectionalDiffuseAlbedoIsAtMostKdd) {
+  for (double tau : {2.0, 5.0}) {
+    for (double ti : {0.0, 45.0, 75.0}) {
+      const double albedo =
+          testing::DirectionalAlbedo<LiTorranceDd>({1.0, 0.5, tau, 1e9}, DegToRad(ti), 150);
+      EXPECT_LE(albedo, 1.002) << tau << " " << ti;
+      if (tau == 5.0 && ti == 0.0) EXPECT_GT(albedo, 0.98);
+      if (ti == 75.0) EXPECT_LT(albedo, 0.95);  // S of eq. 6 removes light at grazing
+    }
+  }
+}
+
 // The BRDF is reciprocal (paper sec. 1.1) for dd, udf and uds; fs (eq. 13-14) measures
 // theta_f from the source's forward azimuth and the coherent term uses a cone around the
 // mirror of L, so neither is, and the reciprocal variants exclude them.

@@ -152,6 +152,30 @@ TEST(VanGinneken, SpecularLobeMatchesEq28AtNormalIncidence) {
   }
 }
 
+struct SpecularOnly {
+  static constexpr int kNumParams = 2;  // r, normalisation (0 = eq. 8, 1 = solid angle)
+  static double Evaluate(const double* p, const Angles<double>& a) {
+    return vg::Evaluate(p[0], a,
+                        p[1] > 0.5 ? vg::SpecularNorm::kSolidAngle : vg::SpecularNorm::kEq8)
+        .specular;
+  }
+};
+
+// Directional albedo of the specular term. With the solid-angle density it is the fraction
+// of light that escapes shadowing (<= 1, -> 1 as r -> 0); with eq. 8 as printed it is
+// 2 pi r^2 / N(r) times that (documented in docs/models/van-ginneken.md).
+TEST(VanGinneken, SpecularDirectionalAlbedo) {
+  for (double r : {0.1, 0.3}) {
+    const double solid = testing::DirectionalAlbedo<SpecularOnly>({r, 1.0}, 0.0, 100);
+    const double eq8 = testing::DirectionalAlbedo<SpecularOnly>({r, 0.0}, 0.0, 100);
+    std::printf("specular albedo at normal incidence, r %.1f: solid angle %.4f, eq. 8 %.4f\n", r,
+                solid, eq8);
+    EXPECT_LE(solid, 1.0 + 2e-3);  // midpoint rule, 100 x 200 cells
+    EXPECT_GT(solid, r < 0.2 ? 0.98 : 0.85);
+    EXPECT_NEAR(eq8 / solid, 2 * kPi * r * r / vg::SlopeNormalization(r), 1e-9);
+  }
+}
+
 // 12 Gauss-Legendre points per panel against 64: the kinks of the allowed phi_a range
 // limit convergence; measured worst 1.3e-3 relative, 4.5e-5 absolute in pi f_d.
 TEST(VanGinneken, QuadratureConverged) {
