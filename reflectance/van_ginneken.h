@@ -126,8 +126,10 @@ enum class SpecularNorm {
 template <typename T>
 T FresnelUnpolarized(const T& n, const T& cos_i) {
   using std::sqrt;
-  const T sin2_i = T(1.0) - cos_i * cos_i;
-  const T cos_t = sqrt(T(1.0) - sin2_i / (n * n));
+  // cos^2(theta_t) = 1 - sin^2(theta_i)/n^2, written so that n = 1 at grazing gives cos_i^2
+  // (not 1 - 1 = 0, whose sqrt has an infinite Jet derivative).
+  const T arg = (n * n - T(1.0) + cos_i * cos_i) / (n * n);
+  const T cos_t = arg > T(1e-300) ? sqrt(arg) : T(0.0);
   const T rs = (cos_i - n * cos_t) / (cos_i + n * cos_t);
   const T rp = (n * cos_i - cos_t) / (n * cos_i + cos_t);
   return T(0.5) * (rs * rs + rp * rp);

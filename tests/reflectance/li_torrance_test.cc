@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "reflectance/registry.h"
+#include "tests/reflectance/jet_finite_util.h"
 #include "tests/reflectance/model_test_util.h"
 
 namespace gonio {
@@ -293,6 +294,9 @@ TEST(LiTorrance, JetDerivativesEveryVariant) {
     // Away from the lamp cone the coherent variant is smooth.
     testing::ExpectJetMatchesFiniteDifference<LiTorranceCohDd>({0.5, 0.5, 3.0, 1.5}, a);
   }
+  testing::ExpectJetFiniteOnEdges<LiTorranceFull>({0.5, 0.1, 0.3, 1.0, 0.05, 50.0, 1.5});
+  testing::ExpectJetFiniteOnEdges<LiTorranceFull>({0.5, 0.1, 0.3, 1.0, 5.0, 0.5, 20.0});
+  testing::ExpectJetFiniteOnEdges<LiTorranceCohDd>({0.5, 0.05, 5.0, 1.5});
 }
 
 }  // namespace

@@ -26,9 +26,7 @@ TEST(Registry, NamesAreUniqueAndMetadataConsistent) {
   }
 }
 
-TEST(Registry, UnknownModelIsInputError) {
-  EXPECT_THROW(FindModel("no-such-model"), InputError);
-}
+TEST(Registry, UnknownModelIsInputError) { EXPECT_THROW(FindModel("no-such-model"), InputError); }
 
 TEST(Registry, CheckParamsRejectsOutOfBoundsAndNaN) {
   const ModelInfo& info = FindModel("lambert");

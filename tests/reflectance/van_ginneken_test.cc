@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "reflectance/registry.h"
+#include "tests/reflectance/jet_finite_util.h"
 #include "tests/reflectance/model_test_util.h"
 
 namespace gonio {
@@ -241,6 +242,9 @@ TEST(VanGinneken, JetDerivatives) {
     testing::ExpectJetMatchesFiniteDifference<VanGinneken>({0.8, 0.4, 0.3}, a, 1e-5);
     testing::ExpectJetMatchesFiniteDifference<VanGinnekenFresnel>({0.8, 0.4, 0.6, 1.6}, a, 1e-5);
   }
+  testing::ExpectJetFiniteOnEdges<VanGinneken>({0.8, 0.02, 0.3});
+  testing::ExpectJetFiniteOnEdges<VanGinneken>({0.8, 1.0, 0.3});
+  testing::ExpectJetFiniteOnEdges<VanGinnekenFresnel>({0.8, 0.4, 0.6, 1.0});
 }
 
 // Brute-force ray test of eq. 23 on a 1-D Gaussian profile with Gaussian autocorrelation
