@@ -166,13 +166,20 @@ T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int m
   // sigma_e (eq. 8/24) and the effective slopes m_e = sigma_e/tau (eq. 21).
   const T k_i = lt::DirectionalK(l[0], l[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
   const T k_r = lt::DirectionalK(v[0], v[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
-  T s = lt::Shadowing(ci, cr, k_i, k_r);
+  // (1 - cos)^k of eq. 6 and (1 - cos)^(1.6 k) of eq. 8 share one log per direction; at
+  // cos = 1 both powers are exactly 0 (lt::PowUnit).
+  const T zero(0.0);
+  const T log_i = one - ci > zero ? log(one - ci) : zero;
+  const T log_r = one - cr > zero ? log(one - cr) : zero;
+  const T pow_i = one - ci > zero ? exp(k_i * log_i) : zero;
+  const T pow_r = one - cr > zero ? exp(k_r * log_r) : zero;
+  T s = (one - pow_i) * (one - pow_r);
   if (opt.shadowing_cutoff && ci > one - exp(T(std::log(0.005)) / k_i) &&
       cr > one - exp(T(std::log(0.005)) / k_r)) {
     s = one;
   }
-  const T base_i = one - lt::PowUnit(one - ci, T(1.6) * k_i);
-  const T base_r = one - lt::PowUnit(one - cr, T(1.6) * k_r);
+  const T base_i = one - (one - ci > zero ? exp(T(1.6) * k_i * log_i) : zero);
+  const T base_r = one - (one - cr > zero ? exp(T(1.6) * k_r * log_r) : zero);
   // sigma_e -> 0 at grazing angles; floor it at 1e-6 sigma so 1/m_e stays finite.
   T sigma_e = T(1e-6) * p.sigma_um;
   if (base_i > T(1e-300) && base_r > T(1e-300)) {
