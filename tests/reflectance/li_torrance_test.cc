@@ -3,10 +3,12 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "reflectance/registry.h"
 #include "tests/reflectance/jet_finite_util.h"
 #include "tests/reflectance/model_test_util.h"
+#include "tests/test_util.h"
 
 namespace gonio {
 namespace {
@@ -297,6 +299,23 @@ TEST(LiTorrance, JetDerivativesEveryVariant) {
   testing::ExpectJetFiniteOnEdges<LiTorranceFull>({0.5, 0.1, 0.3, 1.0, 0.05, 50.0, 1.5});
   testing::ExpectJetFiniteOnEdges<LiTorranceFull>({0.5, 0.1, 0.3, 1.0, 5.0, 0.5, 20.0});
   testing::ExpectJetFiniteOnEdges<LiTorranceCohDd>({0.5, 0.05, 5.0, 1.5});
+}
+
+// gonio brdf eval reaches every registered variant and returns the library's value.
+TEST(LiTorrance, CliEvalEveryVariant) {
+  for (const char* name : {"li-torrance", "li-torrance:dd", "li-torrance:dd+udf",
+                           "li-torrance:dd+uds", "li-torrance:dd+uds+fs", "li-torrance:coh+dd"}) {
+    const auto r = testing::RunGonio(std::string("brdf eval --model ") + name +
+                                     " --param sigma_um=0.4 --theta-i 40 --theta-r 35 --phi 170");
+    ASSERT_EQ(r.exit_code, 0) << name << ": " << r.err;
+    const ModelInfo& info = FindModel(name);
+    std::vector<double> p;
+    for (const auto& q : info.params) p.push_back(q.name == "sigma_um" ? 0.4 : q.default_value);
+    double expected = -1;
+    EXPECT_EQ(EvaluateChecked(name, p, {DegToRad(40), DegToRad(35), DegToRad(170)}, &expected), "");
+    EXPECT_NEAR(nlohmann::json::parse(r.out)["brdf"].get<double>(), expected, 1e-12 * expected)
+        << name;
+  }
 }
 
 }  // namespace

@@ -4,10 +4,12 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "reflectance/registry.h"
 #include "tests/reflectance/jet_finite_util.h"
 #include "tests/reflectance/model_test_util.h"
+#include "tests/test_util.h"
 
 namespace gonio {
 namespace {
@@ -486,6 +488,25 @@ TEST(VanGinneken, ShadowingMatchesRayTestOn2DSurface) {
       }
     }
   }
+}
+
+// gonio brdf eval reaches both models and returns the library's value.
+TEST(VanGinneken, CliEval) {
+  const auto r = testing::RunGonio(
+      "brdf eval --model van-ginneken --param scale=0.9 --param r=0.4 --param g=0.2 "
+      "--theta-i 50 --theta-r 30 --phi 120");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const double p[] = {0.9, 0.4, 0.2};
+  EXPECT_NEAR(nlohmann::json::parse(r.out)["brdf"].get<double>(),
+              VanGinneken::Evaluate(p, Angles<double>{DegToRad(50), DegToRad(30), DegToRad(120)}),
+              1e-12);
+  const auto f = testing::RunGonio(
+      "brdf eval --model van-ginneken-fresnel --param n=2.18 --theta-i 75 --theta-r 75 --phi 180");
+  ASSERT_EQ(f.exit_code, 0) << f.err;
+  EXPECT_GT(nlohmann::json::parse(f.out)["brdf"].get<double>(), 0.0);
+  const auto bad =
+      testing::RunGonio("brdf eval --model van-ginneken --param r=0.001 --theta-i 0 --theta-r 0");
+  EXPECT_EQ(bad.exit_code, 2);
 }
 
 }  // namespace
