@@ -26,9 +26,12 @@
 // (eq. 1-2); phi_r = 0 is the viewer on the source side (eq. 17 is its backscatter case),
 // which is exactly gonio's phi. No conversion is needed; phi outside [0, pi] is folded.
 //
-// Bounds on r: below ~0.02 the specular lobe of eq. 28 (width ~ r rad) is narrower than any
-// goniometer aperture and eq. 8 is a spike; above 1 the paper's fit of eq. 24 is not
-// validated ("for r < 1").
+// Bounds on r: below ~0.02 the specular lobe of eq. 28 (about 2r rad wide in theta_r, ~2 deg
+// at r = 0.02) is no wider than a goniometer's aperture and eq. 8 is a spike; above 1 the
+// paper's fit of eq. 24 is not validated ("for r < 1").
+//
+// The specular term uses eq. 8's normalisation as printed (vg::SpecularNorm::kEq8), which is
+// not a per-steradian normalisation: see docs/models/van-ginneken.md.
 #pragma once
 
 #include <algorithm>

@@ -128,8 +128,12 @@ TEST(LiTorrance, DirectionalDiffuseAlbedoIsAtMostKdd) {
       const double albedo =
           testing::DirectionalAlbedo<LiTorranceDd>({1.0, 0.5, tau, 1e9}, DegToRad(ti), 150);
       EXPECT_LE(albedo, 1.002) << tau << " " << ti;
-      if (tau == 5.0 && ti == 0.0) EXPECT_GT(albedo, 0.98);
-      if (ti == 75.0) EXPECT_LT(albedo, 0.95);  // S of eq. 6 removes light at grazing
+      if (tau == 5.0 && ti == 0.0) {
+        EXPECT_GT(albedo, 0.98);
+      }
+      if (ti == 75.0) {
+        EXPECT_LT(albedo, 0.95);  // S of eq. 6 removes light at grazing
+      }
     }
   }
 }

@@ -352,7 +352,9 @@ TEST(VanGinneken, ShadowingMatchesRayTestOnGaussianProfile) {
         const double fwd = vg::ShadowingIllVis(r, a, b, kPi) - profile.IllVis(a, b, true);
         EXPECT_GE(fwd, -0.01) << where << " phi 180";
         EXPECT_LE(fwd, 0.09) << where << " phi 180";
-        if (r <= 0.3 && std::max(ti, tr) <= 60) EXPECT_LE(fwd, 0.03) << where << " phi 180";
+        if (r <= 0.3 && std::max(ti, tr) <= 60) {
+          EXPECT_LE(fwd, 0.03) << where << " phi 180";
+        }
         worst_fwd = std::max(worst_fwd, std::abs(fwd));
       }
     }
@@ -480,8 +482,12 @@ TEST(VanGinneken, ShadowingMatchesRayTestOn2DSurface) {
                   tr, ph, diff);
       const std::string where =
           std::to_string(ti) + " " + std::to_string(tr) + " " + std::to_string(ph);
-      if (ph == 0.0 || ph == 90.0) EXPECT_LE(std::abs(diff), 0.03) << where;
-      if (ph == 45.0) EXPECT_LE(std::abs(diff), 0.04) << where;
+      if (ph == 0.0 || ph == 90.0) {
+        EXPECT_LE(std::abs(diff), 0.03) << where;
+      }
+      if (ph == 45.0) {
+        EXPECT_LE(std::abs(diff), 0.04) << where;
+      }
       if (ph >= 135.0) {
         EXPECT_GE(diff, -0.01) << where;
         EXPECT_LE(diff, 0.08) << where;
