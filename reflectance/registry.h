@@ -12,6 +12,7 @@
 
 #include "reflectance/angles.h"
 #include "reflectance/lambert.h"
+#include "reflectance/li_torrance.h"
 #include "reflectance/minnaert.h"
 #include "reflectance/model.h"
 #include "reflectance/oren_nayar.h"
@@ -19,13 +20,15 @@
 #include "reflectance/oren_nayar_vcavity.h"
 #include "reflectance/pitted.h"
 #include "reflectance/torrance_sparrow.h"
+#include "reflectance/van_ginneken.h"
 
 namespace gonio {
 
 using AllModels =
     std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity,
                OrenNayarFacet, TorranceSparrow, TorranceSparrowF1, Tson, Pitted, PittedExact,
-               PittedHemispherical>;
+               PittedHemispherical, VanGinneken, VanGinnekenFresnel, LiTorranceFull,
+               LiTorranceDd, LiTorranceDdUdf, LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
 
 template <typename M>
 struct ModelTag {
