@@ -30,8 +30,8 @@ struct ListedExposure {
 };
 // An exposure list as in hdr_sweep/desktop/image_list.txt: '#' comments, then per line
 // "FILE EXPOSURE_S [1/EXPOSURE]". A third column must agree with 1/EXPOSURE within 1%, which
-// catches lists whose columns are swapped. Files are resolved against `image_dir` and must
-// exist. InputError "LIST:LINE: problem" otherwise.
+// catches lists of another layout (e.g. FILE EXPOSURE F-NUMBER). Files are resolved against
+// `image_dir` and must exist. InputError "LIST:LINE: problem" otherwise.
 std::vector<ListedExposure> ReadExposureList(const std::filesystem::path& list,
                                              const std::filesystem::path& image_dir);
 

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <map>
@@ -84,6 +85,11 @@ std::string ModelOf(const lc::Camera& camera) {
 
 // libcamera allows one CameraManager per process; start() enumerates the cameras.
 std::unique_ptr<lc::CameraManager> StartManager() {
+  // libcamera logs INFO lines to stderr by default; keep stderr for gonio's one-line errors
+  // unless the user asked for libcamera's logs (its own LIBCAMERA_LOG_LEVELS variable).
+  // libcamera reads the variable when its logger starts (category levels set later through
+  // logSetLevel miss the categories created afterwards), so set it before the first use.
+  ::setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", /*overwrite=*/0);
   auto manager = std::make_unique<lc::CameraManager>();
   const int r = manager->start();
   if (r != 0) {
@@ -181,7 +187,10 @@ struct LibcameraSource::Impl {
 
   void Select(const std::string& which) {
     const auto cameras = manager->cameras();
-    if (cameras.empty()) throw InputError("libcamera: no camera found");
+    if (cameras.empty()) {
+      throw InputError((which.empty() ? std::string("libcamera") : which) +
+                       ": no camera found by libcamera");
+    }
     if (which.empty()) {
       camera = cameras.front();
     } else if (std::all_of(which.begin(), which.end(), ::isdigit)) {
