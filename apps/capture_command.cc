@@ -135,6 +135,8 @@ void RunFromCamera(const CaptureArgs& args) {
     o.device = args.device;
     o.format = format;
     o.buffers = args.buffers;
+    o.longest_exposure_s =
+        *std::max_element(options.exposures_s.begin(), options.exposures_s.end());
     source = std::make_unique<V4l2Source>(o);
   } else if (args.backend == "libcamera") {
     LibcameraSource::Options o;

@@ -11,6 +11,7 @@
 #include <libv4l2.h>
 #include <linux/videodev2.h>
 #include <poll.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -52,6 +53,14 @@ int Xioctl(int fd, unsigned long request, void* arg) {
 int OpenDevice(const std::string& path) {
   const int raw = ::open(path.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
   if (raw < 0) return -1;
+  // Ask the kernel first: libv4l2 prints its own complaint to stderr for non-V4L2 files, and
+  // gonio's errors are one line.
+  v4l2_capability cap{};
+  if (::ioctl(raw, VIDIOC_QUERYCAP, &cap) != 0) {
+    ::close(raw);
+    errno = ENOTTY;
+    return -1;
+  }
   const int fd = v4l2_fd_open(raw, V4L2_DISABLE_CONVERSION);
   if (fd < 0) {
     const int e = errno;
@@ -60,6 +69,13 @@ int OpenDevice(const std::string& path) {
     return -1;
   }
   return fd;
+}
+
+// Why OpenDevice failed, from errno.
+std::string OpenErrorText() {
+  if (errno == ENOTTY) return "not a V4L2 device";
+  if (errno == EACCES) return std::string(std::strerror(errno)) + "; is the user in group video?";
+  return std::strerror(errno);
 }
 
 std::optional<v4l2_queryctrl> QueryControl(int fd, uint32_t id) {
@@ -142,7 +158,10 @@ void FillInfo(int fd, V4l2DeviceInfo& info) {
     // JPEG and MJPG are the same to gonio; keep the first.
     const bool seen = std::any_of(info.formats.begin(), info.formats.end(),
                                   [&](const FormatOption& o) { return o.layout == *layout; });
-    if (!seen) info.formats.push_back({*layout, FrameSizes(fd, d.pixelformat)});
+    if (!seen) {
+      info.formats.push_back({*layout, FrameSizes(fd, d.pixelformat)});
+      info.fourccs.push_back(d.pixelformat);
+    }
   }
   info.exposure_100us = ControlRange(fd, V4L2_CID_EXPOSURE_ABSOLUTE);
   info.gain = ControlRange(fd, V4L2_CID_ANALOGUE_GAIN);
@@ -152,6 +171,18 @@ void FillInfo(int fd, V4l2DeviceInfo& info) {
 std::string ErrnoText(const std::string& what) { return what + ": " + std::strerror(errno); }
 
 }  // namespace
+
+double ChooseFramePeriod(const std::vector<PeriodRange>& offered, double longest_exposure_s) {
+  double best = 0.0, longest = 0.0;
+  for (const PeriodRange& r : offered) {
+    longest = std::max(longest, r.max_s);
+    if (r.max_s >= longest_exposure_s) {
+      const double candidate = std::max(r.min_s, longest_exposure_s);
+      if (best == 0.0 || candidate < best) best = candidate;
+    }
+  }
+  return best > 0.0 ? best : longest;
+}
 
 uint32_t V4l2Fourcc(PixelLayout layout) {
   for (const auto& f : kFourccs) {
@@ -224,7 +255,7 @@ V4l2DeviceInfo QueryV4l2Device(const std::string& path) {
   V4l2DeviceInfo info;
   info.path = path;
   const int fd = OpenDevice(path);
-  if (fd < 0) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  if (fd < 0) throw InputError(path + ": cannot open (" + OpenErrorText() + ")");
   try {
     FillInfo(fd, info);
   } catch (...) {
@@ -245,7 +276,7 @@ V4l2Source::V4l2Source(const Options& options) : options_(options) {
   options_.Check();
   info_.path = options_.device;
   fd_ = OpenDevice(options_.device);
-  if (fd_ < 0) throw InputError(options_.device + ": cannot open (" + std::strerror(errno) + ")");
+  if (fd_ < 0) throw InputError(options_.device + ": cannot open (" + OpenErrorText() + ")");
   try {
     FillInfo(fd_, info_);
     if (!info_.is_capture) {
@@ -257,7 +288,12 @@ V4l2Source::V4l2Source(const Options& options) : options_(options) {
     fmt.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     fmt.fmt.pix.width = static_cast<uint32_t>(format_.width);
     fmt.fmt.pix.height = static_cast<uint32_t>(format_.height);
-    fmt.fmt.pix.pixelformat = V4l2Fourcc(format_.layout);
+    // The device's own code for the layout (JPEG and MJPG both decode as MJPEG).
+    const size_t which = static_cast<size_t>(
+        std::find_if(info_.formats.begin(), info_.formats.end(),
+                     [&](const FormatOption& o) { return o.layout == format_.layout; }) -
+        info_.formats.begin());
+    fmt.fmt.pix.pixelformat = info_.fourccs.at(which);
     fmt.fmt.pix.field = V4L2_FIELD_NONE;
     Ioctl(VIDIOC_S_FMT, &fmt, "VIDIOC_S_FMT");
     // The driver may adjust what it was asked for; accept a size change, not a format change.
@@ -281,6 +317,7 @@ V4l2Source::V4l2Source(const Options& options) : options_(options) {
     gain_control_ = QueryControl(fd_, V4L2_CID_ANALOGUE_GAIN) ? V4L2_CID_ANALOGUE_GAIN
                     : QueryControl(fd_, V4L2_CID_GAIN)        ? V4L2_CID_GAIN
                                                               : 0;
+    if (options_.longest_exposure_s > 0.0) SetFramePeriod(fmt.fmt.pix.pixelformat);
     StartStreaming();
   } catch (...) {
     StopStreaming();
@@ -299,6 +336,51 @@ void V4l2Source::Ioctl(unsigned long request, void* arg, const char* what) const
   if (Xioctl(fd_, request, arg) != 0) {
     throw InputError(ErrnoText(options_.device + ": " + what + " failed"));
   }
+}
+
+void V4l2Source::SetFramePeriod(uint32_t fourcc) {
+  v4l2_streamparm parm{};
+  parm.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  if (Xioctl(fd_, VIDIOC_G_PARM, &parm) != 0 ||
+      !(parm.parm.capture.capability & V4L2_CAP_TIMEPERFRAME)) {
+    spdlog::info("{}: frame rate is not adjustable", options_.device);
+    return;
+  }
+  std::vector<PeriodRange> offered;
+  for (uint32_t i = 0;; ++i) {
+    v4l2_frmivalenum fi{};
+    fi.index = i;
+    fi.pixel_format = fourcc;
+    fi.width = static_cast<uint32_t>(format_.width);
+    fi.height = static_cast<uint32_t>(format_.height);
+    if (Xioctl(fd_, VIDIOC_ENUM_FRAMEINTERVALS, &fi) != 0) break;
+    const auto seconds = [](const v4l2_fract& f) {
+      return f.denominator == 0 ? 0.0 : static_cast<double>(f.numerator) / f.denominator;
+    };
+    if (fi.type == V4L2_FRMIVAL_TYPE_DISCRETE) {
+      offered.push_back({seconds(fi.discrete), seconds(fi.discrete)});
+    } else {
+      offered.push_back({seconds(fi.stepwise.min), seconds(fi.stepwise.max)});
+      break;
+    }
+  }
+  const double period = ChooseFramePeriod(offered, options_.longest_exposure_s);
+  if (period <= 0.0) return;
+  if (period < options_.longest_exposure_s) {
+    spdlog::warn(
+        "{}: the slowest frame rate ({:.3g} s per frame) is shorter than the longest "
+        "exposure {}; the device may clip it (see the exposures read back)",
+        options_.device, period, FormatDuration(options_.longest_exposure_s));
+  }
+  // Microsecond resolution is finer than any driver's interval table.
+  parm.parm.capture.timeperframe.numerator = static_cast<uint32_t>(std::lround(period * 1e6));
+  parm.parm.capture.timeperframe.denominator = 1000000;
+  if (Xioctl(fd_, VIDIOC_S_PARM, &parm) != 0) {
+    spdlog::warn("{}: VIDIOC_S_PARM failed: {}", options_.device, std::strerror(errno));
+    return;
+  }
+  const v4l2_fract& got = parm.parm.capture.timeperframe;
+  spdlog::info("{}: frame period {}/{} s", options_.device, got.numerator, got.denominator);
 }
 
 void V4l2Source::StartStreaming() {

@@ -25,6 +25,7 @@ struct V4l2DeviceInfo {
   bool is_capture = false;  // single-planar video capture with streaming I/O
   std::string not_capture_reason;
   std::vector<FormatOption> formats;               // formats gonio converts
+  std::vector<uint32_t> fourccs;                   // the device's own fourcc for each of formats
   std::vector<std::string> unsupported_formats;    // fourccs it cannot (listed for the user)
   std::optional<V4l2ControlRange> exposure_100us;  // V4L2_CID_EXPOSURE_ABSOLUTE
   std::optional<V4l2ControlRange> gain;            // V4L2_CID_ANALOGUE_GAIN or V4L2_CID_GAIN
@@ -38,6 +39,17 @@ std::vector<std::string> ListVideoNodes();
 // node cannot be opened or is not a V4L2 device.
 V4l2DeviceInfo QueryV4l2Device(const std::string& path);
 
+// A frame-period range in seconds as VIDIOC_ENUM_FRAMEINTERVALS reports it (discrete: min ==
+// max).
+struct PeriodRange {
+  double min_s = 0.0, max_s = 0.0;
+};
+// The frame period to ask for so the longest exposure fits in one frame: the shortest offered
+// period >= longest_exposure_s (the highest frame rate that still allows it), or the longest
+// offered when none is long enough (the device then clips long exposures; the per-frame
+// read-back shows it). 0 when nothing is offered.
+double ChooseFramePeriod(const std::vector<PeriodRange>& offered, double longest_exposure_s);
+
 // The V4L2 fourcc code for a layout and back (nullopt for fourccs gonio does not convert).
 uint32_t V4l2Fourcc(PixelLayout layout);
 std::optional<PixelLayout> LayoutFromV4l2Fourcc(uint32_t fourcc);
@@ -50,6 +62,9 @@ class V4l2Source : public FrameSource {
     FormatRequest format;
     int buffers = 4;         // ring of mmap buffers
     int settle_frames = -1;  // frames dropped after a control change; -1: buffers + 2
+    // The frame period is chosen so this exposure fits (0: keep the driver's default rate).
+    // Set before streaming because drivers refuse VIDIOC_S_PARM while streaming.
+    double longest_exposure_s = 0.0;
     void Check() const;
   };
 
@@ -82,6 +97,7 @@ class V4l2Source : public FrameSource {
   void Ioctl(unsigned long request, void* arg, const char* what) const;
   bool TrySetControl(uint32_t id, int32_t value);
   int32_t GetControl(uint32_t id) const;
+  void SetFramePeriod(uint32_t fourcc);
   void StartStreaming();
   void StopStreaming();
 

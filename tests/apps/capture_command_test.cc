@@ -1,6 +1,7 @@
 // End-to-end tests of `gonio capture` on a machine without a camera, and of imports from the
 // real data in ../shared/data.
 #include <algorithm>
+#include <fstream>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -46,6 +47,16 @@ TEST(CaptureCommand, MissingDeviceExitsTwoWithOneLineNamingItAndTheReason) {
   EXPECT_NE(r.err.find("/dev/video99"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("No such file or directory"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir.path() / "s" / "session.json"));
+}
+
+TEST(CaptureCommand, AFileThatIsNoCameraExitsTwoWithOneLine) {
+  testing::TempDir dir;
+  const fs::path fake = dir.path() / "video0";
+  { std::ofstream(fake) << "not a camera"; }
+  const auto r = RunGonio("capture --device " + fake.string() + " --exposures 1ms --out " +
+                          (dir.path() / "s").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "gonio: error: " + fake.string() + ": cannot open (not a V4L2 device)\n");
 }
 
 TEST(CaptureCommand, ArgumentErrorsExitTwo) {
