@@ -72,15 +72,7 @@ bool HaveDisplay() {
 // display, a live preview at the middle exposure (SPACE or ENTER captures, Q or ESC stops);
 // without one, ENTER on stdin captures and "q" or end of input stops.
 BeforeBracket Interactive(FrameSource& source, const BracketOptions& options) {
-  if (!HaveDisplay()) {
-    return [&options](int bracket) {
-      std::cerr << "bracket " << bracket + 1 << "/" << options.brackets
-                << ": place the board, then press Enter to capture (q + Enter stops)" << std::endl;
-      std::string line;
-      if (!std::getline(std::cin, line)) return false;
-      return !(line == "q" || line == "Q");
-    };
-  }
+  if (!HaveDisplay()) return PromptBeforeBracket(std::cin, std::cerr, options.brackets);
   std::vector<double> sorted = options.exposures_s;
   std::sort(sorted.begin(), sorted.end());
   const double preview_exposure = sorted[sorted.size() / 2];

@@ -1,6 +1,8 @@
 #include "capture/session_writer.h"
 
+#include <cctype>
 #include <chrono>
+#include <string>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -58,6 +60,17 @@ void SessionWriter::Add(const cv::Mat& image, double exposure_s, double gain, do
 void BracketOptions::Check() const {
   ScheduleBrackets(exposures_s, brackets);  // throws on an empty list, bad values, brackets < 1
   if (gain && !(std::isfinite(*gain) && *gain >= 0.0)) throw InputError("--gain: must be >= 0");
+}
+
+BeforeBracket PromptBeforeBracket(std::istream& in, std::ostream& prompt, int brackets) {
+  return [&in, &prompt, brackets](int bracket) {
+    prompt << "bracket " << bracket + 1 << "/" << brackets
+           << ": place the board, then press Enter to capture (q + Enter stops)" << std::endl;
+    std::string line;
+    if (!std::getline(in, line)) return false;
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+    return !(line == "q" || line == "Q");
+  };
 }
 
 size_t CaptureBrackets(FrameSource& source, const BracketOptions& options, SessionWriter& writer,

@@ -4,7 +4,9 @@
 
 #include <filesystem>
 #include <functional>
+#include <istream>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -45,6 +47,10 @@ struct BracketOptions {
 // Called before each bracket with its index; return false to stop (interactive capture waits
 // for the user here). Not called at all when empty.
 using BeforeBracket = std::function<bool(int bracket)>;
+
+// The interactive wait without a display: before each bracket, a prompt on `prompt` and one
+// line from `in`; an empty line (ENTER) captures, "q" or the end of input stops.
+BeforeBracket PromptBeforeBracket(std::istream& in, std::ostream& prompt, int brackets);
 
 // Takes the brackets of ScheduleBrackets with a source that controls exposure. Each frame is
 // recorded with the exposure and gain the source reports for it, not the requested ones.

@@ -114,6 +114,41 @@ TEST(ConvertFrame, MjpegDecodesAndRejectsCorruptOrMisSizedFrames) {
   EXPECT_TRUE(ConvertFrame(PixelLayout::kMjpeg, 16, 8, 0, garbage.data(), garbage.size()).empty());
 }
 
+// Many UVC cameras send MJPEG frames without DHT segments (the decoder is expected to use the
+// standard Huffman tables of JPEG Annex K.3). Strip them from a JPEG OpenCV encoded with the
+// standard tables and check the frame still decodes to the same pixels.
+TEST(ConvertFrame, MjpegWithoutHuffmanTablesAsUvcCamerasSendIt) {
+  cv::Mat ramp(8, 16, CV_8UC1);
+  for (int r = 0; r < ramp.rows; ++r) {
+    for (int c = 0; c < ramp.cols; ++c) ramp.at<uint8_t>(r, c) = static_cast<uint8_t>(16 * c);
+  }
+  std::vector<uint8_t> jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", ramp, jpeg, {cv::IMWRITE_JPEG_QUALITY, 100}));
+  const cv::Mat with_tables = ConvertFrame(PixelLayout::kMjpeg, 16, 8, 0, jpeg.data(), jpeg.size());
+  ASSERT_FALSE(with_tables.empty());
+  std::vector<uint8_t> stripped(jpeg.begin(), jpeg.begin() + 2);  // SOI
+  int removed = 0;
+  for (size_t i = 2; i + 4 <= jpeg.size();) {
+    ASSERT_EQ(jpeg[i], 0xFF);
+    const int marker = jpeg[i + 1];
+    const size_t length = (static_cast<size_t>(jpeg[i + 2]) << 8) | jpeg[i + 3];
+    if (marker == 0xDA) {  // start of scan: the rest is entropy-coded data
+      stripped.insert(stripped.end(), jpeg.begin() + i, jpeg.end());
+      break;
+    }
+    if (marker == 0xC4) {
+      ++removed;
+    } else {
+      stripped.insert(stripped.end(), jpeg.begin() + i, jpeg.begin() + i + 2 + length);
+    }
+    i += 2 + length;
+  }
+  ASSERT_GT(removed, 0);
+  const cv::Mat m = ConvertFrame(PixelLayout::kMjpeg, 16, 8, 0, stripped.data(), stripped.size());
+  ASSERT_FALSE(m.empty());
+  EXPECT_EQ(cv::norm(m, with_tables, cv::NORM_INF), 0.0);
+}
+
 TEST(ConvertFrame, TruncatedFramesGiveAnEmptyImage) {
   const std::vector<uint8_t> bytes(7, 0);
   EXPECT_TRUE(ConvertFrame(PixelLayout::kGrey, 4, 2, 4, bytes.data(), bytes.size()).empty());

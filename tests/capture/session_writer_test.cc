@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -88,6 +89,27 @@ TEST(CaptureBrackets, StopsWhenTheUserSaysSoAndKeepsWhatWasTaken) {
   EXPECT_EQ(n, 4u);
   EXPECT_EQ(asked, (std::vector<int>{0, 1, 2}));
   EXPECT_EQ(ReadSession(dir.path() / "s").frames.size(), 4u);
+}
+
+TEST(CaptureBrackets, WithoutADisplayEnterCapturesAndQStops) {
+  testing::TempDir dir;
+  FakeCamera camera;
+  SessionWriter writer(dir.path() / "s", camera.Id(), camera.GainUnit());
+  BracketOptions options;
+  options.exposures_s = {0.001, 0.002};
+  options.brackets = 4;
+  std::istringstream keys("\n\nq\n");
+  std::ostringstream prompts;
+  EXPECT_EQ(CaptureBrackets(camera, options, writer,
+                            PromptBeforeBracket(keys, prompts, options.brackets)),
+            4u);
+  EXPECT_NE(prompts.str().find("bracket 3/4"), std::string::npos) << prompts.str();
+  // End of input also stops (a script piping a fixed number of ENTERs).
+  SessionWriter writer2(dir.path() / "t", camera.Id(), camera.GainUnit());
+  std::istringstream one_enter("\n");
+  EXPECT_EQ(CaptureBrackets(camera, options, writer2,
+                            PromptBeforeBracket(one_enter, prompts, options.brackets)),
+            2u);
 }
 
 TEST(SessionWriter, RefusesToOverwriteASessionAndChecksTheBoard) {
