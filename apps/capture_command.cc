@@ -190,7 +190,7 @@ void RunFromFolder(const CaptureArgs& args) {
       "folder:" + (model.empty() ? fs::absolute(dir).filename().string() : model);
   FolderSource source(id, gain_unit, frames);
   SessionWriter writer(args.out, source.Id(), source.GainUnit(), args.board);
-  CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size);
+  CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size, frames.size());
   Summarize(writer);
 }
 

@@ -120,6 +120,9 @@ size_t CopyFrames(FrameSource& source, SessionWriter& writer, int bracket_size, 
   if (bracket_size < 0) throw InputError("--bracket-size: must be >= 0");
   size_t k = 0;
   std::optional<double> t0;
+  // Progress only when the count is known (folders); a video's frame count is a guess.
+  std::optional<Progress> progress;
+  if (max_frames > 0) progress.emplace("import", max_frames);
   while (max_frames == 0 || k < max_frames) {
     std::optional<CapturedFrame> frame = source.Grab();
     if (!frame) break;
@@ -127,7 +130,9 @@ size_t CopyFrames(FrameSource& source, SessionWriter& writer, int bracket_size, 
     const int bracket = bracket_size == 0 ? 0 : static_cast<int>(k / bracket_size);
     writer.Add(frame->image, frame->exposure_s, frame->gain, frame->timestamp_s - *t0, bracket);
     ++k;
+    if (progress) progress->Step();
   }
+  if (progress) progress->Done();
   if (k == 0) throw InputError(source.Id() + ": no frames");
   return k;
 }
