@@ -11,5 +11,6 @@ void AddFitTableCommand(CLI::App& app);
 void AddPhotometricCommand(CLI::App& app);
 // `gonio brdf texton`, added by AddBrdfCommand.
 void AddBrdfTextonCommand(CLI::App& brdf);
+void AddCaptureCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddBrdfCommand(app);
   gonio::cli::AddFitTableCommand(app);
   gonio::cli::AddPhotometricCommand(app);
+  gonio::cli::AddCaptureCommand(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,66 @@
+// Writes a session folder frame by frame (docs/formats.md), and the loops that fill it from a
+// FrameSource: exposure brackets from a camera, or every frame of a folder or video.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <istream>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "capture/frame_source.h"
+#include "common/session.h"
+
+namespace gonio::capture {
+
+// Each frame is written as frame_NNNN.png (8 or 16 bit, lossless) and session.json is
+// rewritten after every frame, both atomically: an interrupted capture leaves a valid session
+// of the frames taken so far.
+class SessionWriter {
+ public:
+  // Creates `dir` when needed; InputError when it already holds a session.json (never
+  // overwrite a capture). `board` (optional) must be a JSON object and is copied in as
+  // board.json.
+  SessionWriter(std::filesystem::path dir, std::string camera_id, std::string gain_unit,
+                const std::filesystem::path& board = {});
+
+  void Add(const cv::Mat& image, double exposure_s, double gain, double timestamp_s, int bracket);
+  const Session& session() const { return session_; }
+  const std::filesystem::path& dir() const { return dir_; }
+
+ private:
+  std::filesystem::path dir_;
+  Session session_;
+};
+
+struct BracketOptions {
+  std::vector<double> exposures_s;  // one frame per exposure per bracket
+  int brackets = 1;
+  std::optional<double> gain;  // unset: the source's lowest gain
+  void Check() const;
+};
+
+// Called before each bracket with its index; return false to stop (interactive capture waits
+// for the user here). Not called at all when empty.
+using BeforeBracket = std::function<bool(int bracket)>;
+
+// The interactive wait without a display: before each bracket, a prompt on `prompt` and one
+// line from `in`; an empty line (ENTER) captures, "q" or the end of input stops.
+BeforeBracket PromptBeforeBracket(std::istream& in, std::ostream& prompt, int brackets);
+
+// Takes the brackets of ScheduleBrackets with a source that controls exposure. Each frame is
+// recorded with the exposure and gain the source reports for it, not the requested ones.
+// Timestamps are the device's, relative to the first frame. Returns the number of frames.
+size_t CaptureBrackets(FrameSource& source, const BracketOptions& options, SessionWriter& writer,
+                       const BeforeBracket& before_bracket = {});
+
+// Writes every frame of a source whose exposures are fixed (folder, video): frame k goes to
+// bracket k / bracket_size (bracket_size 0: all frames one pose). max_frames 0: no limit.
+size_t CopyFrames(FrameSource& source, SessionWriter& writer, int bracket_size,
+                  size_t max_frames = 0);
+
+}  // namespace gonio::capture
