@@ -7,5 +7,6 @@
 namespace gonio::cli {
 
 void AddBrdfCommand(CLI::App& app);
+void AddMicrosimCommand(CLI::App& app);
 
 }  // namespace gonio::cli
