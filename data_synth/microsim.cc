@@ -188,11 +188,12 @@ BrdfEstimate EstimateBrdf(const Microsurface& surface, const Angles<double>& ang
     MaybeRotate(surface, rng, &s, &v);
     double direct = 0.0;
     const double l = RadianceFromViewer(surface, s, v, options, rng, &direct, a);
-    a->Add({l * inv_cos_i, direct * inv_cos_i, 0, 0, 0});
+    a->Add({l * inv_cos_i, direct * inv_cos_i, (l - direct) * inv_cos_i, 0, 0});
   });
   BrdfEstimate e;
   e.brdf = acc.Value(0);
   e.single_bounce = acc.Value(1);
+  e.interreflected = acc.Value(2);
   e.samples = acc.n;
   e.mean_interactions = static_cast<double>(acc.interactions) / acc.n;
   e.truncated_paths = acc.truncated;
@@ -206,6 +207,8 @@ nlohmann::json BrdfEstimate::ToJson() const {
           {"stderr", brdf.stderr_mean},
           {"brdf_single_bounce", single_bounce.mean},
           {"stderr_single_bounce", single_bounce.stderr_mean},
+          {"brdf_interreflected", interreflected.mean},
+          {"stderr_interreflected", interreflected.stderr_mean},
           {"samples", samples},
           {"mean_interactions", mean_interactions},
           {"truncated_paths", truncated_paths},

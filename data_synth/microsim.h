@@ -37,8 +37,9 @@ struct McValue {
 };
 
 struct BrdfEstimate {
-  McValue brdf;                    // f_r, 1/sr
-  McValue single_bounce;           // the part from the first surface interaction only
+  McValue brdf;            // f_r, 1/sr
+  McValue single_bounce;   // the part from the first surface interaction only
+  McValue interreflected;  // brdf - single_bounce, with its own error (the two are correlated)
   double mean_interactions = 0.0;  // surface hits per path
   int64_t truncated_paths = 0;     // paths stopped at the safety limit (should be 0)
   int64_t samples = 0;

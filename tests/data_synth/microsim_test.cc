@@ -129,6 +129,25 @@ TEST(Microsim, Reciprocity) {
   }
 }
 
+TEST(Microsim, PitInterreflectionMatchesKoenderinkClosedForm) {
+  // Koenderink et al. eq. 12: in a spherical cavity the interreflected radiance is the same
+  // everywhere, rho^2 sin^2(Psi) / (4 pi (1 - rho sin^2(Psi/2))) E0 cos(theta_i), and every ray
+  // through the orifice sees the cavity, so f_r minus its single-bounce part is that constant.
+  const double rho = 0.8;
+  for (double aperture_deg : {30.0, 60.0, 90.0}) {
+    const auto surface = Pits(aperture_deg);
+    const double psi = DegToRad(aperture_deg);
+    const double expected = rho * rho * std::pow(std::sin(psi), 2) /
+                            (4 * kPi * (1 - rho * std::pow(std::sin(psi / 2), 2)));
+    for (const auto& a : {Deg(0, 0, 0), Deg(60, 30, 0), Deg(45, 70, 150)}) {
+      const BrdfEstimate e = EstimateBrdf(*surface, a, Opts(rho, 20000));
+      EXPECT_NEAR(e.interreflected.mean, expected, 3 * e.interreflected.stderr_mean)
+          << "aperture " << aperture_deg;
+      EXPECT_LT(e.interreflected.stderr_mean, 0.03 * expected);
+    }
+  }
+}
+
 // ---- Oren-Nayar V-cavity, single bounce --------------------------------------------------
 
 // f_r of the uni-directional single-slope surface (Oren-Nayar eq. 22) from the facet projected
@@ -152,6 +171,46 @@ double VCavitySingleBounce(double albedo, double slope, double groove_azimuth,
     radiance += 0.5 * gaf * albedo * kInvPi * sa * va / (facet.dot(n) * v.dot(n));  // eq. 10, 22
   }
   return radiance / s.z();
+}
+
+// Second bounce of the uni-directional single-slope surface: eq. 18 with the interreflection
+// factor of eq. 19-20 and the visible / lit widths of eq. 15-16, averaged over both facets
+// (eq. 22). Light reaching facet a from the lit part of the opposite facet a'.
+double VCavityTwoBounce(double albedo, double slope, double groove_azimuth,
+                        const Angles<double>& a) {
+  const Vector3d s = SourceDirection(a), v = ViewerDirection(a), n = Vector3d::UnitZ();
+  auto d = [&](double x, double y) {
+    return std::sqrt(x * x + 2 * x * y * std::cos(2 * slope) + y * y);
+  };
+  double radiance = 0.0;
+  for (double az : {groove_azimuth, groove_azimuth + kPi}) {
+    const Vector3d facet(std::sin(slope) * std::cos(az), std::sin(slope) * std::sin(az),
+                         std::cos(slope));
+    const Vector3d opposite(-facet.x(), -facet.y(), facet.z());
+    if (facet.dot(v) <= 0 || opposite.dot(s) <= 0) continue;
+    const double mv = std::clamp(-opposite.dot(v) / facet.dot(v), 0.0, 1.0);      // eq. 15
+    const double ms = std::clamp(-facet.dot(s) / opposite.dot(s), 0.0, 1.0);      // eq. 16
+    const double factor = kHalfPi * (d(1, mv) + d(1, ms) - d(ms, mv) - d(1, 1));  // eq. 19
+    radiance += 0.5 * std::pow(albedo * kInvPi, 2) * opposite.dot(s) * facet.dot(v) /
+                (facet.dot(n) * v.dot(n)) * factor;  // eq. 18
+  }
+  return radiance / s.z();
+}
+
+TEST(Microsim, SingleOrientationVGrooveSecondBounceMatchesEq19) {
+  for (double azimuth_deg : {0.0, 50.0}) {
+    VGrooveOptions o;
+    o.single_slope = DegToRad(35.0);
+    o.azimuth = DegToRad(azimuth_deg);
+    const auto surface = MakeVGrooveField(o);
+    for (const auto& a : {Deg(0, 0, 0), Deg(60, 30, 0), Deg(50, 70, 180), Deg(40, 65, 110)}) {
+      const BrdfEstimate e = EstimateBrdf(*surface, a, Opts(0.9, 100000, 2));
+      EXPECT_NEAR(e.interreflected.mean, VCavityTwoBounce(0.9, o.single_slope, o.azimuth, a),
+                  3 * e.interreflected.stderr_mean)
+          << "groove azimuth " << azimuth_deg << " angles " << RadToDeg(a.theta_i) << " "
+          << RadToDeg(a.theta_r) << " " << RadToDeg(a.phi);
+    }
+  }
 }
 
 // Eq. 23: the isotropic single-slope surface, midpoint rule over the groove azimuth.
