@@ -97,6 +97,7 @@ class GaussianSurface final : public Microsurface {
     hmax_ = 0.0;
     if (options_.rms_slope == 0.0) {
       rms_height_ = raw_rms_slope_ = 0.0;
+      BuildPlanes();
       return;
     }
     Rng rng(options_.seed, 0x5eedull);
@@ -151,6 +152,15 @@ class GaussianSurface final : public Microsurface {
         hmax_ = std::max(hmax_, cell_max_[c]);
       }
     }
+    blocks_ = n_ / kBlock;
+    block_max_.assign(static_cast<size_t>(blocks_) * blocks_,
+                      -std::numeric_limits<double>::infinity());
+    for (int j = 0; j < n_; ++j) {
+      for (int i = 0; i < n_; ++i) {
+        double& m = block_max_[static_cast<size_t>(j / kBlock) * blocks_ + i / kBlock];
+        m = std::max(m, cell_max_[static_cast<size_t>(j) * n_ + i]);
+      }
+    }
   }
 
   // Per-direction rms slope over the triangles (each has the same projected area).
@@ -160,63 +170,24 @@ class GaussianSurface final : public Microsurface {
     return std::sqrt(sq / (2.0 * planes_.size()));
   }
 
-  // First triangle hit along o + t d (t > 0), skipping the triangle `exclude` the ray leaves.
-  bool Walk(const Vector3d& o_in, const Vector3d& d, int64_t exclude, SurfaceHit* hit) const {
-    // Shift the origin into the first tile (heights are periodic); keep full precision.
-    const double sx = std::floor(o_in.x() / period_) * period_;
-    const double sy = std::floor(o_in.y() / period_) * period_;
-    const Vector3d o(o_in.x() - sx, o_in.y() - sy, o_in.z());
-    int i = static_cast<int>(std::floor(o.x() / spacing_));
-    int j = static_cast<int>(std::floor(o.y() / spacing_));
-    const int step_i = d.x() > 0 ? 1 : -1, step_j = d.y() > 0 ? 1 : -1;
-    const double inf = std::numeric_limits<double>::infinity();
-    const double dt_x = d.x() != 0.0 ? spacing_ / std::abs(d.x()) : inf;
-    const double dt_y = d.y() != 0.0 ? spacing_ / std::abs(d.y()) : inf;
-    double t_x = d.x() > 0   ? ((i + 1) * spacing_ - o.x()) / d.x()
-                 : d.x() < 0 ? (i * spacing_ - o.x()) / d.x()
-                             : inf;
-    double t_y = d.y() > 0   ? ((j + 1) * spacing_ - o.y()) / d.y()
-                 : d.y() < 0 ? (j * spacing_ - o.y()) / d.y()
-                             : inf;
-    double t_enter = 0.0;
-    // Far more cells than any ray that can still hit needs; guards against a stuck walk.
-    const int max_steps = 64 * n_;
-    for (int step = 0; step < max_steps; ++step) {
-      const double t_exit = std::min(t_x, t_y);
-      const double z_lo = o.z() + d.z() * (d.z() < 0 ? t_exit : t_enter);
-      const int wi = Wrap(i), wj = Wrap(j);
-      if (z_lo <= cell_max_[static_cast<size_t>(wj) * n_ + wi] + 1e-12) {
-        double best_t = inf;
-        int best_tri = -1;
-        for (int tri = 0; tri < 2; ++tri) {
-          const int64_t id = 2 * (static_cast<int64_t>(wj) * n_ + wi) + tri;
-          if (id == exclude && t_exit < 0.5 * period_) continue;
-          const Plane& pl = planes_[id];
-          const double x_i = i * spacing_, y_j = j * spacing_;
-          const double denom = d.z() - pl.gx * d.x() - pl.gy * d.y();
-          if (denom == 0.0) continue;
-          const double t = (pl.h0 + pl.gx * (o.x() - x_i) + pl.gy * (o.y() - y_j) - o.z()) / denom;
-          if (!(t > 1e-10) || t >= best_t) continue;
-          const double fx = (o.x() + t * d.x() - x_i) / spacing_;
-          const double fy = (o.y() + t * d.y() - y_j) / spacing_;
-          const double eps = 1e-9;
-          if (fx < -eps || fx > 1 + eps || fy < -eps || fy > 1 + eps) continue;
-          if (tri == 0 ? fx < fy - eps : fy < fx - eps) continue;
-          best_t = t;
-          best_tri = tri;
-        }
-        if (best_tri >= 0) {
-          const Plane& pl = planes_[2 * (static_cast<size_t>(wj) * n_ + wi) + best_tri];
-          hit->p = Vector3d(o.x() + best_t * d.x() + sx, o.y() + best_t * d.y() + sy,
-                            o.z() + best_t * d.z());
-          hit->n = Vector3d(-pl.gx, -pl.gy, 1.0).normalized();
-          hit->patch = 2 * (static_cast<int64_t>(wj) * n_ + wi) + best_tri;
-          return true;
-        }
-      }
-      if (d.z() >= 0.0 && o.z() + d.z() * t_exit > hmax_) return false;  // above everything
-      if (t_exit == inf) return false;  // vertical ray that missed its cell
-      t_enter = t_exit;
+  // Amanatides-Woo walk over square cells of side `size` in the x-y plane.
+  struct GridWalk {
+    int i, j, step_i, step_j;
+    double t_x, t_y, dt_x, dt_y;
+    GridWalk(const Vector3d& o, const Vector3d& d, double size, int i0, int j0)
+        : i(i0), j(j0), step_i(d.x() > 0 ? 1 : -1), step_j(d.y() > 0 ? 1 : -1) {
+      const double inf = std::numeric_limits<double>::infinity();
+      dt_x = d.x() != 0.0 ? size / std::abs(d.x()) : inf;
+      dt_y = d.y() != 0.0 ? size / std::abs(d.y()) : inf;
+      t_x = d.x() > 0   ? ((i + 1) * size - o.x()) / d.x()
+            : d.x() < 0 ? (i * size - o.x()) / d.x()
+                        : inf;
+      t_y = d.y() > 0   ? ((j + 1) * size - o.y()) / d.y()
+            : d.y() < 0 ? (j * size - o.y()) / d.y()
+                        : inf;
+    }
+    double Exit() const { return std::min(t_x, t_y); }
+    void Step() {
       if (t_x < t_y) {
         i += step_i;
         t_x += dt_x;
@@ -225,8 +196,99 @@ class GaussianSurface final : public Microsurface {
         t_y += dt_y;
       }
     }
+  };
+
+  // Nearest triangle hit of cell (i, j) (unwrapped indices) along o + t d, t > 0.
+  bool HitCell(const Vector3d& o, const Vector3d& d, int i, int j, bool may_exclude,
+               int64_t exclude, double* t_hit, int64_t* id_hit) const {
+    const int wi = Wrap(i), wj = Wrap(j);
+    const double x_i = i * spacing_, y_j = j * spacing_;
+    bool found = false;
+    for (int tri = 0; tri < 2; ++tri) {
+      const int64_t id = 2 * (static_cast<int64_t>(wj) * n_ + wi) + tri;
+      if (may_exclude && id == exclude) continue;  // a planar triangle cannot see itself
+      const Plane& pl = planes_[id];
+      const double denom = d.z() - pl.gx * d.x() - pl.gy * d.y();
+      if (denom == 0.0) continue;
+      const double t = (pl.h0 + pl.gx * (o.x() - x_i) + pl.gy * (o.y() - y_j) - o.z()) / denom;
+      if (!(t > 1e-10) || (found && t >= *t_hit)) continue;
+      const double fx = (o.x() + t * d.x() - x_i) / spacing_;
+      const double fy = (o.y() + t * d.y() - y_j) / spacing_;
+      const double eps = 1e-9;  // closed cells: a ray through an edge cannot slip between
+      if (fx < -eps || fx > 1 + eps || fy < -eps || fy > 1 + eps) continue;
+      if (tri == 0 ? fx < fy - eps : fy < fx - eps) continue;
+      *t_hit = t;
+      *id_hit = id;
+      found = true;
+    }
+    return found;
+  }
+
+  // First triangle hit along o + t d (t > 0), skipping the triangle `exclude` the ray leaves.
+  // Two levels: blocks of kBlock x kBlock cells are skipped when the ray passes above their
+  // highest vertex, and only the cells of the other blocks are tested.
+  bool Walk(const Vector3d& o_in, const Vector3d& d, int64_t exclude, SurfaceHit* hit) const {
+    // Shift the origin into the first tile (heights are periodic); keep full precision.
+    const double sx = std::floor(o_in.x() / period_) * period_;
+    const double sy = std::floor(o_in.y() / period_) * period_;
+    const Vector3d o(o_in.x() - sx, o_in.y() - sy, o_in.z());
+    const double block_size = kBlock * spacing_;
+    const double inf = std::numeric_limits<double>::infinity();
+    GridWalk block(o, d, block_size, static_cast<int>(std::floor(o.x() / block_size)),
+                   static_cast<int>(std::floor(o.y() / block_size)));
+    double t_enter = 0.0;
+    // Far more blocks than any ray that can still hit needs; guards against a stuck walk.
+    const int max_steps = 64 * blocks_;
+    for (int step = 0; step < max_steps; ++step) {
+      const double t_exit = block.Exit();
+      const double z_lo = o.z() + d.z() * (d.z() < 0 ? t_exit : t_enter);
+      const int bi = block.i, bj = block.j;
+      const size_t b = static_cast<size_t>(WrapBlock(bj)) * blocks_ + WrapBlock(bi);
+      if (z_lo <= block_max_[b] + 1e-12) {
+        // Cells of this block along the ray, starting with the one holding the entry point.
+        const auto clamp_to_block = [](int c, int blk) {
+          return std::clamp(c, blk * kBlock, blk * kBlock + kBlock - 1);
+        };
+        const Vector3d p = o + t_enter * d;
+        GridWalk cell(o, d, spacing_,
+                      clamp_to_block(static_cast<int>(std::floor(p.x() / spacing_)), bi),
+                      clamp_to_block(static_cast<int>(std::floor(p.y() / spacing_)), bj));
+        double tc = t_enter;
+        for (int k = 0; k < 2 * kBlock + 2; ++k) {
+          const double tc_exit = std::min(cell.Exit(), t_exit);
+          const double zc = o.z() + d.z() * (d.z() < 0 ? tc_exit : tc);
+          const size_t c = static_cast<size_t>(Wrap(cell.j)) * n_ + Wrap(cell.i);
+          double t_hit = inf;
+          int64_t id = -1;
+          if (zc <= cell_max_[c] + 1e-12 &&
+              HitCell(o, d, cell.i, cell.j, tc_exit < 0.5 * period_, exclude, &t_hit, &id)) {
+            const Plane& pl = planes_[id];
+            hit->p = Vector3d(o.x() + t_hit * d.x() + sx, o.y() + t_hit * d.y() + sy,
+                              o.z() + t_hit * d.z());
+            hit->n = Vector3d(-pl.gx, -pl.gy, 1.0).normalized();
+            hit->patch = id;
+            return true;
+          }
+          if (cell.Exit() >= t_exit) break;
+          tc = cell.Exit();
+          cell.Step();
+          if (FloorDiv(cell.i) != bi || FloorDiv(cell.j) != bj) break;  // rounding at an edge
+        }
+      }
+      if (d.z() >= 0.0 && o.z() + d.z() * t_exit > hmax_) return false;  // above everything
+      if (t_exit == inf) return false;  // vertical ray that missed its cell
+      t_enter = t_exit;
+      block.Step();
+    }
     return false;
   }
+
+  static int FloorDiv(int c) { return c >= 0 ? c / kBlock : -((-c + kBlock - 1) / kBlock); }
+  int WrapBlock(int b) const { return ((b % blocks_) + blocks_) % blocks_; }
+
+  static constexpr int kBlock = 8;
+  int blocks_ = 0;
+  std::vector<double> block_max_;
 
   GaussianSurfaceOptions options_;
   int n_ = 0;

@@ -30,7 +30,9 @@ void GaussianSurfaceOptions::Check() const {
     throw InputError("gaussian rms slope must be in [0, 2] (got " + std::to_string(rms_slope) +
                      ")");
   }
-  if (grid < 32 || grid > 4096) throw InputError("gaussian grid must be in [32, 4096] vertices");
+  if (grid < 32 || grid > 4096 || grid % 8 != 0) {
+    throw InputError("gaussian grid must be a multiple of 8 in [32, 4096] vertices");
+  }
   if (samples_per_corr_length < 2 || samples_per_corr_length > 64) {
     throw InputError("gaussian samples per correlation length must be in [2, 64]");
   }
