@@ -45,7 +45,7 @@ void RejectFor(const std::string& surface, const char* option, double value) {
     throw InputError(std::string(option) + " does not apply to --surface " + surface);
 }
 
-std::unique_ptr<microsim::Microsurface> MakeSurface(const MicrosimArgs& a, CLI::App* cmd) {
+std::unique_ptr<microsim::Microsurface> MakeSurface(const MicrosimArgs& a) {
   if (a.surface == "vgroove") {
     RejectFor(a.surface, "--rms-slope", a.rms_slope);
     RejectFor(a.surface, "--rms-height", a.rms_height);
@@ -158,7 +158,7 @@ double Single(const std::vector<double>& v, const char* option, double fallback)
   return v[0];
 }
 
-void RunMicrosim(const MicrosimArgs& a, CLI::App* cmd) {
+void RunMicrosim(const MicrosimArgs& a) {
   // Cheap checks first: generating a Gaussian surface takes a moment.
   if (a.table.empty()) {
     Single(a.theta_i_deg, "--theta-i", NAN);
@@ -178,7 +178,7 @@ void RunMicrosim(const MicrosimArgs& a, CLI::App* cmd) {
   options.seed = a.seed;
   options.threads = a.threads;
   options.Check();
-  const auto surface = MakeSurface(a, cmd);
+  const auto surface = MakeSurface(a);
   nlohmann::json out = {{"surface", surface->Describe()},
                         {"albedo", a.albedo},
                         {"bounces", a.bounces > 0 ? nlohmann::json(a.bounces) : "unlimited"},
@@ -249,7 +249,7 @@ void AddMicrosimCommand(CLI::App& app) {
                 "print the directional albedo for --theta-i instead of the BRDF");
   cmd->add_flag("--shadowing", a->shadowing,
                 "add single-bounce shadowing/masking statistics (always on for gaussian)");
-  cmd->callback([a, cmd] { RunMicrosim(*a, cmd); });
+  cmd->callback([a] { RunMicrosim(*a); });
 }
 
 }  // namespace gonio::cli

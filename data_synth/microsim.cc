@@ -1,6 +1,7 @@
 #include "data_synth/microsim.h"
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -19,7 +20,9 @@ void EstimateOptions::Check() const {
   if (!(albedo >= 0.0 && albedo <= 1.0)) {
     throw InputError("microsim albedo must be in [0, 1] (got " + std::to_string(albedo) + ")");
   }
-  if (samples < 2) throw InputError("microsim samples must be at least 2");
+  if (samples < 2 || samples > 1000000000) {
+    throw InputError("microsim samples must be in [2, 1e9]");
+  }
   if (max_bounces < 0) throw InputError("microsim bounces must be >= 1, or 0 for no limit");
 }
 
@@ -79,12 +82,23 @@ template <typename Sample>
 Accumulator RunSamples(const EstimateOptions& options, uint64_t purpose, Sample&& sample) {
   const int64_t blocks = (options.samples + kBlock - 1) / kBlock;
   std::vector<Accumulator> acc(blocks);
+  // Progress is reported (every few seconds, so short runs stay quiet) by the thread that owns
+  // the first chunk, from a counter all threads update.
+  std::atomic<int64_t> blocks_done{0};
+  Progress progress("microsim paths", static_cast<size_t>(options.samples));
   ParallelFor(static_cast<size_t>(blocks), options.threads, [&](size_t b0, size_t b1) {
+    int64_t reported = 0;
     for (size_t b = b0; b < b1; ++b) {
       Rng rng(options.seed ^ (purpose * 0x9E3779B97F4A7C15ull), b);
       const int64_t n =
           std::min<int64_t>(kBlock, options.samples - static_cast<int64_t>(b) * kBlock);
       for (int64_t k = 0; k < n; ++k) sample(rng, &acc[b]);
+      const int64_t done = ++blocks_done;
+      if (b0 == 0) {
+        const int64_t paths = std::min(options.samples, done * kBlock);
+        progress.Step(static_cast<size_t>(paths - reported));
+        reported = paths;
+      }
     }
   });
   Accumulator total;

@@ -51,6 +51,18 @@ Angles<double> Deg(double ti, double tr, double phi) {
   return {DegToRad(ti), DegToRad(tr), DegToRad(phi)};
 }
 
+// Exercises the comparison helpers on a model that is always registered.
+TEST(MicrosimVsRegistry, FlatPitsMatchLambertModel) {
+  ASSERT_TRUE(HasModel("lambert"));
+  const auto surface = MakePittedPlane(PitsOptions{0.0, 1.0});
+  EstimateOptions opts;
+  opts.albedo = 0.35;
+  opts.samples = 2000;
+  const auto a = Deg(40, 70, 120);
+  const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
+  EXPECT_NEAR(e.brdf.mean, Model("lambert", Params("lambert", {{"albedo", 0.35}}), a), 1e-12);
+}
+
 TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
   if (!HasModel("pitted")) GTEST_SKIP() << "model 'pitted' is not registered yet";
   PitsOptions o;
@@ -61,7 +73,7 @@ TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
   const auto p = Params("pitted", {{"albedo", albedo}, {"aperture", kHalfPi}, {"coverage", 1.0}});
   EstimateOptions opts;
   opts.albedo = albedo;
-  opts.samples = 60000;
+  opts.samples = 250000;
   // In and out of the plane of incidence.
   for (const auto& a : {Deg(0, 0, 0), Deg(30, 60, 0), Deg(60, 30, 180), Deg(45, 45, 90),
                         Deg(70, 50, 135), Deg(20, 75, 45)}) {
@@ -79,9 +91,11 @@ TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
   if (!HasModel("oren-nayar-vcavity")) {
     GTEST_SKIP() << "model 'oren-nayar-vcavity' is not registered yet";
   }
-  // Records the differences (issue 6): the model has eq. 24's single-scattering part plus the
-  // two-bounce approximation of eq. 49; the simulator has all bounces. Asserted loosely: they
-  // describe the same surface, so they must agree to a fraction of albedo/pi.
+  // Records the differences (issue 6): the model is eq. 25 over eq. 24 (single scattering, which
+  // the simulator reproduces exactly, see microsim_test) plus the two-bounce approximation of
+  // eq. 49; the simulator gives the exact two-bounce value (--bounces 2) and all bounces.
+  // Asserted loosely against the two-bounce simulation, which models the same physics; the
+  // printed figures go into docs/microsim.md.
   const double albedo = 0.9;
   for (double sigma_deg : {20.0, 40.0}) {
     VGrooveOptions o;
@@ -91,15 +105,20 @@ TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
     EstimateOptions opts;
     opts.albedo = albedo;
     opts.samples = 40000;
+    EstimateOptions two = opts;
+    two.max_bounces = 2;
     for (const auto& a : {Deg(0, 0, 0), Deg(60, 60, 0), Deg(60, 60, 180), Deg(75, 30, 90)}) {
-      const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
+      const BrdfEstimate all = EstimateBrdf(*surface, a, opts);
+      const BrdfEstimate e2 = EstimateBrdf(*surface, a, two);
       const double m = Model("oren-nayar-vcavity", p, a);
       std::printf(
-          "vgroove sigma %4.1f  %5.1f %5.1f %5.1f  sim %.5f +- %.5f (single %.5f)  "
-          "model %.5f  diff/(albedo/pi) %+.4f\n",
-          sigma_deg, RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), e.brdf.mean,
-          e.brdf.stderr_mean, e.single_bounce.mean, m, (e.brdf.mean - m) / (albedo * kInvPi));
-      EXPECT_NEAR(e.brdf.mean, m, 0.15 * albedo * kInvPi);
+          "vgroove sigma %4.1f  %5.1f %5.1f %5.1f  sim all %.5f +- %.5f  two-bounce %.5f +- "
+          "%.5f  single %.5f  model %.5f  (two-bounce - model)/(albedo/pi) %+.4f  "
+          "(all - model)/(albedo/pi) %+.4f\n",
+          sigma_deg, RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), all.brdf.mean,
+          all.brdf.stderr_mean, e2.brdf.mean, e2.brdf.stderr_mean, e2.single_bounce.mean, m,
+          (e2.brdf.mean - m) / (albedo * kInvPi), (all.brdf.mean - m) / (albedo * kInvPi));
+      EXPECT_NEAR(e2.brdf.mean, m, 0.1 * albedo * kInvPi);
     }
   }
 }
