@@ -12,5 +12,6 @@ void AddPhotometricCommand(CLI::App& app);
 // `gonio brdf texton`, added by AddBrdfCommand.
 void AddBrdfTextonCommand(CLI::App& brdf);
 void AddCaptureCommand(CLI::App& app);
+void AddMicrosimCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddFitTableCommand(app);
   gonio::cli::AddPhotometricCommand(app);
   gonio::cli::AddCaptureCommand(app);
+  gonio::cli::AddMicrosimCommand(app);
 
   try {
     app.parse(argc, argv);

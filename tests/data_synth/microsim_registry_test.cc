@@ -1,0 +1,127 @@
+// The simulator against the registry's rough-diffuse models (issue 6 tests). The models land on
+// main from other branches; each test skips with a message while its model is not registered.
+// The figures are printed so the comparison table in docs/microsim.md can be filled from a run.
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/error.h"
+#include "common/math.h"
+#include "data_synth/microsim.h"
+#include "reflectance/registry.h"
+
+namespace gonio::microsim {
+namespace {
+
+bool HasModel(const std::string& name) {
+  for (const auto& m : RegisteredModels()) {
+    if (m.name == name) return true;
+  }
+  return false;
+}
+
+// Registry-ordered parameter vector from name -> value (unnamed ones keep their defaults).
+std::vector<double> Params(const std::string& model, const std::map<std::string, double>& values) {
+  const ModelInfo& info = FindModel(model);
+  std::vector<double> p;
+  for (const auto& param : info.params) {
+    const auto it = values.find(param.name);
+    p.push_back(it == values.end() ? param.default_value : it->second);
+  }
+  for (const auto& [name, value] : values) {
+    bool found = false;
+    for (const auto& param : info.params) found = found || param.name == name;
+    if (!found) ADD_FAILURE() << model << " has no parameter " << name;
+  }
+  return p;
+}
+
+double Model(const std::string& model, const std::vector<double>& p, const Angles<double>& a) {
+  double v = 0.0;
+  const std::string reason = EvaluateChecked(model, p, a, &v);
+  EXPECT_TRUE(reason.empty()) << model << ": " << reason;
+  return v;
+}
+
+Angles<double> Deg(double ti, double tr, double phi) {
+  return {DegToRad(ti), DegToRad(tr), DegToRad(phi)};
+}
+
+// Exercises the comparison helpers on a model that is always registered.
+TEST(MicrosimVsRegistry, FlatPitsMatchLambertModel) {
+  ASSERT_TRUE(HasModel("lambert"));
+  const auto surface = MakePittedPlane(PitsOptions{0.0, 1.0});
+  EstimateOptions opts;
+  opts.albedo = 0.35;
+  opts.samples = 2000;
+  const auto a = Deg(40, 70, 120);
+  const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
+  EXPECT_NEAR(e.brdf.mean, Model("lambert", Params("lambert", {{"albedo", 0.35}}), a), 1e-12);
+}
+
+TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
+  if (!HasModel("pitted")) GTEST_SKIP() << "model 'pitted' is not registered yet";
+  PitsOptions o;
+  o.aperture = kHalfPi;
+  o.coverage = 1.0;
+  const auto surface = MakePittedPlane(o);
+  const double albedo = 0.8;
+  const auto p = Params("pitted", {{"albedo", albedo}, {"aperture", kHalfPi}, {"coverage", 1.0}});
+  EstimateOptions opts;
+  opts.albedo = albedo;
+  opts.samples = 250000;
+  // In and out of the plane of incidence.
+  for (const auto& a : {Deg(0, 0, 0), Deg(30, 60, 0), Deg(60, 30, 180), Deg(45, 45, 90),
+                        Deg(70, 50, 135), Deg(20, 75, 45)}) {
+    const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
+    const double m = Model("pitted", p, a);
+    std::printf("pits90 %5.1f %5.1f %5.1f  sim %.5f +- %.5f  model %.5f  rel %+.4f\n",
+                RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), e.brdf.mean,
+                e.brdf.stderr_mean, m, e.brdf.mean / m - 1.0);
+    ASSERT_LT(3 * e.brdf.stderr_mean, 0.02 * m);  // the sample count resolves 2%
+    EXPECT_NEAR(e.brdf.mean, m, 0.02 * m);
+  }
+}
+
+TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
+  if (!HasModel("oren-nayar-vcavity")) {
+    GTEST_SKIP() << "model 'oren-nayar-vcavity' is not registered yet";
+  }
+  // Records the differences (issue 6): the model is eq. 25 over eq. 24 (single scattering, which
+  // the simulator reproduces exactly, see microsim_test) plus the two-bounce approximation of
+  // eq. 49; the simulator gives the exact two-bounce value (--bounces 2) and all bounces.
+  // Asserted loosely against the two-bounce simulation, which models the same physics; the
+  // printed figures go into docs/microsim.md.
+  const double albedo = 0.9;
+  for (double sigma_deg : {20.0, 40.0}) {
+    VGrooveOptions o;
+    o.sigma = DegToRad(sigma_deg);
+    const auto surface = MakeVGrooveField(o);
+    const auto p = Params("oren-nayar-vcavity", {{"albedo", albedo}, {"sigma", o.sigma}});
+    EstimateOptions opts;
+    opts.albedo = albedo;
+    opts.samples = 40000;
+    EstimateOptions two = opts;
+    two.max_bounces = 2;
+    for (const auto& a : {Deg(0, 0, 0), Deg(60, 60, 0), Deg(60, 60, 180), Deg(75, 30, 90)}) {
+      const BrdfEstimate all = EstimateBrdf(*surface, a, opts);
+      const BrdfEstimate e2 = EstimateBrdf(*surface, a, two);
+      const double m = Model("oren-nayar-vcavity", p, a);
+      std::printf(
+          "vgroove sigma %4.1f  %5.1f %5.1f %5.1f  sim all %.5f +- %.5f  two-bounce %.5f +- "
+          "%.5f  single %.5f  model %.5f  (two-bounce - model)/(albedo/pi) %+.4f  "
+          "(all - model)/(albedo/pi) %+.4f\n",
+          sigma_deg, RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), all.brdf.mean,
+          all.brdf.stderr_mean, e2.brdf.mean, e2.brdf.stderr_mean, e2.single_bounce.mean, m,
+          (e2.brdf.mean - m) / (albedo * kInvPi), (all.brdf.mean - m) / (albedo * kInvPi));
+      EXPECT_NEAR(e2.brdf.mean, m, 0.1 * albedo * kInvPi);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace gonio::microsim
