@@ -7,5 +7,6 @@
 namespace gonio::cli {
 
 void AddBrdfCommand(CLI::App& app);
+void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
 
 }  // namespace gonio::cli
