@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -20,17 +21,48 @@ namespace fs = std::filesystem;
 namespace gonio {
 namespace {
 
-// Reads mrcal's statistics back from the model mrcal-calibrate-cameras wrote (its
-// optimization_inputs). argv: model path. Prints one JSON object.
-constexpr const char* kMrcalStatsScript = R"PY(
+// mrcal's solve, through its Python API (python3-mrcal), staged as mrcal-calibrate-cameras
+// stages its final solves: everything but the board warp, then everything, with mrcal's
+// regularization and outlier rejection. The seed (intrinsics and board poses) comes from
+// OpenCV's solve of the same corners. argv: problem.json, output .cameramodel. Prints one
+// JSON line of statistics read back from the solved problem.
+constexpr const char* kMrcalSolveScript = R"PY(
 import json, sys
 import numpy as np
 import mrcal
-m = mrcal.cameramodel(sys.argv[1])
-oi = m.optimization_inputs()
+d = json.load(open(sys.argv[1]))
+N = len(d["frames_rt_toref"])
+indices = np.zeros((N, 3), dtype=np.int32)
+indices[:, 0] = np.arange(N)
+indices[:, 2] = -1  # camera 0 is the reference frame
+oi = dict(intrinsics=np.array([d["intrinsics"]], dtype=float),
+          extrinsics_rt_fromref=np.zeros((0, 6), dtype=float),
+          frames_rt_toref=np.array(d["frames_rt_toref"], dtype=float),
+          points=None,
+          observations_board=np.array(d["observations"], dtype=float),
+          indices_frame_camintrinsics_camextrinsics=indices,
+          observations_point=None,
+          indices_point_camintrinsics_camextrinsics=None,
+          lensmodel=d["lensmodel"],
+          imagersizes=np.array([d["imagersize"]], dtype=np.int32),
+          calobject_warp=np.zeros((2,), dtype=float),
+          do_optimize_intrinsics_core=True,
+          do_optimize_intrinsics_distortions=d["lensmodel"] != "LENSMODEL_PINHOLE",
+          do_optimize_extrinsics=True,  # no extrinsics (one camera); as the tool sets it
+          do_optimize_frames=True,
+          do_optimize_calobject_warp=False,
+          calibration_object_spacing=d["spacing"],
+          do_apply_outlier_rejection=d["reject_outliers"],
+          do_apply_regularization=True,
+          verbose=False)
+mrcal.optimize(**oi)
+oi["do_optimize_calobject_warp"] = True
+mrcal.optimize(**oi)
+m = mrcal.cameramodel(optimization_inputs=oi, icam_intrinsics=0)
+m.write(sys.argv[2], note="gonio calibrate: mrcal.optimize seeded by cv::calibrateCamera")
 r = mrcal.residuals_chessboard(oi)           # inliers only, shape (N, 2)
 e = np.sqrt(np.sum(r * r, axis=-1))
-W, H = m.imagersize()
+W, H = d["imagersize"]
 qx, qy = np.meshgrid(np.linspace(0, W - 1, 9), np.linspace(0, H - 1, 7))
 q = np.stack((qx.ravel(), qy.ravel()), axis=-1)
 q = np.vstack((np.array([[(W - 1) / 2.0, (H - 1) / 2.0]]), q))
@@ -39,13 +71,15 @@ cov = mrcal.projection_uncertainty(v, model=m, atinfinity=True, what="covariance
 print(json.dumps({"n_inliers": int(np.sum(oi["observations_board"][..., 2] > 0)),
                   "rms_px": float(np.sqrt(np.mean(e * e))),
                   "worst_px": float(np.max(e)),
+                  "calobject_warp": oi["calobject_warp"].tolist(),
                   "pixels": q.tolist(), "directions": v.tolist(),
                   "covariances": cov.tolist()}))
 )PY";
 
 // Runs a shell command, stdout+stderr to `log`; returns the exit status.
 int RunLogged(const std::string& command, const fs::path& log) {
-  const std::string full = command + " >" + log.string() + " 2>&1";
+  WriteTextAtomically(log, "# " + command + "\n");
+  const std::string full = command + " >>" + log.string() + " 2>&1";
   spdlog::debug("running: {}", full);
   const int status = std::system(full.c_str());
   return (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
@@ -73,6 +107,7 @@ class ScratchDir {
     fs::create_directories(path_);
   }
   ~ScratchDir() {
+    if (std::getenv("GONIO_KEEP_SCRATCH")) return;  // debugging mrcal runs
     std::error_code ec;
     fs::remove_all(path_, ec);
   }
@@ -80,6 +115,13 @@ class ScratchDir {
 
  private:
   fs::path path_;
+};
+
+struct CvSolve {
+  cv::Mat K, dist, std_intrinsics;
+  std::vector<cv::Mat> rvecs, tvecs;  // cam_from_board per view
+  double rms_px = 0, worst_px = 0;
+  int num_points = 0;
 };
 
 struct CvViews {
@@ -102,39 +144,56 @@ CvViews ToCv(const Board& board, const std::vector<BoardObservation>& views) {
 }
 
 void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, int width,
-                int height, double focal_seed, const CalibrationOptions& options,
+                int height, const CvSolve& seed, const CalibrationOptions& options,
                 CalibrationResult* result) {
   ScratchDir scratch;
-  // mrcal maps corners to cameras by file name and expects frame numbers in the names; the
-  // views get canonical names (they are not read: --imagersize is given).
-  std::vector<BoardObservation> named = views;
-  for (size_t i = 0; i < named.size(); ++i) named[i].image = fmt::format("view{:05d}.png", i);
-  const fs::path corners = scratch.path() / "corners.vnl";
-  WriteTextAtomically(corners, ToCornersVnl(board, named));
   const Board::MrcalGrid grid = board.ToMrcalGrid();
-  const std::string command = fmt::format(
-      "{} --corners-cache {} --lensmodel {} --focal {:.3f} --imagersize {} {} "
-      "--object-spacing {:.12g} --object-width-n {} --object-height-n {} --outdir {}{} '*'",
-      options.mrcal_tool, Quote(corners.string()), options.lens_model, focal_seed, width, height,
-      grid.spacing, grid.width_n, grid.height_n, Quote(scratch.path().string()),
-      options.reject_outliers ? "" : " --skip-outlier-rejection");
-  const fs::path log = scratch.path() / "mrcal.log";
-  if (RunLogged(command, log) != 0) {
-    throw NumericalError("mrcal-calibrate-cameras failed: " + LastLine(log));
+  nlohmann::json problem = {{"lensmodel", options.lens_model},
+                            {"imagersize", {width, height}},
+                            {"spacing", grid.spacing},
+                            {"reject_outliers", options.reject_outliers}};
+  std::vector<double> intrinsics = {seed.K.at<double>(0, 0), seed.K.at<double>(1, 1),
+                                    seed.K.at<double>(0, 2), seed.K.at<double>(1, 2)};
+  const int n_dist = CameraModel::NumIntrinsics(options.lens_model) - 4;
+  for (int i = 0; i < n_dist; ++i) intrinsics.push_back(seed.dist.at<double>(i));
+  problem["intrinsics"] = intrinsics;
+  // observations_board: (views, height_n, width_n, 3) of (x, y, weight); weight -1 marks the
+  // lattice points no corner sits on (and, later, mrcal's outliers).
+  nlohmann::json observations = nlohmann::json::array();
+  nlohmann::json frames = nlohmann::json::array();
+  for (size_t v = 0; v < views.size(); ++v) {
+    std::vector<std::array<double, 3>> flat(grid.width_n * grid.height_n, {-1.0, -1.0, -1.0});
+    for (size_t i = 0; i < views[v].pixels.size(); ++i) {
+      flat[grid.lattice_index[views[v].point_index[i]]] = {views[v].pixels[i].x(),
+                                                           views[v].pixels[i].y(), 1.0};
+    }
+    nlohmann::json rows = nlohmann::json::array();
+    for (int r = 0; r < grid.height_n; ++r) {
+      nlohmann::json row = nlohmann::json::array();
+      for (int c = 0; c < grid.width_n; ++c) row.push_back(flat[r * grid.width_n + c]);
+      rows.push_back(row);
+    }
+    observations.push_back(rows);
+    frames.push_back({seed.rvecs[v].at<double>(0), seed.rvecs[v].at<double>(1),
+                      seed.rvecs[v].at<double>(2), seed.tvecs[v].at<double>(0),
+                      seed.tvecs[v].at<double>(1), seed.tvecs[v].at<double>(2)});
   }
-  const fs::path model = scratch.path() / "camera-0.cameramodel";
-  if (!fs::exists(model)) throw NumericalError("mrcal-calibrate-cameras wrote no model");
+  problem["observations"] = observations;
+  problem["frames_rt_toref"] = frames;
+  const fs::path problem_file = scratch.path() / "problem.json";
+  WriteTextAtomically(problem_file, problem.dump());
+  const fs::path model = scratch.path() / "camera.cameramodel";
+  const fs::path script = scratch.path() / "solve.py";
+  WriteTextAtomically(script, kMrcalSolveScript);
+  const fs::path stats_file = scratch.path() / "stats.json";
+  const std::string command = fmt::format("{} {} {} {}", options.python, Quote(script.string()),
+                                          Quote(problem_file.string()), Quote(model.string()));
+  if (RunLogged(command, stats_file) != 0) {
+    throw NumericalError("mrcal's solve failed: " + LastLine(stats_file));
+  }
+  if (!fs::exists(model)) throw NumericalError("mrcal wrote no model");
   result->model_text = ReadTextFile(model);
   result->camera = CameraModel::Read(model);
-
-  const fs::path script = scratch.path() / "stats.py";
-  WriteTextAtomically(script, kMrcalStatsScript);
-  const fs::path stats_file = scratch.path() / "stats.json";
-  const std::string stats_cmd =
-      fmt::format("{} {} {}", options.python, Quote(script.string()), Quote(model.string()));
-  if (RunLogged(stats_cmd, stats_file) != 0) {
-    throw NumericalError("python3-mrcal could not evaluate the solve: " + LastLine(stats_file));
-  }
   nlohmann::json stats;
   try {
     stats = nlohmann::json::parse(LastLine(stats_file));
@@ -174,9 +233,9 @@ void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, 
   }
 }
 
-void SolveOpenCv(const Board& board, const std::vector<BoardObservation>& views, int width,
-                 int height, double focal_seed, const CalibrationOptions& options,
-                 CalibrationResult* result) {
+CvSolve RunOpenCv(const Board& board, const std::vector<BoardObservation>& views, int width,
+                  int height, double focal_seed, const CalibrationOptions& options) {
+  CvSolve out;
   const CvViews cv_views = ToCv(board, views);
   int flags = cv::CALIB_USE_INTRINSIC_GUESS;
   const std::string& lm = options.lens_model;
@@ -188,47 +247,56 @@ void SolveOpenCv(const Board& board, const std::vector<BoardObservation>& views,
     flags |= cv::CALIB_RATIONAL_MODEL;
   }
   if (options.fix_aspect_ratio) flags |= cv::CALIB_FIX_ASPECT_RATIO;
-  cv::Mat K = (cv::Mat_<double>(3, 3) << focal_seed, 0, (width - 1) / 2.0, 0, focal_seed,
-               (height - 1) / 2.0, 0, 0, 1);
-  cv::Mat dist = cv::Mat::zeros(lm == "LENSMODEL_OPENCV8" ? 8 : 5, 1, CV_64F);
-  std::vector<cv::Mat> rvecs, tvecs;
-  cv::Mat std_intrinsics, std_extrinsics, per_view;
+  out.K = (cv::Mat_<double>(3, 3) << focal_seed, 0, (width - 1) / 2.0, 0, focal_seed,
+           (height - 1) / 2.0, 0, 0, 1);
+  out.dist = cv::Mat::zeros(lm == "LENSMODEL_OPENCV8" ? 8 : 5, 1, CV_64F);
+  cv::Mat std_extrinsics, per_view;
   cv::calibrateCamera(
-      cv_views.object, cv_views.image, cv::Size(width, height), K, dist, rvecs, tvecs,
-      std_intrinsics, std_extrinsics, per_view, flags,
+      cv_views.object, cv_views.image, cv::Size(width, height), out.K, out.dist, out.rvecs,
+      out.tvecs, out.std_intrinsics, std_extrinsics, per_view, flags,
       cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-12));
+  double sum2 = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(cv_views.object[v], out.rvecs[v], out.tvecs[v], out.K, out.dist, projected);
+    for (size_t i = 0; i < projected.size(); ++i) {
+      const double e = cv::norm(projected[i] - cv_views.image[v][i]);
+      sum2 += e * e;
+      out.worst_px = std::max(out.worst_px, e);
+      ++out.num_points;
+    }
+  }
+  out.rms_px = std::sqrt(sum2 / std::max(1, out.num_points));
+  return out;
+}
+
+void SolveOpenCv(const CvSolve& cv_solve, int width, int height, const CalibrationOptions& options,
+                 CalibrationResult* result) {
+  const std::string& lm = options.lens_model;
   CameraModel& cam = result->camera;
   cam.lens_model = lm;
   cam.width = width;
   cam.height = height;
+  const cv::Mat& K = cv_solve.K;
   cam.intrinsics = {K.at<double>(0, 0), K.at<double>(1, 1), K.at<double>(0, 2), K.at<double>(1, 2)};
   const int n_dist = CameraModel::NumIntrinsics(lm) - 4;
-  for (int i = 0; i < n_dist; ++i) cam.intrinsics.push_back(dist.at<double>(i));
-  // OpenCV orders stdDeviationsIntrinsics as fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6...
-  for (int i = 0; i < 4 + n_dist; ++i)
-    result->intrinsics_sigma.push_back(std_intrinsics.at<double>(i));
-  double sum2 = 0;
-  for (size_t v = 0; v < views.size(); ++v) {
-    std::vector<cv::Point2f> projected;
-    cv::projectPoints(cv_views.object[v], rvecs[v], tvecs[v], K, dist, projected);
-    for (size_t i = 0; i < projected.size(); ++i) {
-      const double e = cv::norm(projected[i] - cv_views.image[v][i]);
-      sum2 += e * e;
-      result->worst_px = std::max(result->worst_px, e);
-    }
+  for (int i = 0; i < n_dist; ++i) cam.intrinsics.push_back(cv_solve.dist.at<double>(i));
+  // OpenCV orders stdDeviationsIntrinsics fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6...
+  for (int i = 0; i < 4 + n_dist; ++i) {
+    result->intrinsics_sigma.push_back(cv_solve.std_intrinsics.at<double>(i));
   }
-  result->rms_px = std::sqrt(sum2 / result->num_points);
   // With CALIB_FIX_ASPECT_RATIO OpenCV reports sigma 0 for fx (it follows fy).
-  const double fx_sigma_px = std::max(result->intrinsics_sigma[0], result->intrinsics_sigma[1]);
   if (options.fix_aspect_ratio) result->intrinsics_sigma[0] = result->intrinsics_sigma[1];
-  if (!std::isfinite(fx_sigma_px) || fx_sigma_px > options.max_uncertainty_px * 10 ||
-      !std::isfinite(result->rms_px)) {
+  result->rms_px = cv_solve.rms_px;
+  result->worst_px = cv_solve.worst_px;
+  const double f_sigma_px = std::max(result->intrinsics_sigma[0], result->intrinsics_sigma[1]);
+  if (!std::isfinite(f_sigma_px) || f_sigma_px > options.max_uncertainty_px * 10 ||
+      !std::isfinite(result->rms_px) || !cam.IntrinsicsFinite()) {
     throw InputError(
-        fmt::format("the board views cannot constrain {}: OpenCV's fx sigma is "
+        fmt::format("the board views cannot constrain {}: OpenCV's focal sigma is "
                     "{:.3g} px; add views that tilt the board and fill the image",
-                    lm, fx_sigma_px));
+                    lm, f_sigma_px));
   }
-  result->model_text.clear();
 }
 
 }  // namespace
@@ -301,10 +369,14 @@ CalibrationResult Calibrate(const Board& board, const std::vector<BoardObservati
                            : EstimateFocalFromViews(board, used, width, height);
   spdlog::info("calibrate: {} views, {} corners, {} with {} (focal seed {:.1f} px)",
                result.num_views, result.num_points, options.lens_model, options.solver, focal);
+  // OpenCV's solve: the alternative solver's answer, and mrcal's seed (mrcal's own seeding
+  // in mrcal-calibrate-cameras 2.2 feeds the (-1, -1) placeholders of missing lattice points
+  // to solvePnP, which wrecks the seed of AprilTag grids: docs/calibration.md).
+  const CvSolve cv_solve = RunOpenCv(board, used, width, height, focal, options);
   if (options.solver == "mrcal") {
-    SolveMrcal(board, used, width, height, focal, options, &result);
+    SolveMrcal(board, used, width, height, cv_solve, options, &result);
   } else {
-    SolveOpenCv(board, used, width, height, focal, options, &result);
+    SolveOpenCv(cv_solve, width, height, options, &result);
   }
   return result;
 }

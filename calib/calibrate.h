@@ -1,12 +1,15 @@
 // Geometric calibration of one camera from views of a board.
 //
-// Solver of record: mrcal, run as its own tool (mrcal-calibrate-cameras) on a corners.vnl we
-// write. The tool is mrcal's supported, documented front end: it seeds, solves in stages,
-// rejects outliers, fits the board's warp and writes a .cameramodel carrying its
-// optimization_inputs, which is what mrcal's uncertainty tools need. libmrcal's C API
-// (mrcal_optimize) would make us re-implement that staging and the model writer by hand.
-// mrcal's statistics (RMS, worst residual, outliers, projection uncertainty) are read back
-// from the written model through python3-mrcal. Alternative solver: cv::calibrateCamera.
+// Solver of record: mrcal, through its Python API (python3-mrcal, run as a subprocess):
+// mrcal.optimize with mrcal's regularization, outlier rejection and board-warp fit, staged as
+// mrcal-calibrate-cameras stages its final solves, and mrcal.cameramodel.write, so the
+// .cameramodel carries the optimization_inputs that mrcal's uncertainty and diff tools need.
+// Why not the tool itself: mrcal-calibrate-cameras 2.2 seeds board poses with solvePnP on
+// every lattice point including the missing ones (read as (-1, -1)), which wrecks the seed of
+// an AprilTag grid (a lattice with holes); seeding from OpenCV's solve avoids that. Why not
+// the C API: mrcal_optimize needs the same problem arrays plus a hand-written model writer.
+// mrcal's statistics (RMS, worst residual, outliers, projection uncertainty) are read from
+// the solved problem. Alternative solver: cv::calibrateCamera (also mrcal's seed).
 #pragma once
 
 #include <filesystem>
@@ -32,7 +35,6 @@ struct CalibrationOptions {
   // Refuse when mrcal's projection uncertainty at the imager centre (or OpenCV's fx sigma)
   // exceeds this: the views do not constrain the model.
   double max_uncertainty_px = 5.0;
-  std::string mrcal_tool = "mrcal-calibrate-cameras";
   std::string python = "/usr/bin/python3";  // Debian's python3-mrcal lives there
   void Check() const;                       // InputError naming the option
 };
