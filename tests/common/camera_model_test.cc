@@ -49,15 +49,43 @@ TEST(CameraModel, WriteReadRoundTrip) {
   const CameraModel r = CameraModel::Read(dir.path() / "c.cameramodel");
   EXPECT_EQ(r.lens_model, m.lens_model);
   ASSERT_EQ(r.intrinsics.size(), m.intrinsics.size());
-  for (size_t k = 0; k < m.intrinsics.size(); ++k) EXPECT_DOUBLE_EQ(r.intrinsics[k], m.intrinsics[k]);
+  for (size_t k = 0; k < m.intrinsics.size(); ++k)
+    EXPECT_DOUBLE_EQ(r.intrinsics[k], m.intrinsics[k]);
   EXPECT_EQ(r.width, 1280);
 }
 
 TEST(CameraModel, BadFilesAreInputErrors) {
   testing::TempDir dir;
   EXPECT_THROW(CameraModel::Read(dir.path() / "none.cameramodel"), InputError);
-  WriteTextAtomically(dir.path() / "bad.cameramodel", "{'lensmodel': 'LENSMODEL_OPENCV8', 'intrinsics': [1,2,3], 'imagersize': [10, 10]}");
+  WriteTextAtomically(
+      dir.path() / "bad.cameramodel",
+      "{'lensmodel': 'LENSMODEL_OPENCV8', 'intrinsics': [1,2,3], 'imagersize': [10, 10]}");
   EXPECT_THROW(CameraModel::Read(dir.path() / "bad.cameramodel"), InputError);
+}
+
+TEST(CameraModel, ReadsWhatMrcalWrites) {
+  // The layout mrcal.cameramodel.write produces: comments, a valid-intrinsics polygon and the
+  // optimization inputs as a base-85 bytes literal (characters here from that alphabet).
+  testing::TempDir dir;
+  WriteTextAtomically(dir.path() / "m.cameramodel", R"(# generated with mrcal
+{
+    'lensmodel':  'LENSMODEL_OPENCV5',
+    'intrinsics': [ 533.8, 533.9, 342.1, 233.8, -0.27, 0.02, 0.001, -6.3e-05, 0.15,],
+    'valid_intrinsics_region': [
+    [ 308, 182 ],
+    [ 308, 228 ],
+],
+    'extrinsics': [ 0, 0, 0, 0, 0, 0,],
+    'imagersize': [ 640, 480,],
+    'icam_intrinsics': 0,
+    'optimization_inputs': b'P)h>@6aW{AK2m}k;8Ap~q&5&H<4C#',
+}
+)");
+  const CameraModel m = CameraModel::Read(dir.path() / "m.cameramodel");
+  EXPECT_EQ(m.lens_model, "LENSMODEL_OPENCV5");
+  ASSERT_EQ(m.intrinsics.size(), 9u);
+  EXPECT_DOUBLE_EQ(m.intrinsics[8], 0.15);
+  EXPECT_EQ(m.width, 640);
 }
 
 }  // namespace
