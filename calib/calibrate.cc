@@ -76,10 +76,16 @@ print(json.dumps({"n_inliers": int(np.sum(oi["observations_board"][..., 2] > 0))
                   "covariances": cov.tolist()}))
 )PY";
 
-// Runs a shell command, stdout+stderr to `log`; returns the exit status.
-int RunLogged(const std::string& command, const fs::path& log) {
+std::string Quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += (c == '\'') ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// Runs a shell command, stdout to `out`, stderr to `log`; returns the exit status.
+int RunLogged(const std::string& command, const fs::path& out, const fs::path& log) {
   WriteTextAtomically(log, "# " + command + "\n");
-  const std::string full = command + " >>" + log.string() + " 2>&1";
+  const std::string full = command + " >" + Quote(out.string()) + " 2>>" + Quote(log.string());
   spdlog::debug("running: {}", full);
   const int status = std::system(full.c_str());
   return (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
@@ -92,12 +98,6 @@ std::string LastLine(const fs::path& file) {
     if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
   }
   return last;
-}
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += (c == '\'') ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
 }
 
 class ScratchDir {
@@ -188,8 +188,9 @@ void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, 
   const fs::path stats_file = scratch.path() / "stats.json";
   const std::string command = fmt::format("{} {} {} {}", options.python, Quote(script.string()),
                                           Quote(problem_file.string()), Quote(model.string()));
-  if (RunLogged(command, stats_file) != 0) {
-    throw NumericalError("mrcal's solve failed: " + LastLine(stats_file));
+  const fs::path log = scratch.path() / "mrcal.log";
+  if (RunLogged(command, stats_file, log) != 0) {
+    throw NumericalError("mrcal's solve failed: " + LastLine(log));
   }
   if (!fs::exists(model)) throw NumericalError("mrcal wrote no model");
   result->model_text = ReadTextFile(model);
