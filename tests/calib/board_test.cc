@@ -43,6 +43,12 @@ TEST(Board, MrcalLatticeOfPitchOnePointTwo) {
   }
 }
 
+TEST(Board, IncommensurateGridHasNoMrcalLattice) {
+  nlohmann::json j = Grid();
+  j["pitch"] = 0.03 * 3.14159265 / 2.6;  // pitch / tag_size irrational to 1e-6
+  EXPECT_THROW(Board::FromJson(j, "grid").ToMrcalGrid(), InputError);
+}
+
 TEST(Board, Chessboard) {
   const Board b = Board::FromJson(
       {{"type", "chessboard"}, {"inner_corners", {9, 6}}, {"square_size", 0.025}}, "cb");
