@@ -271,6 +271,9 @@ void AddCalibCommands(CLI::App& app) {
   loc->add_option("--out", loc_args->out, "poses.json")->required();
   loc->add_option("--min-tags", loc_args->options.min_tags)->capture_default_str();
   loc->add_option("--min-points", loc_args->options.min_points)->capture_default_str();
+  loc->add_option("--huber-px", loc_args->options.huber_px,
+                  "Huber loss scale for the pose refinement, px (0: least squares)")
+      ->capture_default_str();
   AddDetectorOptions(loc, &loc_args->options.detector);
   loc->callback([loc_args] { RunLocate(*loc_args); });
 }

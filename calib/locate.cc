@@ -53,12 +53,13 @@ Eigen::Matrix3d RotationFromVector(const double* r) {
 
 // Adds one residual per corner around R0 to `problem`, on the 6-vector `pose`.
 void AddResiduals(const CameraModel& camera, const Board& board, const BoardObservation& obs,
-                  const Eigen::Matrix3d& R0, double* pose, ceres::Problem* problem) {
+                  const Eigen::Matrix3d& R0, double huber_px, double* pose,
+                  ceres::Problem* problem) {
   for (size_t i = 0; i < obs.pixels.size(); ++i) {
     const Eigen::Vector3d q = R0 * board.Points()[obs.point_index[i]];
     problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 6>(
                                   new CornerResidual(&camera, q, obs.pixels[i])),
-                              nullptr, pose);
+                              huber_px > 0 ? new ceres::HuberLoss(huber_px) : nullptr, pose);
   }
 }
 
@@ -67,6 +68,9 @@ void AddResiduals(const CameraModel& camera, const Board& board, const BoardObse
 void PoseOptions::Check() const {
   if (min_tags < 1) throw InputError("--min-tags must be at least 1");
   if (min_points < 4) throw InputError("--min-points must be at least 4");
+  if (!(huber_px >= 0) || !std::isfinite(huber_px)) {
+    throw InputError("--huber-px must be 0 (off) or a positive number of pixels");
+  }
   detector.Check();
 }
 
@@ -100,7 +104,7 @@ BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
   double pose[6] = {0, 0, 0, tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
 
   ceres::Problem problem;
-  AddResiduals(camera, board, obs, R0, pose, &problem);
+  AddResiduals(camera, board, obs, R0, options.huber_px, pose, &problem);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.function_tolerance = 1e-14;
@@ -117,10 +121,12 @@ BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
   R0 = RotationFromVector(pose) * R0;
   double centred[6] = {0, 0, 0, pose[3], pose[4], pose[5]};
   ceres::Problem at_solution;
-  AddResiduals(camera, board, obs, R0, centred, &at_solution);
+  AddResiduals(camera, board, obs, R0, options.huber_px, centred, &at_solution);
   std::vector<double> residuals;
   double cost = 0;
-  at_solution.Evaluate(ceres::Problem::EvaluateOptions(), &cost, &residuals, nullptr, nullptr);
+  ceres::Problem::EvaluateOptions raw;
+  raw.apply_loss_function = false;  // the residuals themselves, for RMS and noise variance
+  at_solution.Evaluate(raw, &cost, &residuals, nullptr, nullptr);
 
   BoardPose result;
   result.cam_from_board.R = R0;

@@ -21,6 +21,9 @@ namespace gonio {
 struct PoseOptions {
   int min_tags = 2;    // AprilTag grids: fewer tags and the frame is skipped
   int min_points = 8;  // corners
+  // Huber loss scale in px for the refinement (0: plain least squares). A mis-detected corner
+  // then pulls the pose linearly, not quadratically.
+  double huber_px = 2.0;
   AprilTagOptions detector;
   void Check() const;  // InputError naming the option
 };

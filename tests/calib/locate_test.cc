@@ -69,6 +69,25 @@ TEST(EstimateBoardPose, TooFewTagsGivesTheReason) {
   }
 }
 
+TEST(EstimateBoardPose, HuberLossResistsAMisdetectedCorner) {
+  const CameraModel cam = testing::SyntheticCamera();
+  const Board board = testing::TagGrid(0.03, 0.036, 4, 3);  // few corners: one bad one matters
+  std::mt19937 rng(5);
+  const Rigid3d truth = testing::LookAtBoard(board, 0.5, 0.3, 0.2, 0.1);
+  BoardObservation obs = testing::ProjectBoard(cam, board, truth, 0.2, &rng, "f");
+  ASSERT_EQ(obs.pixels.size(), 48u);
+  obs.pixels[5] += Eigen::Vector2d(15.0, -10.0);  // one corner far off, as cornerSubPix can do
+  PoseOptions plain, robust;  // robust: the default Huber loss
+  plain.huber_px = 0;
+  const BoardPose a = EstimateBoardPose(cam, board, obs, plain);
+  const BoardPose b = EstimateBoardPose(cam, board, obs, robust);
+  const double err_plain = RotationErrorDeg(a.cam_from_board.R, truth.R);
+  const double err_robust = RotationErrorDeg(b.cam_from_board.R, truth.R);
+  std::printf("one 18 px outlier in 48 corners: rotation error %.4f deg plain, %.4f deg Huber\n",
+              err_plain, err_robust);
+  EXPECT_LT(err_robust, 0.5 * err_plain);
+}
+
 TEST(EstimateBoardPose, SyntheticChessboard) {
   const CameraModel cam = testing::SyntheticCamera();
   const Board board = Board::FromJson(
