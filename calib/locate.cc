@@ -121,7 +121,9 @@ BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
   R0 = RotationFromVector(pose) * R0;
   double centred[6] = {0, 0, 0, pose[3], pose[4], pose[5]};
   ceres::Problem at_solution;
-  AddResiduals(camera, board, obs, R0, options.huber_px, centred, &at_solution);
+  // Least-squares covariance at the robust solution, scaled below by the residuals' variance:
+  // the two agree with each other (Ceres' robustified Jacobian would not match that scale).
+  AddResiduals(camera, board, obs, R0, 0.0, centred, &at_solution);
   std::vector<double> residuals;
   double cost = 0;
   ceres::Problem::EvaluateOptions raw;
