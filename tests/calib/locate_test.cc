@@ -77,7 +77,7 @@ TEST(EstimateBoardPose, HuberLossResistsAMisdetectedCorner) {
   BoardObservation obs = testing::ProjectBoard(cam, board, truth, 0.2, &rng, "f");
   ASSERT_EQ(obs.pixels.size(), 48u);
   obs.pixels[5] += Eigen::Vector2d(15.0, -10.0);  // one corner far off, as cornerSubPix can do
-  PoseOptions plain, robust;  // robust: the default Huber loss
+  PoseOptions plain, robust;                      // robust: the default Huber loss
   plain.huber_px = 0;
   const BoardPose a = EstimateBoardPose(cam, board, obs, plain);
   const BoardPose b = EstimateBoardPose(cam, board, obs, robust);
