@@ -13,5 +13,6 @@ void AddPhotometricCommand(CLI::App& app);
 void AddBrdfTextonCommand(CLI::App& brdf);
 void AddCaptureCommand(CLI::App& app);
 void AddMicrosimCommand(CLI::App& app);
+void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
 
 }  // namespace gonio::cli

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddPhotometricCommand(app);
   gonio::cli::AddCaptureCommand(app);
   gonio::cli::AddMicrosimCommand(app);
+  gonio::cli::AddCalibCommands(app);
 
   try {
     app.parse(argc, argv);

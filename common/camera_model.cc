@@ -1,5 +1,6 @@
 #include "common/camera_model.h"
 
+#include <cctype>
 #include <iomanip>
 #include <regex>
 #include <sstream>
@@ -65,6 +66,13 @@ CameraModel CameraModel::Read(const std::filesystem::path& path) {
       while (i < text.size() && text[i] != '\n') ++i;
       cleaned += '\n';
     } else if (c == '\'' || c == '"') {
+      // mrcal stores optimization_inputs as a Python bytes literal b'...' (base-85 text).
+      if (!cleaned.empty() && cleaned.back() == 'b' &&
+          (cleaned.size() == 1 ||
+           std::isspace(static_cast<unsigned char>(cleaned[cleaned.size() - 2])) ||
+           cleaned[cleaned.size() - 2] == ':')) {
+        cleaned.pop_back();
+      }
       in_string = true;
       quote = c;
       cleaned += '"';

@@ -25,6 +25,13 @@ struct CameraModel {
   // single camera).
   Rigid3d cam_from_ref;
 
+  bool IntrinsicsFinite() const {
+    for (double v : intrinsics) {
+      if (!std::isfinite(v)) return false;
+    }
+    return true;
+  }
+
   // Number of intrinsics a lens model takes; InputError for unsupported models.
   static int NumIntrinsics(const std::string& lens_model);
 

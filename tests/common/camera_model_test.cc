@@ -63,5 +63,30 @@ TEST(CameraModel, BadFilesAreInputErrors) {
   EXPECT_THROW(CameraModel::Read(dir.path() / "bad.cameramodel"), InputError);
 }
 
+TEST(CameraModel, ReadsWhatMrcalWrites) {
+  // The layout mrcal.cameramodel.write produces: comments, a valid-intrinsics polygon and the
+  // optimization inputs as a base-85 bytes literal (characters here from that alphabet).
+  testing::TempDir dir;
+  WriteTextAtomically(dir.path() / "m.cameramodel", R"(# generated with mrcal
+{
+    'lensmodel':  'LENSMODEL_OPENCV5',
+    'intrinsics': [ 533.8, 533.9, 342.1, 233.8, -0.27, 0.02, 0.001, -6.3e-05, 0.15,],
+    'valid_intrinsics_region': [
+    [ 308, 182 ],
+    [ 308, 228 ],
+],
+    'extrinsics': [ 0, 0, 0, 0, 0, 0,],
+    'imagersize': [ 640, 480,],
+    'icam_intrinsics': 0,
+    'optimization_inputs': b'P)h>@6aW{AK2m}k;8Ap~q&5&H<4C#',
+}
+)");
+  const CameraModel m = CameraModel::Read(dir.path() / "m.cameramodel");
+  EXPECT_EQ(m.lens_model, "LENSMODEL_OPENCV5");
+  ASSERT_EQ(m.intrinsics.size(), 9u);
+  EXPECT_DOUBLE_EQ(m.intrinsics[8], 0.15);
+  EXPECT_EQ(m.width, 640);
+}
+
 }  // namespace
 }  // namespace gonio

@@ -1,0 +1,203 @@
+#include "calib/board.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "common/io.h"
+
+namespace gonio {
+namespace {
+
+// Families libapriltag 3.3 ships a *_create() for (calib/detect.cc maps them).
+const std::set<std::string> kFamilies = {"tag36h11",       "tag36h10",         "tag25h9",
+                                         "tag16h5",        "tagCircle21h7",    "tagCircle49h12",
+                                         "tagCustom48h12", "tagStandard41h12", "tagStandard52h13"};
+
+double PositiveNumber(const nlohmann::json& j, const char* key, const std::string& what) {
+  if (!j.contains(key)) throw InputError(what + ": missing key '" + key + "'");
+  const auto& v = j.at(key);
+  if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
+    throw InputError(what + ": '" + key + "' must be a positive number of metres");
+  }
+  return v.get<double>();
+}
+
+int PositiveInt(const nlohmann::json& v, const std::string& what, const std::string& key) {
+  if (!v.is_number_integer() || v.get<long long>() < 1 || v.get<long long>() > 100000) {
+    throw InputError(what + ": '" + key + "' must hold positive integers");
+  }
+  return v.get<int>();
+}
+
+std::vector<Eigen::Vector2d> Polygon(const nlohmann::json& j, const char* key,
+                                     const std::string& what) {
+  std::vector<Eigen::Vector2d> poly;
+  if (!j.contains(key)) return poly;
+  const auto& v = j.at(key);
+  const std::string err = what + ": '" + key + "' must be a list of at least 3 [x, y] points";
+  if (!v.is_array() || v.size() < 3) throw InputError(err);
+  for (const auto& p : v) {
+    if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number()) {
+      throw InputError(err);
+    }
+    poly.emplace_back(p[0].get<double>(), p[1].get<double>());
+    if (!poly.back().allFinite()) throw InputError(err);
+  }
+  return poly;
+}
+
+void CheckKeys(const nlohmann::json& j, const std::set<std::string>& allowed,
+               const std::string& what) {
+  for (const auto& [key, value] : j.items()) {
+    if (!allowed.count(key)) throw InputError(what + ": unknown key '" + key + "'");
+  }
+}
+
+}  // namespace
+
+Board Board::Read(const std::filesystem::path& path) {
+  return FromJson(ReadJsonFile(path), path.string());
+}
+
+Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
+  if (!j.is_object()) throw InputError(what + ": a board file is a JSON object");
+  if (!j.contains("type") || !j["type"].is_string()) {
+    throw InputError(what + ": missing key 'type' (\"chessboard\" or \"apriltag-grid\")");
+  }
+  Board b;
+  b.source_ = j;
+  b.source_.erase("provenance");
+  const std::string type = j["type"];
+  if (type == "chessboard") {
+    b.type_ = Type::kChessboard;
+    CheckKeys(
+        j, {"type", "inner_corners", "square_size", "sample_region", "white_region", "provenance"},
+        what);
+    if (!j.contains("inner_corners") || !j["inner_corners"].is_array() ||
+        j["inner_corners"].size() != 2) {
+      throw InputError(what + ": 'inner_corners' must be [columns, rows]");
+    }
+    b.inner_columns_ = PositiveInt(j["inner_corners"][0], what, "inner_corners");
+    b.inner_rows_ = PositiveInt(j["inner_corners"][1], what, "inner_corners");
+    if (b.inner_columns_ < 2 || b.inner_rows_ < 2) {
+      throw InputError(what + ": 'inner_corners' must be at least [2, 2]");
+    }
+    b.square_size_ = PositiveNumber(j, "square_size", what);
+    for (int r = 0; r < b.inner_rows_; ++r) {
+      for (int c = 0; c < b.inner_columns_; ++c) {
+        b.points_.emplace_back(c * b.square_size_, r * b.square_size_, 0.0);
+      }
+    }
+  } else if (type == "apriltag-grid") {
+    b.type_ = Type::kAprilTagGrid;
+    CheckKeys(j,
+              {"type", "family", "tag_size", "pitch", "columns", "rows", "ids", "sample_region",
+               "white_region", "provenance"},
+              what);
+    if (!j.contains("family") || !j["family"].is_string()) {
+      throw InputError(what + ": missing key 'family' (e.g. \"tag36h11\")");
+    }
+    b.family_ = j["family"];
+    if (!kFamilies.count(b.family_)) {
+      throw InputError(what + ": unknown tag family '" + b.family_ + "'");
+    }
+    b.tag_size_ = PositiveNumber(j, "tag_size", what);
+    b.pitch_ = PositiveNumber(j, "pitch", what);
+    if (b.pitch_ < b.tag_size_) {
+      throw InputError(what + ": 'pitch' must be at least 'tag_size' (tags would overlap)");
+    }
+    if (!j.contains("columns") || !j.contains("rows")) {
+      throw InputError(what + ": missing key 'columns' or 'rows'");
+    }
+    b.columns_ = PositiveInt(j["columns"], what, "columns");
+    b.rows_ = PositiveInt(j["rows"], what, "rows");
+    if (!j.contains("ids") || !j["ids"].is_array()) {
+      throw InputError(what + ": missing key 'ids' (tag ids, row-major)");
+    }
+    std::set<int> seen;
+    for (const auto& id : j["ids"]) {
+      if (!id.is_number_integer() || id.get<long long>() < 0) {
+        throw InputError(what + ": 'ids' must hold non-negative integers");
+      }
+      if (!seen.insert(id.get<int>()).second) {
+        throw InputError(what + ": tag id " + std::to_string(id.get<int>()) + " appears twice");
+      }
+      b.ids_.push_back(id.get<int>());
+    }
+    if (static_cast<int>(b.ids_.size()) != b.columns_ * b.rows_) {
+      throw InputError(fmt::format("{}: 'ids' has {} entries, columns x rows = {}", what,
+                                   b.ids_.size(), b.columns_ * b.rows_));
+    }
+    const double s = b.tag_size_;
+    for (int k = 0; k < b.columns_ * b.rows_; ++k) {
+      const double x = (k % b.columns_) * b.pitch_, y = (k / b.columns_) * b.pitch_;
+      // libapriltag's order: bottom-left, bottom-right, top-right, top-left (board.h).
+      b.points_.emplace_back(x, y + s, 0.0);
+      b.points_.emplace_back(x + s, y + s, 0.0);
+      b.points_.emplace_back(x + s, y, 0.0);
+      b.points_.emplace_back(x, y, 0.0);
+    }
+  } else {
+    throw InputError(what + ": unknown board type '" + type +
+                     "' (\"chessboard\" or \"apriltag-grid\")");
+  }
+  b.sample_region_ = Polygon(j, "sample_region", what);
+  b.white_region_ = Polygon(j, "white_region", what);
+  return b;
+}
+
+nlohmann::json Board::ToJson() const { return source_; }
+
+std::string Board::Describe() const {
+  if (is_chessboard()) {
+    return fmt::format("chessboard {}x{} inner corners, square {} m", inner_columns_, inner_rows_,
+                       square_size_);
+  }
+  return fmt::format("apriltag-grid {} {}x{}, tag {} m, pitch {} m", family_, columns_, rows_,
+                     tag_size_, pitch_);
+}
+
+int Board::TagIndex(int id) const {
+  const auto it = std::find(ids_.begin(), ids_.end(), id);
+  return it == ids_.end() ? -1 : static_cast<int>(it - ids_.begin());
+}
+
+Board::MrcalGrid Board::ToMrcalGrid() const {
+  MrcalGrid g;
+  if (is_chessboard()) {
+    g.spacing = square_size_;
+    g.width_n = inner_columns_;
+    g.height_n = inner_rows_;
+    for (int i = 0; i < static_cast<int>(points_.size()); ++i) g.lattice_index.push_back(i);
+    return g;
+  }
+  // Smallest n such that tag_size / n divides the gap pitch - tag_size (to 1e-6 relative).
+  const double gap = pitch_ - tag_size_;
+  int n = 1;
+  for (; n <= 50; ++n) {
+    const double m = gap / (tag_size_ / n);
+    if (std::abs(m - std::round(m)) < 1e-6 * std::max(1.0, m)) break;
+  }
+  if (n > 50) {
+    throw InputError(fmt::format(
+        "board: tag_size {} and pitch {} have no common lattice finer than tag_size / 50, so "
+        "mrcal cannot take the grid as a regular one",
+        tag_size_, pitch_));
+  }
+  g.spacing = tag_size_ / n;
+  const int steps_per_pitch = static_cast<int>(std::lround(pitch_ / g.spacing));
+  g.width_n = (columns_ - 1) * steps_per_pitch + n + 1;
+  g.height_n = (rows_ - 1) * steps_per_pitch + n + 1;
+  for (const auto& p : points_) {
+    const int col = static_cast<int>(std::lround(p.x() / g.spacing));
+    const int row = static_cast<int>(std::lround(p.y() / g.spacing));
+    g.lattice_index.push_back(row * g.width_n + col);
+  }
+  return g;
+}
+
+}  // namespace gonio

@@ -1,0 +1,161 @@
+// End-to-end tests of `gonio detect`, `gonio calibrate` and `gonio locate` through the real
+// binary, on the real data.
+#include <algorithm>
+#include <fstream>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/camera_model.h"
+#include "common/io.h"
+#include "tests/test_util.h"
+
+namespace gonio {
+namespace {
+
+using testing::RunGonio;
+namespace fs = std::filesystem;
+
+const fs::path kPhoto = testing::SharedData() / "apriltag/test_36h11.jpg";
+const fs::path kChess = testing::SharedData() / "opencv_chess";
+
+std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+void WriteFile(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+// The photo's grid (data/README.md), nominal tag size 0.1 m.
+void WritePhotoBoard(const fs::path& p) {
+  nlohmann::json ids = nlohmann::json::array();
+  for (int r = 0; r < 8; ++r) {
+    for (int c = 0; c < 10; ++c) ids.push_back(14 + 24 * r + c);
+  }
+  WriteFile(p, nlohmann::json({{"type", "apriltag-grid"},
+                               {"family", "tag36h11"},
+                               {"tag_size", 0.1},
+                               {"pitch", 0.12},
+                               {"columns", 10},
+                               {"rows", 8},
+                               {"ids", ids}})
+                   .dump());
+}
+
+void ExpectOneLineError(const testing::CommandResult& r, const std::string& needle) {
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+  // The error is one line (info logs may precede it).
+  const size_t at = r.err.find("gonio: error: ");
+  ASSERT_NE(at, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\n', at), r.err.size() - 1) << r.err;
+}
+
+TEST(DetectCli, AprilTagPhotoAll80IdsInJson) {
+  const auto r = RunGonio("detect --image " + Q(kPhoto) + " --family tag36h11 --decimate 4");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  std::set<int> ids;
+  for (const auto& t : j) {
+    ids.insert(t["id"].get<int>());
+    ASSERT_EQ(t["corners"].size(), 4u);
+  }
+  EXPECT_EQ(ids.size(), 80u);
+  for (int r = 0; r < 8; ++r) {
+    for (int c = 0; c < 10; ++c) EXPECT_TRUE(ids.count(14 + 24 * r + c)) << 14 + 24 * r + c;
+  }
+}
+
+TEST(DetectCli, BadInputIsOneLineExit2) {
+  testing::TempDir dir;
+  WriteFile(dir.path() / "broken.jpg", "not a jpeg");
+  ExpectOneLineError(
+      RunGonio("detect --image " + Q(dir.path() / "broken.jpg") + " --family tag36h11"),
+      "broken.jpg: not a readable image");
+  WriteFile(dir.path() / "board.json", R"({"type": "chessboard", "inner_corners": [9, 6],
+                                          "square_size": 0.025, "colour": "red"})");
+  ExpectOneLineError(RunGonio("detect --image " + Q(kChess / "left01.jpg") + " --board " +
+                              Q(dir.path() / "board.json")),
+                     "board.json: unknown key 'colour'");
+  ExpectOneLineError(RunGonio("detect --image " + Q(kChess / "left01.jpg") + " --family tag36h11"),
+                     "left01.jpg: no tag36h11 tags found");
+}
+
+TEST(CalibrateCli, RefusesASingleView) {
+  testing::TempDir dir;
+  WritePhotoBoard(dir.path() / "board.json");
+  ExpectOneLineError(
+      RunGonio("calibrate --images " + Q(kPhoto) + " --board " + Q(dir.path() / "board.json") +
+               " --decimate 4 --lens-model LENSMODEL_PINHOLE --out " +
+               Q(dir.path() / "cam.cameramodel")),
+      "cannot constrain LENSMODEL_PINHOLE");
+  EXPECT_FALSE(fs::exists(dir.path() / "cam.cameramodel"));
+}
+
+TEST(CalibrateCli, CornersVnlToAModelMrcalReads) {
+  testing::TempDir dir;
+  WriteFile(dir.path() / "board.json",
+            R"({"type": "chessboard", "inner_corners": [9, 6], "square_size": 0.025})");
+  const auto det = RunGonio("detect --image " + Q(kChess) + "/left*.jpg --board " +
+                            Q(dir.path() / "board.json") + " --corners-vnl " +
+                            Q(dir.path() / "corners.vnl") + " --json " + Q(dir.path() / "d.json"));
+  ASSERT_EQ(det.exit_code, 0) << det.err;
+  const auto cal =
+      RunGonio("calibrate --corners " + Q(dir.path() / "corners.vnl") + " --board " +
+               Q(dir.path() / "board.json") + " --lens-model LENSMODEL_OPENCV5 --out " +
+               Q(dir.path() / "cam.cameramodel"));
+  ASSERT_EQ(cal.exit_code, 0) << cal.err;
+  const auto report = nlohmann::json::parse(cal.out);
+  EXPECT_EQ(report["views"], 13);
+  EXPECT_GT(report["projection_uncertainty_px"]["centre"].get<double>(), 0.0);
+  const CameraModel cam = CameraModel::Read(dir.path() / "cam.cameramodel");
+  EXPECT_NEAR(cam.intrinsics[0], 535.92, 0.005 * 535.92);
+  // mrcal's own reader accepts the file, optimization inputs included.
+  const std::string check = "/usr/bin/python3 -c \"import mrcal; m = mrcal.cameramodel('" +
+                            (dir.path() / "cam.cameramodel").string() +
+                            "'); assert m.optimization_inputs() is not None\"";
+  EXPECT_EQ(std::system(check.c_str()), 0);
+}
+
+TEST(LocateCli, PhotoSessionPosesAndSkipsABlankFrame) {
+  testing::TempDir dir;
+  const fs::path session = dir.path() / "session";
+  fs::create_directories(session);
+  WritePhotoBoard(session / "board.json");
+  fs::create_symlink(kPhoto, session / "frame_0000.jpg");
+  cv::imwrite((session / "frame_0001.png").string(), cv::Mat(3872, 2592, CV_8UC1, cv::Scalar(128)));
+  WriteFile(session / "session.json", R"({"format": "gonio-session", "version": 1,
+    "board": "board.json", "frames": [{"file": "frame_0000.jpg"}, {"file": "frame_0001.png"}]})");
+  // The photo's focal length is unknown: the single-view estimate of
+  // tests/calib/locate_test.cc (8281 px), principal point at the centre.
+  WriteFile(dir.path() / "cam.cameramodel",
+            "{'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [8281.0, 8281.0, 1295.5, 1935.5],"
+            " 'imagersize': [2592, 3872]}");
+  const auto r =
+      RunGonio("locate --session " + Q(session) + " --camera " + Q(dir.path() / "cam.cameramodel") +
+               " --decimate 4 --out " + Q(dir.path() / "poses.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto poses = ReadJsonFile(dir.path() / "poses.json");
+  ASSERT_EQ(poses["frames"].size(), 1u);
+  const auto& f = poses["frames"][0];
+  EXPECT_EQ(f["file"], "frame_0000.jpg");
+  EXPECT_EQ(f["tags"].size(), 80u);
+  EXPECT_GT(f["cam_from_board"]["t"][2].get<double>(), 0.0);
+  EXPECT_GT(f["rotation_sigma_deg"].get<double>(), 0.0);
+  ASSERT_EQ(poses["skipped"].size(), 1u);
+  EXPECT_EQ(poses["skipped"][0]["file"], "frame_0001.png");
+  EXPECT_EQ(poses["skipped"][0]["reason"], "0 tag(s) of the board found, 2 needed");
+}
+
+TEST(LocateCli, BadCameraFileIsExit2) {
+  testing::TempDir dir;
+  WriteFile(dir.path() / "cam.cameramodel", "{'lensmodel': 'LENSMODEL_CAHVOR'}");
+  WriteFile(dir.path() / "session.json", R"({"frames": []})");
+  const auto r = RunGonio("locate --session " + Q(dir.path()) + " --camera " +
+                          Q(dir.path() / "cam.cameramodel") + " --board " +
+                          Q(dir.path() / "none.json") + " --out " + Q(dir.path() / "p.json"));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("cam.cameramodel"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace gonio

@@ -1,0 +1,137 @@
+// Detection: libapriltag's corner order and pixel convention measured on a rendered tag, the
+// real AprilTag photo, the real OpenCV chessboards, and the corners.vnl round trip.
+#include "calib/detect.h"
+
+#include <apriltag/apriltag.h>
+#include <apriltag/tag36h11.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <opencv2/imgproc.hpp>
+
+#include "common/error.h"
+#include "tests/test_util.h"
+
+namespace gonio {
+namespace {
+
+// Tag 7 of tag36h11 drawn upright with `scale` px per bit cell on white, top-left image
+// pixel of the tag image at (offset, offset). apriltag_to_image draws the white border too
+// (total_width cells); the black square's outer edge is 1 cell inside.
+cv::Mat RenderTag(int scale, int offset, int* total_width) {
+  apriltag_family_t* tf = tag36h11_create();
+  image_u8_t* tag = apriltag_to_image(tf, 7);
+  *total_width = tag->width;
+  cv::Mat small(tag->height, tag->width, CV_8UC1);
+  for (int y = 0; y < tag->height; ++y) {
+    for (int x = 0; x < tag->width; ++x) small.at<uint8_t>(y, x) = tag->buf[y * tag->stride + x];
+  }
+  image_u8_destroy(tag);
+  tag36h11_destroy(tf);
+  cv::Mat big;
+  cv::resize(small, big, cv::Size(), scale, scale, cv::INTER_NEAREST);
+  cv::Mat img(big.rows + 2 * offset, big.cols + 2 * offset, CV_8UC1, cv::Scalar(255));
+  big.copyTo(img(cv::Rect(offset, offset, big.cols, big.rows)));
+  // Dark 40, bright 220, slight blur: an edge then sits where the cells' boundary is.
+  img.convertTo(img, CV_8U, 180.0 / 255.0, 40);
+  cv::GaussianBlur(img, img, cv::Size(5, 5), 1.0);
+  return img;
+}
+
+TEST(DetectAprilTags, CornerOrderAndPixelCentreConvention) {
+  const int scale = 20, offset = 50;
+  int total_width = 0;
+  const cv::Mat img = RenderTag(scale, offset, &total_width);
+  AprilTagOptions opt;
+  opt.decimate = 1.0;
+  const auto tags = DetectAprilTags(img, opt);
+  ASSERT_EQ(tags.size(), 1u);
+  EXPECT_EQ(tags[0].id, 7);
+  // Cell boundary j lies between pixels offset + j*scale - 1 and offset + j*scale, i.e. at
+  // offset + j*scale - 0.5 with pixel centres at integers (gonio's convention).
+  const double lo = offset + 1 * scale - 0.5, hi = offset + (total_width - 1) * scale - 0.5;
+  const Eigen::Vector2d expected[4] = {{lo, hi}, {hi, hi}, {hi, lo}, {lo, lo}};
+  for (int c = 0; c < 4; ++c) {
+    // Order: 0.2 px, far below the 160 px tag width. libapriltag's edge refinement puts each
+    // edge ~0.12 px outward on this blurred rendering (a scale bias of 0.15 %, symmetric).
+    EXPECT_NEAR(tags[0].corners[c].x(), expected[c].x(), 0.2) << "corner " << c;
+    EXPECT_NEAR(tags[0].corners[c].y(), expected[c].y(), 0.2) << "corner " << c;
+  }
+  // Convention: the tag's centre is free of that symmetric bias; 0.05 px tolerance separates
+  // the right convention from the 0.5 px shift of the other.
+  const Eigen::Vector2d centre =
+      (tags[0].corners[0] + tags[0].corners[1] + tags[0].corners[2] + tags[0].corners[3]) / 4;
+  EXPECT_NEAR(centre.x(), (lo + hi) / 2, 0.05);
+  EXPECT_NEAR(centre.y(), (lo + hi) / 2, 0.05);
+}
+
+TEST(DetectAprilTags, RealPhotoFindsAll80Ids) {
+  const cv::Mat img = ReadGreyImage(testing::SharedData() / "apriltag/test_36h11.jpg");
+  AprilTagOptions opt;
+  opt.decimate = 4.0;
+  opt.threads = 2;
+  const auto tags = DetectAprilTags(img, opt);
+  std::vector<int> ids;
+  for (const auto& t : tags) ids.push_back(t.id);
+  std::vector<int> expected;
+  for (int r = 0; r < 8; ++r) {
+    for (int c = 0; c < 10; ++c) expected.push_back(14 + 24 * r + c);
+  }
+  EXPECT_EQ(ids, expected);
+}
+
+TEST(DetectBoard, RealChessboardsAllFound) {
+  const Board board = Board::FromJson(
+      {{"type", "chessboard"}, {"inner_corners", {9, 6}}, {"square_size", 0.025}}, "test");
+  int found = 0;
+  for (const char* name : {"left01.jpg", "left02.jpg", "left03.jpg", "left04.jpg", "left05.jpg",
+                           "left06.jpg", "left07.jpg", "left08.jpg", "left09.jpg", "left11.jpg",
+                           "left12.jpg", "left13.jpg", "left14.jpg"}) {
+    const cv::Mat img = ReadGreyImage(testing::SharedData() / "opencv_chess" / name);
+    const auto obs = DetectBoard(img, board, AprilTagOptions(), name);
+    if (obs.pixels.size() == 54u) ++found;
+  }
+  EXPECT_EQ(found, 13);
+}
+
+TEST(DetectBoard, UnreadableImageIsInputError) {
+  testing::TempDir dir;
+  const auto bad = dir.path() / "bad.png";
+  { std::ofstream(bad) << "not a png"; }
+  EXPECT_THROW(ReadGreyImage(bad), InputError);
+  EXPECT_THROW(ReadGreyImage(dir.path() / "missing.png"), InputError);
+}
+
+TEST(CornersVnl, RoundTripThroughMrcalLattice) {
+  const Board board = Board::FromJson({{"type", "apriltag-grid"},
+                                       {"family", "tag36h11"},
+                                       {"tag_size", 0.03},
+                                       {"pitch", 0.036},
+                                       {"columns", 2},
+                                       {"rows", 2},
+                                       {"ids", {1, 2, 3, 4}}},
+                                      "test");
+  BoardObservation a;
+  a.image = "a.png";
+  for (int p : {0, 1, 2, 3, 12, 13, 14, 15}) {
+    a.point_index.push_back(p);
+    a.pixels.emplace_back(10.0 + p, 20.0 + 0.5 * p);
+  }
+  BoardObservation empty;
+  empty.image = "b.png";
+  testing::TempDir dir;
+  std::ofstream(dir.path() / "corners.vnl") << ToCornersVnl(board, {a, empty});
+  const auto back = ReadCornersVnl(dir.path() / "corners.vnl", board);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_TRUE(back[1].pixels.empty());
+  ASSERT_EQ(back[0].pixels.size(), 8u);
+  for (size_t i = 0; i < 8; ++i) {
+    const int p = back[0].point_index[i];
+    EXPECT_NEAR(back[0].pixels[i].x(), 10.0 + p, 1e-4);
+    EXPECT_NEAR(back[0].pixels[i].y(), 20.0 + 0.5 * p, 1e-4);
+  }
+  EXPECT_EQ(back[0].tag_ids, (std::vector<int>{1, 4}));
+}
+
+}  // namespace
+}  // namespace gonio
