@@ -7,5 +7,6 @@
 namespace gonio::cli {
 
 void AddBrdfCommand(CLI::App& app);
+void AddSynthCommand(CLI::App& app);
 
 }  // namespace gonio::cli
