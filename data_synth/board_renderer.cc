@@ -126,9 +126,11 @@ cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardSha
         ++local;
         int counts[4] = {0, 0, 0, 0};
         for (int j = 0; j < ss; ++j) {
-          const double v = (j + 0.5) / ss;
           for (int i = 0; i < ss; ++i) {
-            const double u = (i + 0.5) / ss;
+            // Multi-jittered canonical pattern: one sample per cell of an S x S grid and
+            // per row and column of the S^2 x S^2 grid, so an edge along either image axis
+            // is resolved to 1/S^2 of a pixel (a plain S x S grid gives only 1/S).
+            const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
             const Eigen::Vector2d p = (1 - v) * ((1 - u) * a + u * bq) + v * ((1 - u) * cq + u * d);
             ++counts[static_cast<int>(board.At(p.x(), p.y()))];
           }

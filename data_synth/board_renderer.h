@@ -3,7 +3,8 @@
 //
 // Each pixel integrates the radiance over its footprint (box filter over the pixel square):
 // the footprint's four corners are traced to the board exactly, and a pixel whose footprint
-// crosses a tag-bit, region or board edge is supersampled (S x S stratified points, bilinear
+// crosses a tag-bit, region or board edge is supersampled (S^2 points in a multi-jittered
+// pattern, bilinear
 // inside the footprint) for the fraction of each surface; the radiance of each surface is
 // evaluated at the footprint centre. Tag corners therefore land where the projection puts
 // them, to a small fraction of a pixel.

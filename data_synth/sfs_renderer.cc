@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include <tiffio.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -167,6 +168,31 @@ double Shade(const Shape& shape, const Material& material, const LightSpec& ligh
   return material.Brdf(a) * e;
 }
 
+// Uncompressed float32 TIFF, `channels` samples per pixel interleaved in the Mat's order.
+// Written with libtiff because OpenCV 4.6 stores 3-channel float TIFFs as lossy SGILOG.
+void WriteFloatTiff(const fs::path& path, const cv::Mat& m) {
+  WriteAtomically(path, [&](const fs::path& tmp) {
+    TIFF* tif = TIFFOpen(tmp.c_str(), "w");
+    if (!tif) return false;
+    const int channels = m.channels();
+    TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(m.cols));
+    TIFFSetField(tif, TIFFTAG_IMAGELENGTH, static_cast<uint32_t>(m.rows));
+    TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, static_cast<uint16_t>(channels));
+    TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, static_cast<uint16_t>(32));
+    TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, static_cast<uint16_t>(SAMPLEFORMAT_IEEEFP));
+    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, static_cast<uint16_t>(PLANARCONFIG_CONTIG));
+    TIFFSetField(tif, TIFFTAG_PHOTOMETRIC,
+                 static_cast<uint16_t>(channels == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK));
+    TIFFSetField(tif, TIFFTAG_COMPRESSION, static_cast<uint16_t>(COMPRESSION_NONE));
+    bool ok = true;
+    for (int y = 0; y < m.rows && ok; ++y) {
+      ok = TIFFWriteScanline(tif, const_cast<uchar*>(m.ptr(y)), static_cast<uint32_t>(y)) == 1;
+    }
+    TIFFClose(tif);
+    return ok;
+  });
+}
+
 }  // namespace
 
 std::string SfsRenderResult::Report() const {
@@ -230,9 +256,9 @@ SfsRenderResult RenderSfsScene(const Scene& scene, const fs::path& out_dir, int 
           } else {
             // Silhouette: average over S x S rays in the footprint (background radiance 0).
             for (int j = 0; j < ss; ++j) {
-              const double v = (j + 0.5) / ss;
               for (int i = 0; i < ss; ++i) {
-                const double u = (i + 0.5) / ss;
+                // Multi-jittered canonical pattern, as in the board renderer.
+                const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
                 const Eigen::Vector3d ray = (1 - v) * ((1 - u) * rays[i00] + u * rays[i10]) +
                                             v * ((1 - u) * rays[i01] + u * rays[i11]);
                 const double z = shape.Trace(ray);
@@ -264,8 +290,8 @@ SfsRenderResult RenderSfsScene(const Scene& scene, const fs::path& out_dir, int 
   };
   write_image("image.png", image);
   write_image("mask.png", mask);
-  write_image("depth.tiff", depth);
-  write_image("normals.tiff", normals);
+  WriteFloatTiff(out_dir / "depth.tiff", depth);
+  WriteFloatTiff(out_dir / "normals.tiff", normals);
   camera.Write(out_dir / "camera.cameramodel", "gonio synth: the camera of this sfs scene");
   const json material_json = material.ToJson();
   WriteJsonAtomically(out_dir / "material.json", {{"selected", material.model()},
