@@ -68,6 +68,7 @@ TEST_F(BoardRenderTest, TruthJsonHasTheDocumentedSchema) {
     const Rigid3d pose = RigidFromJson(f.at("cam_from_board"));
     EXPECT_NEAR((pose.R * pose.R.transpose() - Eigen::Matrix3d::Identity()).norm(), 0, 1e-9);
     EXPECT_LT(pose.Inverse().t.z(), 0) << "camera in front of the board";
+    EXPECT_EQ(f.at("light_in_board"), truth.at("light").at("position_in_board"));
   }
   // The camera file agrees with truth.json.
   const CameraModel cam = CameraModel::Read(Session(false) / "camera.cameramodel");
@@ -248,8 +249,6 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
   std::vector<double> params;
   for (const auto& p : info.params) params.push_back(truth.at("material").at("params").at(p.name));
   const auto region = truth.at("board").at("sample_region").get<std::vector<double>>();
-  Eigen::Vector3d lamp;
-  for (int i = 0; i < 3; ++i) lamp[i] = truth.at("light").at("position_in_board")[i];
   const double intensity = truth.at("light").at("intensity");
   const double scale = ph.at("exposure_scale"), full_well = ph.at("noise").at("full_well_e");
   const double read = ph.at("noise").at("read_noise_e");
@@ -260,6 +259,10 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
     const Rigid3d board_from_cam = RigidFromJson(frame.at("cam_from_board")).Inverse();
     const Eigen::Vector3d c = board_from_cam.t;
     const double exposure = frame.at("exposure_s");
+    // The lamp of this frame (equal to light.position_in_board when the lamp is fixed to
+    // the board; moving with the camera when it is fixed to the camera).
+    Eigen::Vector3d lamp;
+    for (int i = 0; i < 3; ++i) lamp[i] = frame.at("light_in_board")[i];
     for (int y = 0; y < im.rows; y += 3) {
       for (int x = 0; x < im.cols; x += 3) {
         const Eigen::Vector3d d = board_from_cam.R * cam.Unproject(Eigen::Vector2d(x, y));
@@ -318,6 +321,32 @@ TEST_F(BoardRenderTest, SamplePixelsEqualModelRadianceWithinNoise) {
   // Unbiased to 4 standard errors; the spread is the predicted shot + read noise to 5%.
   EXPECT_LT(std::abs(mean_z), 4.0 / std::sqrt(n));
   EXPECT_NEAR(std::sqrt(var_z), 1.0, 0.05);
+}
+
+// The board turned in front of a fixed camera and lamp: the lamp is given in the camera frame
+// and moves in the board frame from pose to pose.
+TEST(BoardTurnedTest, LampFixedToTheCameraLightsEachPoseFromItsOwnPosition) {
+  TempDir dir;
+  json scene = SmallBoardScene(false);
+  scene["light"] = {
+      {"type", "point"}, {"frame", "camera"}, {"position", {0.15, -0.05, 0.0}}, {"intensity", 1.0}};
+  const auto path = WriteScene(dir.path(), scene);
+  const auto r = RunGonio("synth --scene " + path + " --out " + (dir.path() / "s").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json truth = ReadJsonFile(dir.path() / "s" / "truth.json");
+  ASSERT_EQ(truth.at("light").at("position_in_camera").size(), 3u);
+  EXPECT_FALSE(truth.at("light").contains("position_in_board"));
+  for (const auto& frame : truth.at("frames")) {
+    const Rigid3d cam_from_board = RigidFromJson(frame.at("cam_from_board"));
+    const Eigen::Vector3d lamp(frame.at("light_in_board")[0], frame.at("light_in_board")[1],
+                               frame.at("light_in_board")[2]);
+    EXPECT_NEAR((cam_from_board * lamp - Eigen::Vector3d(0.15, -0.05, 0.0)).norm(), 0, 1e-12);
+  }
+  const SampleResidual res = SampleResiduals(dir.path() / "s");
+  ASSERT_GT(res.residual.size(), 2000u);
+  double worst = 0;
+  for (double e : res.residual) worst = std::max(worst, std::abs(e));
+  EXPECT_LE(worst, 0.6);
 }
 
 TEST_F(BoardRenderTest, NoiseIsDeterministicForASeed) {
