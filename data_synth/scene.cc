@@ -166,6 +166,8 @@ void Scene::Check() const {
     Require(sfs.size > 0 && sfs.distance > 2 * sfs.size, "sfs: need size > 0, distance > 2 size");
     Require(light.type == "point" && light.frame == "camera",
             "light: sfs scenes need a point lamp in the camera frame");
+    Require(!views.exposures_s.empty() && views.exposures_s.front() > 0,
+            "views.exposures_s: sfs scenes need one exposure > 0");
     return;
   }
 
@@ -378,6 +380,7 @@ json SceneToJson(const Scene& s) {
                       {"noise", p.noise}};
   if (s.type == "sfs") {
     j["sfs"] = {{"shape", s.sfs.shape}, {"distance", s.sfs.distance}, {"size", s.sfs.size}};
+    j["views"] = {{"exposures_s", s.views.exposures_s}};  // the first is the image's exposure
     return j;
   }
   const auto& b = s.board;
