@@ -1,6 +1,9 @@
 // sfs scenes: the image equals the material's radiance under the collocated lamp through the
 // chain, and the depth/normal truth describes the rendered shape.
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -118,6 +121,37 @@ TEST(SfsRenderTest, VaseAndBumpsRenderWithMaskInsideTheImageAndUnitNormals) {
         lit += image.at<uint16_t>(y, x) > 0;
       }
     }
+    // The normal truth agrees with the depth truth: normals from central differences of the
+    // back-projected depth map, where all four neighbours are on the object.
+    const cv::Mat depth = cv::imread((out / "depth.tiff").string(), cv::IMREAD_UNCHANGED);
+    const CameraModel cam = CameraModel::Read(out / "camera.cameramodel");
+    auto point = [&](int x, int y) {
+      return Eigen::Vector3d(cam.Unproject(Eigen::Vector2d(x, y)) * depth.at<float>(y, x));
+    };
+    std::vector<double> angle_deg;
+    for (int y = 1; y + 1 < mask.rows; ++y) {
+      for (int x = 1; x + 1 < mask.cols; ++x) {
+        if (!mask.at<uint8_t>(y, x) || !mask.at<uint8_t>(y, x - 1) || !mask.at<uint8_t>(y, x + 1) ||
+            !mask.at<uint8_t>(y - 1, x) || !mask.at<uint8_t>(y + 1, x)) {
+          continue;
+        }
+        Eigen::Vector3d n_fd =
+            (point(x + 1, y) - point(x - 1, y)).cross(point(x, y + 1) - point(x, y - 1));
+        n_fd.normalize();
+        if (n_fd.z() > 0) n_fd = -n_fd;
+        const cv::Vec3f nf = normals.at<cv::Vec3f>(y, x);  // BGR: (z, y, x)
+        const double c = std::clamp(n_fd.dot(Eigen::Vector3d(nf[2], nf[1], nf[0])), -1.0, 1.0);
+        angle_deg.push_back(std::acos(c) * 180 / M_PI);
+      }
+    }
+    ASSERT_GT(angle_deg.size(), 1000u);
+    std::sort(angle_deg.begin(), angle_deg.end());
+    const double median = angle_deg[angle_deg.size() / 2];
+    const double p95 = angle_deg[angle_deg.size() * 95 / 100];
+    std::printf("%s: normals vs depth differences: median %.3f deg, p95 %.3f deg\n", shape.c_str(),
+                median, p95);
+    EXPECT_LT(median, 0.5) << shape;
+    EXPECT_LT(p95, 2.0) << shape;
     EXPECT_GT(inside, 0.15 * mask.total()) << shape;
     EXPECT_EQ(border, 0) << shape;
     EXPECT_GT(lit, 0.95 * inside) << shape;
