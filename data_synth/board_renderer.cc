@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
+#include "common/math.h"
 #include "common/parallel.h"
 #include "data_synth/photometric.h"
 #include "data_synth/shading.h"
@@ -65,9 +66,9 @@ class BoardShader {
     if (e <= 0) return 0.0;
     switch (s) {
       case Surface::kPaper:
-        return scene_.board.white_albedo / kPi * e;
+        return scene_.board.white_albedo * kInvPi * e;
       case Surface::kInk:
-        return scene_.board.black_albedo / kPi * e;
+        return scene_.board.black_albedo * kInvPi * e;
       default: {
         const Eigen::Vector3d v = (g.camera_in_board - p).normalized();
         return material_.Brdf(LocalAngles(n, l, v)) * e;
@@ -76,7 +77,6 @@ class BoardShader {
   }
 
  private:
-  static constexpr double kPi = 3.14159265358979323846;
   const Scene& scene_;
   const Material& material_;
 };

@@ -67,6 +67,34 @@ TEST(PresetTest, FlatFieldIsVignettingThroughTheResponse) {
   EXPECT_LT(corner_ratio, 0.8);
 }
 
+TEST(PresetTest, EightBitFlatFieldIsWrittenAsEightBitPng) {
+  TempDir dir;
+  json scene = Shrunk("flat-field");
+  scene["photometric"]["bit_depth"] = 8;
+  scene["photometric"]["black_level"] = 4;
+  const auto path = WriteScene(dir.path(), scene);
+  ASSERT_EQ(RunGonio("synth --scene " + path + " --out " + (dir.path() / "s").string()).exit_code,
+            0);
+  const json truth = ReadJsonFile(dir.path() / "s" / "truth.json");
+  const json& ph = truth.at("photometric");
+  EXPECT_EQ(ph.at("max_value"), 255);
+  const json& frame = truth.at("frames")[0];
+  const cv::Mat im = cv::imread((dir.path() / "s" / frame.at("file").get<std::string>()).string(),
+                                cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(im.type(), CV_8U);
+  const double x0 = ph.at("exposure_scale").get<double>() * 0.8 / M_PI *
+                    truth.at("light").at("irradiance").get<double>() *
+                    frame.at("exposure_s").get<double>();
+  double worst = 0;
+  for (int y = 0; y < im.rows; ++y) {
+    for (int x = 0; x < im.cols; ++x) {
+      worst = std::max(
+          worst, std::abs(im.at<uint8_t>(y, x) - TruthValue(ph, x0 * TruthVignetting(ph, x, y))));
+    }
+  }
+  EXPECT_LE(worst, 0.5);
+}
+
 TEST(PresetTest, ExposureSweepScalesLinearExposureByTheExposureRatio) {
   TempDir dir;
   const auto path = WriteScene(dir.path(), Shrunk("exposure-sweep"));
