@@ -105,7 +105,13 @@ std::array<double, 4> BoardSpec::Extent() const {
 }
 
 std::vector<double> MaterialSpec::ParamVector() const {
-  const ModelInfo& info = FindModel(model);  // InputError "unknown model ..."
+  const ModelInfo* found = nullptr;
+  try {
+    found = &FindModel(model);
+  } catch (const InputError& e) {
+    throw InputError(std::string("material.model: ") + e.what());
+  }
+  const ModelInfo& info = *found;
   std::vector<double> v;
   for (const auto& p : info.params) {
     auto it = params.find(p.name);
