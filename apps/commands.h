@@ -14,5 +14,6 @@ void AddBrdfTextonCommand(CLI::App& brdf);
 void AddCaptureCommand(CLI::App& app);
 void AddMicrosimCommand(CLI::App& app);
 void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
+void AddSynthCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddCaptureCommand(app);
   gonio::cli::AddMicrosimCommand(app);
   gonio::cli::AddCalibCommands(app);
+  gonio::cli::AddSynthCommand(app);
 
   try {
     app.parse(argc, argv);

@@ -120,10 +120,11 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
     }
     std::set<int> seen;
     for (const auto& id : j["ids"]) {
-      if (!id.is_number_integer() || id.get<long long>() < 0) {
-        throw InputError(what + ": 'ids' must hold non-negative integers");
+      // -1 marks a grid position without a tag (a ring of tags around the sample).
+      if (!id.is_number_integer() || id.get<long long>() < -1) {
+        throw InputError(what + ": 'ids' must hold non-negative integers (or -1 for no tag)");
       }
-      if (!seen.insert(id.get<int>()).second) {
+      if (id.get<int>() >= 0 && !seen.insert(id.get<int>()).second) {
         throw InputError(what + ": tag id " + std::to_string(id.get<int>()) + " appears twice");
       }
       b.ids_.push_back(id.get<int>());
@@ -162,6 +163,7 @@ std::string Board::Describe() const {
 }
 
 int Board::TagIndex(int id) const {
+  if (id < 0) return -1;
   const auto it = std::find(ids_.begin(), ids_.end(), id);
   return it == ids_.end() ? -1 : static_cast<int>(it - ids_.begin());
 }

@@ -1,0 +1,317 @@
+#include "data_synth/board_renderer.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/error.h"
+#include "common/io.h"
+#include "common/log.h"
+#include "common/math.h"
+#include "common/parallel.h"
+#include "data_synth/photometric.h"
+#include "data_synth/shading.h"
+#include "data_synth/tag_board.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio::synth {
+namespace {
+
+using json = nlohmann::json;
+
+// Unit-z ray directions (x, y, 1) in the camera frame through the pixel-square corners
+// (x - 0.5, y - 0.5), x in [0, W], y in [0, H]: one undistortion per corner, shared by all
+// poses.
+std::vector<Eigen::Vector3d> CornerRays(const CameraModel& camera, int threads) {
+  const int w1 = camera.width + 1, h1 = camera.height + 1;
+  std::vector<Eigen::Vector3d> rays(static_cast<size_t>(w1) * h1);
+  ParallelFor(h1, threads, [&](size_t b, size_t e) {
+    for (size_t y = b; y < e; ++y) {
+      for (int x = 0; x < w1; ++x) {
+        rays[y * w1 + x] = camera.Unproject(Eigen::Vector2d(x - 0.5, y - 0.5));
+      }
+    }
+  });
+  return rays;
+}
+
+struct PoseGeometry {
+  Rigid3d cam_from_board;
+  Eigen::Vector3d camera_in_board;
+  Eigen::Vector3d light_in_board;     // point lamp
+  Eigen::Vector3d to_light_in_board;  // distant light (unit)
+};
+
+class BoardShader {
+ public:
+  BoardShader(const Scene& scene, const Material& material) : scene_(scene), material_(material) {}
+
+  // Radiance of surface s at board point p (z = 0) seen from the pose's camera.
+  double Radiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g) const {
+    if (s == Surface::kBackground) return 0.0;
+    const Eigen::Vector3d n(0, 0, -1);  // outward normal of the board's printed side
+    Eigen::Vector3d l;
+    double e = 0;
+    if (scene_.light.type == "point") {
+      e = PointIrradiance(p, n, g.light_in_board, scene_.light.intensity, &l);
+    } else {
+      l = g.to_light_in_board;
+      e = scene_.light.irradiance * std::max(0.0, n.dot(l));
+    }
+    if (e <= 0) return 0.0;
+    switch (s) {
+      case Surface::kPaper:
+        return scene_.board.white_albedo * kInvPi * e;
+      case Surface::kInk:
+        return scene_.board.black_albedo * kInvPi * e;
+      default: {
+        const Eigen::Vector3d v = (g.camera_in_board - p).normalized();
+        return material_.Brdf(LocalAngles(n, l, v)) * e;
+      }
+    }
+  }
+
+ private:
+  const Scene& scene_;
+  const Material& material_;
+};
+
+// Radiance image of one pose; counts supersampled footprints.
+cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
+                       const std::vector<Eigen::Vector3d>& rays, const PoseGeometry& g, int threads,
+                       size_t* supersampled) {
+  const int w = scene.camera.width, h = scene.camera.height, w1 = w + 1;
+  const Eigen::Matrix3d board_from_cam = g.cam_from_board.R.transpose();
+  const Eigen::Vector3d c = g.camera_in_board;
+  // Board points of the footprint corners; false where the ray misses the board plane.
+  std::vector<Eigen::Vector2d> corner(rays.size());
+  std::vector<char> hit(rays.size());
+  ParallelFor(rays.size(), threads, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      const Eigen::Vector3d d = board_from_cam * rays[k];
+      hit[k] = d.z() > 1e-12;
+      const double t = hit[k] ? -c.z() / d.z() : 0.0;
+      corner[k] = (c + t * d).head<2>();
+    }
+  });
+  const int ss = scene.supersampling;
+  cv::Mat radiance(h, w, CV_64F);
+  std::atomic<size_t> count{0};
+  ParallelFor(h, threads, [&](size_t b, size_t e) {
+    size_t local = 0;
+    for (size_t y = b; y < e; ++y) {
+      double* row = radiance.ptr<double>(static_cast<int>(y));
+      for (int x = 0; x < w; ++x) {
+        const size_t i00 = y * w1 + x, i10 = i00 + 1, i01 = i00 + w1, i11 = i01 + 1;
+        if (!hit[i00] || !hit[i10] || !hit[i01] || !hit[i11]) {
+          row[x] = 0.0;  // the footprint reaches the board's horizon: far off the board
+          continue;
+        }
+        const Eigen::Vector2d &a = corner[i00], &bq = corner[i10], &cq = corner[i01],
+                              &d = corner[i11];
+        const Eigen::Vector2d lo = a.cwiseMin(bq).cwiseMin(cq).cwiseMin(d);
+        const Eigen::Vector2d hi = a.cwiseMax(bq).cwiseMax(cq).cwiseMax(d);
+        const Eigen::Vector2d centre2 = 0.25 * (a + bq + cq + d);
+        const Eigen::Vector3d centre(centre2.x(), centre2.y(), 0.0);
+        Surface s;
+        if (board.Uniform(lo.x(), lo.y(), hi.x(), hi.y(), &s)) {
+          row[x] = shader.Radiance(s, centre, g);
+          continue;
+        }
+        ++local;
+        int counts[4] = {0, 0, 0, 0};
+        for (int j = 0; j < ss; ++j) {
+          for (int i = 0; i < ss; ++i) {
+            // Multi-jittered canonical pattern: one sample per cell of an S x S grid and
+            // per row and column of the S^2 x S^2 grid, so an edge along either image axis
+            // is resolved to 1/S^2 of a pixel (a plain S x S grid gives only 1/S).
+            const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
+            const Eigen::Vector2d p = (1 - v) * ((1 - u) * a + u * bq) + v * ((1 - u) * cq + u * d);
+            ++counts[static_cast<int>(board.At(p.x(), p.y()))];
+          }
+        }
+        double sum = 0;
+        for (int k = 1; k < 4; ++k) {
+          if (counts[k]) sum += counts[k] * shader.Radiance(static_cast<Surface>(k), centre, g);
+        }
+        row[x] = sum / (ss * ss);
+      }
+    }
+    count += local;
+  });
+  *supersampled += count;
+  return radiance;
+}
+
+json TagCornersJson(const TagBoard& board, const CameraModel& camera,
+                    const Rigid3d& cam_from_board) {
+  json out = json::array();
+  for (const auto& tag : board.Corners()) {
+    json corners = json::array();
+    bool visible = true;
+    for (const auto& p : tag.corners) {
+      const Eigen::Vector3d q = cam_from_board * p;
+      if (q.z() <= 0) {
+        visible = false;
+        break;
+      }
+      const Eigen::Vector2d px = camera.Project(q);
+      visible &=
+          px.x() >= 0 && px.y() >= 0 && px.x() <= camera.width - 1 && px.y() <= camera.height - 1;
+      corners.push_back({px.x(), px.y()});
+    }
+    if (visible) out.push_back({{"id", tag.id}, {"corners_px", corners}});
+  }
+  return out;
+}
+
+json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+std::string BoardRenderResult::Report() const {
+  double worst = 0;
+  for (double f : saturated_fraction) worst = std::max(worst, f);
+  char buf[256];
+  std::snprintf(buf, sizeof(buf),
+                "%d frames (%d poses) in %.2f s, %zu footprints supersampled, max saturated "
+                "fraction %.4f",
+                frames, poses, seconds, supersampled_pixels, worst);
+  return buf;
+}
+
+BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir, int threads) {
+  const auto start = std::chrono::steady_clock::now();
+  scene.Check();
+  const Material material(scene.material);
+  const TagBoard board(scene.board);
+  const PhotometricChain chain(scene.photometric, scene.camera);
+  const BoardShader shader(scene, material);
+  const auto poses = scene.CamFromBoardPoses();
+  const auto& exposures = scene.views.exposures_s;
+  EnsureDirectory(out_dir);
+
+  const std::vector<Eigen::Vector3d> rays = CornerRays(scene.camera, threads);
+  BoardRenderResult result;
+  result.poses = static_cast<int>(poses.size());
+  json session_frames = json::array(), truth_frames = json::array();
+  const int w = scene.camera.width, h = scene.camera.height;
+  const int cv_type = scene.photometric.bit_depth == 8 ? CV_8U : CV_16U;
+  Progress progress("synth: rendering frames", poses.size() * exposures.size());
+  int frame = 0;
+  for (size_t pose_index = 0; pose_index < poses.size(); ++pose_index) {
+    PoseGeometry g;
+    g.cam_from_board = poses[pose_index];
+    const Rigid3d board_from_cam = g.cam_from_board.Inverse();
+    g.camera_in_board = board_from_cam.t;
+    const bool light_in_camera = scene.light.frame == "camera";
+    g.light_in_board =
+        light_in_camera ? board_from_cam * scene.light.position : scene.light.position;
+    g.to_light_in_board =
+        (light_in_camera ? board_from_cam.R * scene.light.direction : scene.light.direction)
+            .normalized();
+    const cv::Mat radiance =
+        RenderRadiance(scene, board, shader, rays, g, threads, &result.supersampled_pixels);
+    const json corners = TagCornersJson(board, scene.camera, g.cam_from_board);
+    for (double exposure_s : exposures) {
+      cv::Mat image(h, w, cv_type);
+      std::atomic<size_t> saturated{0};
+      ParallelFor(h, threads, [&](size_t b, size_t e) {
+        size_t local = 0;
+        for (size_t y = b; y < e; ++y) {
+          std::mt19937_64 rng(RowSeed(scene.seed, frame, y));
+          const double* in = radiance.ptr<double>(static_cast<int>(y));
+          for (int x = 0; x < w; ++x) {
+            const uint16_t v = chain.Value(in[x], exposure_s, x, static_cast<double>(y), rng);
+            local += v >= chain.max_value();
+            if (cv_type == CV_8U) {
+              image.ptr<uint8_t>(static_cast<int>(y))[x] = static_cast<uint8_t>(v);
+            } else {
+              image.ptr<uint16_t>(static_cast<int>(y))[x] = v;
+            }
+          }
+        }
+        saturated += local;
+      });
+      char name[32];
+      std::snprintf(name, sizeof(name), "frame_%04d.png", frame);
+      WriteAtomically(out_dir / name,
+                      [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
+      result.saturated_fraction.push_back(static_cast<double>(saturated) /
+                                          (static_cast<double>(w) * h));
+      session_frames.push_back({{"file", name},
+                                {"exposure_s", exposure_s},
+                                {"gain", 1.0},
+                                {"timestamp", 0.1 * frame},
+                                {"bracket", static_cast<int>(pose_index)}});
+      json tf = {{"file", name},
+                 {"cam_from_board", ToJson(g.cam_from_board)},
+                 {"exposure_s", exposure_s},
+                 {"camera_in_board", Vec(g.camera_in_board)},
+                 {"tag_corners", corners}};
+      if (scene.light.type == "point") tf["light_in_board"] = Vec(g.light_in_board);
+      truth_frames.push_back(tf);
+      ++frame;
+      progress.Step();
+    }
+  }
+  progress.Done();
+  result.frames = frame;
+
+  WriteJsonAtomically(out_dir / "board.json", board.BoardJson());
+  scene.camera.Write(out_dir / "camera.cameramodel",
+                     "gonio synth: the camera that rendered this session");
+  WriteJsonAtomically(out_dir / "session.json", {{"format", "gonio-session"},
+                                                 {"version", 1},
+                                                 {"camera_id", "synthetic"},
+                                                 {"board", "board.json"},
+                                                 {"bit_depth", scene.photometric.bit_depth},
+                                                 {"frames", session_frames}});
+  json light = {{"type", scene.light.type}, {"frame", scene.light.frame}};
+  if (scene.light.type == "point") {
+    light[scene.light.frame == "board" ? "position_in_board" : "position_in_camera"] =
+        Vec(scene.light.position);
+    light["intensity"] = scene.light.intensity;
+    light["falloff"] = "inverse-square: E = intensity * cos(theta_i) / d^2";
+  } else {
+    light[scene.light.frame == "board" ? "direction_in_board" : "direction_in_camera"] =
+        Vec(scene.light.direction.normalized());
+    light["irradiance"] = scene.light.irradiance;
+  }
+  WriteJsonAtomically(out_dir / "truth.json",
+                      {{"format", "gonio-synth-truth"},
+                       {"version", 1},
+                       {"scene_type", "board"},
+                       {"material", material.ToJson()},
+                       {"light", light},
+                       {"white_albedo", scene.board.white_albedo},
+                       {"black_albedo", scene.board.black_albedo},
+                       {"board",
+                        {{"file", "board.json"},
+                         {"sample_region", scene.board.sample_region},
+                         {"white_region", scene.board.white_region}}},
+                       {"camera",
+                        {{"file", "camera.cameramodel"},
+                         {"lens_model", scene.camera.lens_model},
+                         {"intrinsics", scene.camera.intrinsics},
+                         {"width", w},
+                         {"height", h}}},
+                       {"frames", truth_frames},
+                       {"photometric", chain.ToJson()},
+                       {"render",
+                        {{"supersampling", scene.supersampling},
+                         {"seed", scene.seed},
+                         {"pixel_filter",
+                          "box over the pixel square; radiance per surface at the "
+                          "footprint centre"}}},
+                       {"scene", SceneToJson(scene)}});
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace gonio::synth

@@ -1,0 +1,142 @@
+// The scene description `gonio synth` renders (scene.json, documented in docs/formats.md) and
+// the named presets that later stages are tested on.
+//
+// Two scene types share the material, light, camera and photometric parts:
+//  - "board": a planar AprilTag board (tag36h11 ring around a rectangular sample region) seen
+//    from N poses, written as a capture session folder with truth.json;
+//  - "sfs": one object (sphere, vase, bumps) seen by a fixed camera, written as the input
+//    folder of `gonio sfs` (image, mask, material, light, depth/normal truth).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "common/camera_model.h"
+#include "common/geometry.h"
+
+namespace gonio::synth {
+
+// AprilTag grid on white paper; tag k (row-major) has its top-left black-border corner at
+// (col * pitch, row * pitch) in the board frame (docs/conventions.md).
+struct BoardSpec {
+  std::string family = "tag36h11";
+  double tag_size = 0.03;  // edge of the black border square, metres (libapriltag's tagsize)
+  double pitch = 0.04;     // distance between neighbouring tags' top-left corners, metres
+  int columns = 7, rows = 5;
+  // Row-major, columns * rows entries, -1 = no tag there. Empty: a ring of tags on the grid's
+  // outer rows and columns, numbered from first_id.
+  std::vector<int> ids;
+  int first_id = 0;
+  double margin = 0.02;  // white paper beyond the outermost tags, metres
+  double white_albedo = 0.8;
+  double black_albedo = 0.04;
+  // Axis-aligned rectangles [xmin, ymin, xmax, ymax] in the board frame, metres.
+  std::array<double, 4> sample_region = {0.075, 0.04, 0.235, 0.15};
+  std::array<double, 4> white_region = {0.036, 0.04, 0.064, 0.15};
+
+  // The ids, one per grid position (expands the ring default).
+  std::vector<int> ResolvedIds() const;
+  // Board extent [xmin, ymin, xmax, ymax] (tags plus margin).
+  std::array<double, 4> Extent() const;
+};
+
+struct MaterialSpec {
+  std::string model = "lambert";
+  std::map<std::string, double> params;  // registry names and units; missing -> default
+
+  // The registry parameter vector; InputError for an unknown model or parameter name, or a
+  // value outside the registry bounds.
+  std::vector<double> ParamVector() const;
+};
+
+struct LightSpec {
+  // "point": isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
+  // "distant": parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
+  std::string type = "point";
+  // Frame the position (or direction) is given in: "board" (lamp fixed while the camera
+  // moves) or "camera" (lamp fixed to the camera while the board turns).
+  std::string frame = "board";
+  Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point lamp
+  double intensity = 1.0;                        // W/sr (arbitrary but consistent units)
+  Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the light, distant light
+  double irradiance = 1.0;                       // at normal incidence, distant light
+};
+
+// Pixel value chain (docs/formats.md, truth.json "photometric"):
+//   X = exposure_scale * V(pixel) * L * exposure_s          relative exposure, 1 = full well
+//   e = Poisson(X * full_well_e) + Normal(0, read_noise_e)  when noise is on
+//   X' = clamp(e / full_well_e, 0, 1)                       saturation
+//   D = round(black_level + f(X') * (2^bit_depth - 1 - black_level))
+struct PhotometricSpec {
+  int bit_depth = 12;              // 8, 12 (stored in 16-bit PNG, values 0..4095) or 16
+  std::string response = "gamma";  // "linear", "gamma" (f = x^(1/gamma)) or "srgb"
+  double gamma = 2.2;
+  double black_level = 64;  // digital numbers
+  // V(r) = 1 + v1 r^2 + v2 r^4 + v3 r^6, r = distance to the principal point / half-diagonal.
+  std::array<double, 3> vignetting = {-0.3, 0.05, -0.02};
+  double exposure_scale = 60.0;  // relative exposure per (W/(m^2 sr) * s)
+  double full_well_e = 20000.0;
+  double read_noise_e = 8.0;
+  bool noise = true;
+};
+
+struct ViewsSpec {
+  // "orbit": rings of cameras looking at `target` from `distance`; polar angles (from the
+  // board's outward normal) in rings_deg, per_ring azimuths each, roll alternating +-roll_deg.
+  // "explicit": the poses in cam_from_board.
+  std::string mode = "orbit";
+  Eigen::Vector3d target = {0.135, 0.095, 0.0};
+  double distance = 0.45;
+  std::vector<double> rings_deg = {15, 32, 48, 62};
+  int per_ring = 6;
+  double roll_deg = 8.0;
+  std::vector<Rigid3d> cam_from_board;
+  // Every pose is rendered at each of these exposures (an exposure sweep when several).
+  std::vector<double> exposures_s = {0.01};
+};
+
+struct SfsSpec {
+  std::string shape = "sphere";  // "sphere", "vase" or "bumps"
+  double distance = 0.5;         // object centre on the optical axis, metres
+  double size = 0.1;             // sphere radius, vase max radius, bumps patch half-width
+};
+
+struct Scene {
+  std::string type = "board";  // "board" or "sfs"
+  uint64_t seed = 1;
+  int supersampling = 8;  // per axis, for pixels whose footprint crosses an edge
+  BoardSpec board;
+  MaterialSpec material;
+  LightSpec light;
+  CameraModel camera;
+  PhotometricSpec photometric;
+  ViewsSpec views;
+  SfsSpec sfs;
+
+  // InputError naming the scene part and the problem.
+  void Check() const;
+  // The camera poses of a board scene (expands "orbit").
+  std::vector<Rigid3d> CamFromBoardPoses() const;
+};
+
+// `what` names the source (the file) in error messages. Unknown keys are an error.
+Scene SceneFromJson(const nlohmann::json& j, const std::string& what);
+nlohmann::json SceneToJson(const Scene& scene);
+
+struct PresetOptions {
+  // sfs presets: the lamp turned this far off the camera axis about the object (0 =
+  // collocated with the camera).
+  double sfs_light_offaxis_deg = 0.0;
+};
+
+// "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps".
+Scene PresetScene(const std::string& name, const PresetOptions& options = {});
+const std::vector<std::string>& PresetNames();
+
+}  // namespace gonio::synth

@@ -1,0 +1,365 @@
+#include "data_synth/sfs_renderer.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include <tiffio.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/error.h"
+#include "common/io.h"
+#include "common/math.h"
+#include "common/parallel.h"
+#include "data_synth/photometric.h"
+#include "data_synth/shading.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio::synth {
+namespace {
+
+using json = nlohmann::json;
+
+// An implicit surface in the camera frame: F > 0 outside, F < 0 inside, zero on the surface;
+// rays are marched in depth z over [z_near, z_far].
+class Shape {
+ public:
+  Shape(const SfsSpec& spec) : spec_(spec), c_(0, 0, spec.distance), s_(spec.size) {
+    if (spec.shape == "bumps") {
+      // Gaussian bumps (and one dent) on a square patch facing the camera; heights and widths
+      // relative to the patch half-width.
+      bumps_ = {{0.0, 0.0, 0.35, 0.30},
+                {0.55, 0.5, 0.18, 0.16},
+                {-0.55, 0.45, 0.2, 0.18},
+                {-0.5, -0.55, 0.16, 0.15},
+                {0.5, -0.5, -0.12, 0.15}};
+      z_near_ = c_.z() - 0.4 * s_;
+      z_far_ = c_.z() + 0.2 * s_;
+    } else {
+      z_near_ = c_.z() - 1.05 * s_;
+      z_far_ = c_.z() + 1.05 * s_;
+    }
+    half_height_ = spec.shape == "vase" ? 1.7 * s_ : s_;
+  }
+
+  double F(const Eigen::Vector3d& p) const {
+    if (spec_.shape == "sphere") return (p - c_).norm() - s_;
+    if (spec_.shape == "vase") {
+      const double s = (p.y() - c_.y()) / half_height_;
+      const double rho2 = p.x() * p.x() + (p.z() - c_.z()) * (p.z() - c_.z());
+      if (std::abs(s) >= 1) return rho2 + (std::abs(s) - 1) * s_ * s_;
+      return rho2 - VaseR2(s);
+    }
+    return c_.z() - Height(p.x(), p.y()) - p.z();
+  }
+
+  // Outward unit normal at a surface point.
+  Eigen::Vector3d Normal(const Eigen::Vector3d& p) const {
+    if (spec_.shape == "sphere") return (p - c_).normalized();
+    if (spec_.shape == "vase") {
+      const double s = (p.y() - c_.y()) / half_height_, h = 1e-6;
+      const double dr2_ds = (VaseR2(s + h) - VaseR2(s - h)) / (2 * h);
+      return Eigen::Vector3d(2 * p.x(), -dr2_ds / half_height_, 2 * (p.z() - c_.z())).normalized();
+    }
+    double hx = 0, hy = 0;
+    HeightGradient(p.x(), p.y(), &hx, &hy);
+    return Eigen::Vector3d(-hx, -hy, -1).normalized();
+  }
+
+  // Depth z of the first surface point along the ray (x, y, 1) z, or a negative value.
+  double Trace(const Eigen::Vector3d& ray) const {
+    if (spec_.shape == "bumps") {
+      // The ray's x and y are linear in z: skip rays that pass beside the patch.
+      const Eigen::Vector3d a = ray * z_near_, b = ray * z_far_;
+      if (std::min(a.x(), b.x()) > s_ || std::max(a.x(), b.x()) < -s_ ||
+          std::min(a.y(), b.y()) > s_ || std::max(a.y(), b.y()) < -s_) {
+        return -1;
+      }
+    }
+    // Steps of ~0.5 mm (sphere, vase) and ~0.6 mm (bumps, whose narrowest feature is a
+    // 15 mm wide Gaussian): no surface crossing is skipped, bisection does the rest.
+    const int steps = spec_.shape == "bumps" ? 100 : 400;
+    const double dz = (z_far_ - z_near_) / steps;
+    double z0 = z_near_, f0 = F(ray * z0);
+    for (int k = 1; k <= steps; ++k) {
+      const double z1 = z_near_ + k * dz, f1 = F(ray * z1);
+      if (f0 > 0 && f1 <= 0) {
+        double a = z0, b = z1;
+        for (int it = 0; it < 60; ++it) {
+          const double m = 0.5 * (a + b);
+          (F(ray * m) > 0 ? a : b) = m;
+        }
+        const double z = 0.5 * (a + b);
+        if (spec_.shape == "bumps") {
+          const Eigen::Vector3d p = ray * z;
+          if (std::abs(p.x()) > s_ || std::abs(p.y()) > s_) return -1;
+        }
+        return z;
+      }
+      z0 = z1;
+      f0 = f1;
+    }
+    return -1;
+  }
+
+  json ToJson() const {
+    json j = {{"shape", spec_.shape}, {"centre_in_camera", {c_.x(), c_.y(), c_.z()}}};
+    if (spec_.shape == "sphere") {
+      j["radius"] = s_;
+      j["definition"] = "|p - centre| = radius";
+    } else if (spec_.shape == "vase") {
+      j["max_radius"] = s_;
+      j["half_height"] = half_height_;
+      j["definition"] =
+          "surface of revolution about the camera y axis through centre: x^2 + (z - cz)^2 = "
+          "r(s)^2, s = (y - cy) / half_height in [-1, 1], r(s)^2 = R^2 prof(s)^2 (1 - s^6), "
+          "prof(s) = 0.55 + 0.4 exp(-((s - 0.3) / 0.45)^2) + 0.15 exp(-((s + 0.85) / 0.15)^2)";
+    } else {
+      j["half_width"] = s_;
+      json b = json::array();
+      for (const auto& g : bumps_) {
+        b.push_back(
+            {{"x", g[0] * s_}, {"y", g[1] * s_}, {"height", g[2] * s_}, {"sigma", g[3] * s_}});
+      }
+      j["bumps"] = b;
+      j["definition"] =
+          "z = cz - sum_k height_k exp(-((x - x_k)^2 + (y - y_k)^2) / (2 sigma_k^2)), |x|, |y| "
+          "<= half_width (camera frame, metres)";
+    }
+    return j;
+  }
+
+ private:
+  double VaseR2(double s) const {
+    const double a = (s - 0.3) / 0.45, b = (s + 0.85) / 0.15;
+    const double prof = 0.55 + 0.4 * std::exp(-a * a) + 0.15 * std::exp(-b * b);
+    const double s2 = s * s;
+    return s_ * s_ * prof * prof * (1 - s2 * s2 * s2);
+  }
+  double Height(double x, double y) const {
+    double h = 0;
+    for (const auto& g : bumps_) {
+      const double dx = x - g[0] * s_, dy = y - g[1] * s_, sg = g[3] * s_;
+      h += g[2] * s_ * std::exp(-(dx * dx + dy * dy) / (2 * sg * sg));
+    }
+    return h;
+  }
+  void HeightGradient(double x, double y, double* hx, double* hy) const {
+    for (const auto& g : bumps_) {
+      const double dx = x - g[0] * s_, dy = y - g[1] * s_, sg = g[3] * s_;
+      const double v = g[2] * s_ * std::exp(-(dx * dx + dy * dy) / (2 * sg * sg));
+      *hx += -v * dx / (sg * sg);
+      *hy += -v * dy / (sg * sg);
+    }
+  }
+
+  SfsSpec spec_;
+  Eigen::Vector3d c_;
+  double s_;
+  double half_height_ = 0;
+  double z_near_ = 0, z_far_ = 0;
+  std::vector<std::array<double, 4>> bumps_;  // x, y, height, sigma (relative to size)
+};
+
+double Shade(const Shape& shape, const Material& material, const LightSpec& light,
+             const Eigen::Vector3d& p, Eigen::Vector3d* normal) {
+  const Eigen::Vector3d n = shape.Normal(p);
+  if (normal) *normal = n;
+  Eigen::Vector3d l;
+  const double e = PointIrradiance(p, n, light.position, light.intensity, &l);
+  if (e <= 0) return 0.0;
+  const Eigen::Vector3d v = -p.normalized();
+  Angles<double> a = LocalAngles(n, l, v);
+  // The first hit faces the camera; only rounding can put it past the horizon.
+  a.theta_r = std::min(a.theta_r, kHalfPi);
+  return material.Brdf(a) * e;
+}
+
+// Uncompressed float32 TIFF, `channels` samples per pixel interleaved in the Mat's order.
+// Written with libtiff because OpenCV 4.6 stores 3-channel float TIFFs as lossy SGILOG.
+void WriteFloatTiff(const fs::path& path, const cv::Mat& m) {
+  WriteAtomically(path, [&](const fs::path& tmp) {
+    TIFF* tif = TIFFOpen(tmp.c_str(), "w");
+    if (!tif) return false;
+    const int channels = m.channels();
+    TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(m.cols));
+    TIFFSetField(tif, TIFFTAG_IMAGELENGTH, static_cast<uint32_t>(m.rows));
+    TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, static_cast<uint16_t>(channels));
+    TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, static_cast<uint16_t>(32));
+    TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, static_cast<uint16_t>(SAMPLEFORMAT_IEEEFP));
+    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, static_cast<uint16_t>(PLANARCONFIG_CONTIG));
+    TIFFSetField(tif, TIFFTAG_PHOTOMETRIC,
+                 static_cast<uint16_t>(channels == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK));
+    TIFFSetField(tif, TIFFTAG_COMPRESSION, static_cast<uint16_t>(COMPRESSION_NONE));
+    bool ok = true;
+    for (int y = 0; y < m.rows && ok; ++y) {
+      ok = TIFFWriteScanline(tif, const_cast<uchar*>(m.ptr(y)), static_cast<uint32_t>(y)) == 1;
+    }
+    TIFFClose(tif);
+    return ok;
+  });
+}
+
+}  // namespace
+
+std::string SfsRenderResult::Report() const {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "%zu mask pixels in %.2f s, brightest pixel at %.2f of range",
+                mask_pixels, seconds, max_value_fraction);
+  return buf;
+}
+
+SfsRenderResult RenderSfsScene(const Scene& scene, const fs::path& out_dir, int threads) {
+  const auto start = std::chrono::steady_clock::now();
+  scene.Check();
+  const Material material(scene.material);
+  const Shape shape(scene.sfs);
+  const PhotometricChain chain(scene.photometric, scene.camera);
+  const CameraModel& camera = scene.camera;
+  const int w = camera.width, h = camera.height, w1 = w + 1, ss = scene.supersampling;
+  const double exposure_s = scene.views.exposures_s.front();
+  EnsureDirectory(out_dir);
+
+  // Depth of the first hit through every footprint corner.
+  std::vector<Eigen::Vector3d> rays(static_cast<size_t>(w1) * (h + 1));
+  std::vector<double> corner_z(rays.size());
+  ParallelFor(h + 1, threads, [&](size_t b, size_t e) {
+    for (size_t y = b; y < e; ++y) {
+      for (int x = 0; x < w1; ++x) {
+        const size_t k = y * w1 + x;
+        rays[k] = camera.Unproject(Eigen::Vector2d(x - 0.5, y - 0.5));
+        corner_z[k] = shape.Trace(rays[k]);
+      }
+    }
+  });
+
+  cv::Mat image(h, w, scene.photometric.bit_depth == 8 ? CV_8U : CV_16U);
+  cv::Mat mask(h, w, CV_8U, cv::Scalar(0));
+  cv::Mat depth(h, w, CV_32F, cv::Scalar(0));
+  cv::Mat normals(h, w, CV_32FC3, cv::Scalar(0, 0, 0));
+  std::atomic<size_t> mask_count{0};
+  std::atomic<int> brightest{0};
+  ParallelFor(h, threads, [&](size_t b, size_t e) {
+    size_t local = 0;
+    int local_max = 0;
+    for (size_t y = b; y < e; ++y) {
+      std::mt19937_64 rng(RowSeed(scene.seed, 0, y));
+      for (int x = 0; x < w; ++x) {
+        const size_t i00 = y * w1 + x, i10 = i00 + 1, i01 = i00 + w1, i11 = i01 + 1;
+        const int hits =
+            (corner_z[i00] > 0) + (corner_z[i10] > 0) + (corner_z[i01] > 0) + (corner_z[i11] > 0);
+        double radiance = 0;
+        if (hits > 0) {
+          const Eigen::Vector3d centre_ray = camera.Unproject(Eigen::Vector2d(x, y));
+          const double zc = shape.Trace(centre_ray);
+          if (hits == 4 && zc > 0) {
+            Eigen::Vector3d n;
+            const Eigen::Vector3d p = centre_ray * zc;
+            radiance = Shade(shape, material, scene.light, p, &n);
+            mask.at<uint8_t>(y, x) = 255;
+            depth.at<float>(y, x) = static_cast<float>(zc);
+            normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n.x(), n.y(), n.z());
+            ++local;
+          } else {
+            // Silhouette: average over S x S rays in the footprint (background radiance 0).
+            for (int j = 0; j < ss; ++j) {
+              for (int i = 0; i < ss; ++i) {
+                // Multi-jittered canonical pattern, as in the board renderer.
+                const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
+                const Eigen::Vector3d ray = (1 - v) * ((1 - u) * rays[i00] + u * rays[i10]) +
+                                            v * ((1 - u) * rays[i01] + u * rays[i11]);
+                const double z = shape.Trace(ray);
+                if (z > 0) radiance += Shade(shape, material, scene.light, ray * z, nullptr);
+              }
+            }
+            radiance /= ss * ss;
+          }
+        }
+        const uint16_t value = chain.Value(radiance, exposure_s, x, static_cast<double>(y), rng);
+        local_max = std::max<int>(local_max, value);
+        if (image.depth() == CV_8U) {
+          image.at<uint8_t>(y, x) = static_cast<uint8_t>(value);
+        } else {
+          image.at<uint16_t>(y, x) = value;
+        }
+      }
+    }
+    mask_count += local;
+    int prev = brightest.load();
+    while (local_max > prev && !brightest.compare_exchange_weak(prev, local_max)) {
+    }
+  });
+  if (mask_count == 0) throw InputError("sfs scene: the object is not visible in the image");
+
+  auto write_image = [&](const std::string& name, const cv::Mat& m) {
+    WriteAtomically(out_dir / name,
+                    [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
+  };
+  write_image("image.png", image);
+  write_image("mask.png", mask);
+  WriteFloatTiff(out_dir / "depth.tiff", depth);
+  WriteFloatTiff(out_dir / "normals.tiff", normals);
+  camera.Write(out_dir / "camera.cameramodel", "gonio synth: the camera of this sfs scene");
+  const json material_json = material.ToJson();
+  WriteJsonAtomically(out_dir / "material.json", {{"selected", material.model()},
+                                                  {"candidates", json::array({material_json})}});
+  const bool collocated = scene.light.position.norm() < 1e-9;
+  json light = {
+      {"frame", "camera"},
+      {"position", {scene.light.position.x(), scene.light.position.y(), scene.light.position.z()}},
+      {"collocated", collocated},
+      {"intensity", scene.light.intensity},
+      {"falloff", "inverse-square: E = intensity * cos(theta_i) / d^2"}};
+  const auto& ph = scene.photometric;
+  const bool linear = ph.response == "linear" && ph.vignetting == std::array<double, 3>{0, 0, 0};
+  if (linear) {
+    // Radiance of one digital number above the black level (linear response, no vignetting).
+    light["radiance_per_dn"] =
+        1.0 / ((chain.max_value() - ph.black_level) * ph.exposure_scale * exposure_s);
+    light["black_level"] = ph.black_level;
+  }
+  WriteJsonAtomically(out_dir / "light.json", light);
+  WriteJsonAtomically(
+      out_dir / "truth.json",
+      {{"format", "gonio-synth-truth"},
+       {"version", 1},
+       {"scene_type", "sfs"},
+       {"object", shape.ToJson()},
+       {"material", material_json},
+       {"light", light},
+       {"camera",
+        {{"file", "camera.cameramodel"},
+         {"lens_model", camera.lens_model},
+         {"intrinsics", camera.intrinsics},
+         {"width", w},
+         {"height", h}}},
+       {"image", {{"file", "image.png"}, {"exposure_s", exposure_s}}},
+       {"mask",
+        {{"file", "mask.png"},
+         {"meaning", "255 where the whole pixel footprint is on the object"}}},
+       {"depth",
+        {{"file", "depth.tiff"},
+         {"type", "float32"},
+         {"unit", "m"},
+         {"meaning", "camera-frame z of the surface at the pixel centre; 0 outside the mask"}}},
+       {"normals",
+        {{"file", "normals.tiff"},
+         {"type", "float32 x3"},
+         {"channels", {"x", "y", "z"}},
+         {"frame", "camera"},
+         {"meaning",
+          "outward unit normal at the pixel centre, 0 outside the mask; read "
+          "with cv::imread(IMREAD_UNCHANGED), channel 0 = x"}}},
+       {"photometric", chain.ToJson()},
+       {"scene", SceneToJson(scene)}});
+  SfsRenderResult result;
+  result.mask_pixels = mask_count;
+  result.max_value_fraction = brightest / chain.max_value();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace gonio::synth
