@@ -1,0 +1,40 @@
+// A camera's photometric calibration applied to images: pixel value -> linear relative radiance.
+//
+// radiance = X(value) / (exposure_s * gain * V(pixel)), with X the inverse response (response.h,
+// black level included) and V the vignetting map (1 where there is none). Its variance comes
+// from the pixel noise propagated through dX/dvalue: var(value) = quantization (1/12) + read
+// noise^2 + shot noise (value - black) / gain_dn_per_e (when known).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "calib/response.h"
+
+namespace gonio {
+
+struct PhotometricCalibration {
+  ResponseResult response;
+  cv::Mat vignette;  // CV_32F, image size, V(pixel) (1 = no fall-off); empty: none
+  double read_noise_dn = 0.5;
+  std::optional<double> electrons_per_dn;  // shot noise when known
+
+  // A linear camera with the given black level and no vignetting (bit_depth 8..16).
+  static PhotometricCalibration Linear(int bit_depth, int channels, double black_level);
+
+  // radiance: CV_32FC(channels), variance: same, valid: CV_8U (0 where a channel is saturated
+  // or at/below the black level, where no radiance can be read).
+  void ToRadiance(const cv::Mat& raw, double exposure_s, double gain, cv::Mat* radiance,
+                  cv::Mat* variance, cv::Mat* valid) const;
+
+  // photometric.json: {"response": {...response.json...}, "vignette": FILE or null,
+  // "read_noise_dn", "electrons_per_dn"}; the vignette is a 32-bit float TIFF next to it.
+  static PhotometricCalibration Read(const std::filesystem::path& path);
+  void Write(const std::filesystem::path& path) const;
+};
+
+}  // namespace gonio
