@@ -16,4 +16,6 @@ void AddMicrosimCommand(CLI::App& app);
 void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
 void AddSynthCommand(CLI::App& app);
 
+void AddPipelineCommands(CLI::App& app);
+
 }  // namespace gonio::cli

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   app.parse_complete_callback([&] { gonio::InitLogging(verbosity); });
 
   gonio::cli::AddBrdfCommand(app);
+  gonio::cli::AddPipelineCommands(app);
   gonio::cli::AddFitTableCommand(app);
   gonio::cli::AddPhotometricCommand(app);
   gonio::cli::AddCaptureCommand(app);

@@ -56,13 +56,13 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     if (spec.log_x) gp << "set logscale x\n";
     if (spec.log_y) gp << "set logscale y\n";
     gp << spec.extra << "\n";
-    gp << "plot ";
+    // With no series, `extra` carries its own plot/splot command (3-D sketches, heat maps).
+    if (!spec.series.empty()) gp << "plot ";
     for (size_t k = 0; k < spec.series.size(); ++k) {
       if (k) gp << ", \\\n     ";
       gp << Quote(data.string()) << " index " << k << " using 1:2 with " << spec.series[k].style
          << " title " << Quote(spec.series[k].label);
     }
-    if (spec.series.empty()) gp << "NaN notitle";
     gp << "\n";
     {
       std::ofstream s(script);

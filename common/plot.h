@@ -20,7 +20,8 @@ struct PlotSpec {
   bool log_x = false, log_y = false;
   int width = 900, height = 600;
   std::vector<PlotSeries> series;
-  // Extra gnuplot commands placed before the plot command (ranges, polar, key position).
+  // Extra gnuplot commands placed before the plot command (ranges, polar, key position). With
+  // no series, `extra` must hold the whole plot (e.g. an splot with inline data blocks).
   std::string extra;
 };
 

@@ -1,0 +1,208 @@
+#include "apps/report.h"
+
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/io.h"
+#include "common/math.h"
+#include "common/plot.h"
+#include "reflectance/registry.h"
+
+namespace gonio::cli {
+namespace {
+
+std::string Escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else out += c;
+  }
+  return out;
+}
+
+// Measured f_r = L / (I cos(theta_i) / d^2) against signed theta_r (negative: source side),
+// per theta_i bin, with the fitted model's value at the same geometry: the papers' figures.
+void BrdfPlot(const JointFitResult& f, const ObservationSet& data, const std::filesystem::path& png) {
+  std::map<int, std::pair<PlotSeries, PlotSeries>> bins;
+  const ModelInfo& info = FindModel(f.material.model);
+  (void)info;
+  const size_t stride = std::max<size_t>(1, data.observations.size() / 4000);
+  for (size_t i = 0; i < data.observations.size(); i += stride) {
+    const auto& o = data.observations[i];
+    if (o.white) continue;
+    Angles<double> a;
+    double e = 0;
+    if (!ObservationGeometry(o, f, &a, &e) || !(e > 0)) continue;
+    const int bin = static_cast<int>(std::lround(RadToDeg(a.theta_i) / 5.0)) * 5;
+    const double x = RadToDeg(a.theta_r) * (std::cos(a.phi) >= 0 ? -1.0 : 1.0);
+    BrdfSample s{a.theta_i, a.theta_r, a.phi, 0, 1};
+    auto& [meas, fitted] = bins[bin];
+    meas.x.push_back(x);
+    meas.y.push_back(o.radiance[0] / (f.intensity * e));
+    fitted.x.push_back(x);
+    fitted.y.push_back(f.material.Predict(s));
+  }
+  PlotSpec spec;
+  spec.title = fmt::format("{}: measured (dots) and fitted (crosses) BRDF", f.material.model);
+  spec.xlabel = "theta_r (deg), negative = source side";
+  spec.ylabel = "f_r (1/sr, relative without a white reference)";
+  int color = 1;
+  for (auto& [bin, pair] : bins) {
+    pair.first.label = fmt::format("theta_i ~ {} deg", bin);
+    pair.first.style = fmt::format("points pt 7 ps 0.4 lc {}", color);
+    pair.second.label = "";
+    pair.second.style = fmt::format("points pt 2 ps 0.6 lc {}", color);
+    spec.series.push_back(pair.first);
+    spec.series.push_back(pair.second);
+    ++color;
+  }
+  spec.extra = "set xrange [-90:90]";
+  RenderPlot(spec, png);
+}
+
+void PolarPlot(const JointFitResult& f, double theta_i, const std::filesystem::path& png) {
+  PlotSpec spec;
+  spec.title = fmt::format("{} in the plane of incidence, theta_i = {:.0f} deg (polar)",
+                           f.material.model, RadToDeg(theta_i));
+  spec.width = spec.height = 700;
+  PlotSeries s;
+  s.label = "f_r";
+  for (int k = -89; k <= 89; ++k) {
+    const double tr = DegToRad(std::abs(k));
+    BrdfSample q{theta_i, tr, k < 0 ? 0.0 : kPi, 0, 1};
+    const double v = f.material.Predict(q);
+    // Angle measured from the normal (up): gnuplot polar takes the angle from +x.
+    s.x.push_back(90.0 + k);
+    s.y.push_back(v);
+  }
+  spec.series.push_back(s);
+  spec.extra = "set polar\nset angles degrees\nset size square\nunset xtics\nunset ytics\nset grid polar 15";
+  RenderPlot(spec, png);
+}
+
+void FramePlot(const JointFitResult& f, const std::filesystem::path& png) {
+  PlotSpec spec;
+  spec.title = "mean relative residual per frame (a moved lamp or sample shows as an outlier)";
+  spec.xlabel = "frame";
+  spec.ylabel = "(model - measured) / measured";
+  PlotSeries s;
+  s.label = "frames";
+  s.style = "impulses lw 4";
+  for (const auto& fr : f.frames) {
+    s.x.push_back(fr.frame);
+    s.y.push_back(fr.mean_relative);
+  }
+  spec.series.push_back(s);
+  RenderPlot(spec, png);
+}
+
+void GeometrySketch(const JointFitResult& f, const ObservationSet& data, const Board& board,
+                    const std::filesystem::path& png) {
+  PlotSpec spec;
+  spec.title = "capture geometry (board frame, metres): board, cameras, fitted lamp";
+  spec.width = spec.height = 800;
+  std::map<int, Eigen::Vector3d> cams;
+  for (const auto& o : data.observations) cams[o.frame] = o.camera_in_board;
+  PlotSeries cam, lamp, sample;
+  cam.label = "camera centres";
+  cam.style = "points pt 7 ps 1";
+  for (const auto& [k, c] : cams) {
+    cam.x.push_back(c.x());
+    cam.y.push_back(c.z());
+  }
+  // gnuplot 2-D views would hide depth: use splot through "extra" with inline data instead.
+  std::ostringstream gp;
+  gp << "set view 60,30\nset xlabel 'x'\nset ylabel 'y'\nset zlabel 'z'\nset ticslevel 0\n";
+  gp << "$cams << EOD\n";
+  for (const auto& [k, c] : cams) gp << c.x() << ' ' << c.y() << ' ' << c.z() << '\n';
+  gp << "EOD\n$lamp << EOD\n";
+  Eigen::Vector3d l = f.light_position;
+  if (f.light_frame == "camera" && !data.observations.empty()) {
+    Angles<double> a;
+    double e;
+    // Show the lamp for the first frame: board_from_cam applied to the camera-frame position.
+    (void)a;
+    (void)e;
+    l = data.observations[0].camera_in_board;
+  }
+  gp << l.x() << ' ' << l.y() << ' ' << l.z() << "\nEOD\n$board << EOD\n";
+  for (const auto* poly : {&board.sample_region(), &board.white_region()}) {
+    for (const auto& q : *poly) gp << q.x() << ' ' << q.y() << " 0\n";
+    if (!poly->empty()) gp << poly->front().x() << ' ' << poly->front().y() << " 0\n";
+    gp << "\n";
+  }
+  gp << "EOD\n";
+  gp << "splot $board with lines lw 2 title 'sample and white regions', $cams with points pt 7 "
+        "title 'cameras', $lamp with points pt 3 ps 3 lc rgb 'red' title 'fitted lamp'\n";
+  spec.extra = gp.str();
+  spec.series.clear();
+  RenderPlot(spec, png);
+}
+
+}  // namespace
+
+void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
+                 const std::filesystem::path& dir) {
+  EnsureDirectory(dir);
+  const JointFitResult& f = fit.final_fit;
+  BrdfPlot(f, data, dir / "brdf_vs_theta_r.png");
+  double mean_ti = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < data.observations.size(); i += 50) {
+    Angles<double> a;
+    double e;
+    if (!data.observations[i].white && ObservationGeometry(data.observations[i], f, &a, &e)) {
+      mean_ti += a.theta_i;
+      ++n;
+    }
+  }
+  PolarPlot(f, n ? mean_ti / n : 0.5, dir / "polar.png");
+  FramePlot(f, dir / "frames.png");
+  GeometrySketch(f, data, board, dir / "geometry.png");
+
+  std::ostringstream h;
+  h << "<!doctype html><html><head><meta charset='utf-8'><title>gonio report</title>"
+       "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:"
+       "collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>";
+  h << "<h1>gonio: " << Escape(f.material.model) << "</h1>";
+  h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
+  h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th></tr>";
+  for (size_t k = 0; k < f.material.params.size(); ++k) {
+    const auto& sd = f.material.stddev[k];
+    h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td></tr>", f.material.param_names[k],
+                     f.material.params[k], sd ? fmt::format("{:.2g}", *sd) : "undetermined");
+  }
+  h << fmt::format("<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td></tr>",
+                   f.light_frame, f.light_position.x(), f.light_position.y(), f.light_position.z(),
+                   f.light_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(),
+                                                f.light_stddev->y(), f.light_stddev->z())
+                                  : "undetermined");
+  h << fmt::format("<tr><td>intensity</td><td>{:.5g}</td><td>{}</td></tr></table>", f.intensity,
+                   f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined");
+  if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
+  for (const auto& w : f.warnings) h << "<p style='color:#b00'>warning: " << Escape(w) << "</p>";
+  h << "<h2>Model comparison</h2><table><tr><th>model</th><th>k</th><th>rel_rms</th><th>AIC</th>"
+       "<th>BIC</th><th>CV rms (held-out frames)</th><th>undetermined</th></tr>";
+  for (size_t k = 0; k < fit.selection.candidates.size(); ++k) {
+    const auto& c = fit.selection.candidates[k];
+    std::string und;
+    for (const auto& u : c.undetermined) und += (und.empty() ? "" : ", ") + u;
+    h << fmt::format("<tr{}><td>{}</td><td>{}</td><td>{:.4f}</td><td>{:.1f}</td><td>{:.1f}</td>"
+                     "<td>{:.4g}</td><td>{}</td></tr>",
+                     static_cast<int>(k) == fit.selection.selected ? " style='font-weight:bold'" : "",
+                     c.model, c.n_params, c.rel_rms, c.aic, c.bic, c.cv_rms.value_or(NAN), und);
+  }
+  h << "</table>";
+  for (const char* img : {"brdf_vs_theta_r.png", "polar.png", "frames.png", "geometry.png"}) {
+    h << "<p><img src='" << img << "' style='max-width:100%'></p>";
+  }
+  h << "</body></html>\n";
+  WriteTextAtomically(dir / "index.html", h.str());
+}
+
+}  // namespace gonio::cli

@@ -1,0 +1,96 @@
+// The joint fit of a BRDF model and the unknown lamp: one Ceres problem over the model's
+// parameters (per-channel albedo-like parameters with shared roughness), the lamp position
+// (fixed in the board frame when the camera moves, or in the camera frame when the board
+// moves) and the lamp intensity. Angles and the 1/r^2 irradiance are computed per observation
+// inside the cost from the lamp estimate:
+//   L = f_r(theta_i, theta_r, phi) * I * cos(theta_i) / d^2
+// The board's white reference (Lambertian, known albedo A_w: L = A_w/pi * I cos(theta_i)/d^2)
+// fixes I, and with it the sample's absolute albedo; without it albedo x intensity is reported
+// as one quantity and the two are flagged as undetermined separately.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "estimation/brdf_fit.h"
+#include "estimation/model_selection.h"
+#include "estimation/observations.h"
+#include "estimation/uncertainty.h"
+#include "reflectance/angles.h"
+
+namespace gonio {
+
+struct JointFitOptions {
+  std::vector<std::string> candidates;  // empty: AutoCandidates()
+  std::string criterion = "bic";        // aic, bic, cv (held-out frames)
+  std::string light_frame = "board";    // "board" or "camera"
+  std::optional<Eigen::Vector3d> light_init;  // in light_frame; none: multi-start
+  std::optional<double> white_albedo;         // known albedo of the white reference
+  bool per_channel = true;              // per-channel albedo-like parameters (colour data)
+  std::string robust_loss = "huber";    // none, huber, cauchy; scale 3 sigma
+  double relative_noise_floor = 0.01;   // sigma^2 = variance + (floor * L)^2
+  size_t selection_max_observations = 3000;  // candidates compared on a subsample
+  int cv_folds = 4;
+  int max_iterations = 100;
+  int threads = 0;
+  UncertaintyOptions uncertainty;
+  void Check() const;
+};
+
+struct FrameResidual {
+  int frame = 0;
+  std::string file;
+  size_t n = 0;
+  double rms_sigma = 0;      // rms of residual / sigma
+  double mean_relative = 0;  // mean of (model - measured) / measured
+};
+
+struct JointFitResult {
+  BrdfFitResult material;  // grey or channel-0 parameters, their stddev, metrics
+  // Per channel, the albedo-like parameters (names in scale_param_names).
+  std::vector<std::string> scale_param_names;
+  std::vector<std::vector<double>> scale_params_per_channel;
+  std::string light_frame;
+  Eigen::Vector3d light_position = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> light_stddev;
+  double intensity = 1.0;
+  std::optional<double> intensity_stddev;
+  bool absolute = false;  // a white reference fixed the intensity
+  std::vector<std::string> undetermined_light;  // "light_x", "intensity", ...
+  std::vector<FrameResidual> frames;
+  std::vector<std::string> warnings;
+  size_t n_observations = 0;
+
+  nlohmann::json ToJson() const;
+};
+
+struct JointSelectionResult {
+  ModelSelectionResult selection;  // candidates' material results and the rule's reason
+  std::vector<JointFitResult> fits;  // same order as selection.candidates
+  JointFitResult final_fit;          // the selected model refitted on every observation
+  std::string Report() const;
+  nlohmann::json ToJson() const;
+};
+
+// The angles and irradiance factor cos(theta_i)/d^2 of an observation under a fitted lamp
+// (the same computation the cost uses). False when the lamp is behind the sample.
+bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles<double>* angles,
+                         double* irradiance_factor);
+
+// One model, from a given lamp start (in options.light_frame).
+JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
+                        const Eigen::Vector3d& light_start, const JointFitOptions& options);
+
+// Lamp starting points: options.light_init, else a deterministic set over the hemisphere in
+// front of the board, screened with a Lambertian fit; returns the best.
+Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& options);
+
+// Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
+// InputError on unusable data (no sample observations, one frame with --criterion cv, ...).
+JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options);
+
+}  // namespace gonio

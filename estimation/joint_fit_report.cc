@@ -1,0 +1,90 @@
+// JSON and text reports of the joint fit (fit.json extends fit-table's layout).
+#include <cmath>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/geometry.h"
+#include "estimation/joint_fit.h"
+
+namespace gonio {
+namespace {
+nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+}  // namespace
+
+nlohmann::json JointFitResult::ToJson() const {
+  nlohmann::json j = gonio::ToJson(material);
+  nlohmann::json light = {{"frame", light_frame},
+                          {"position", {light_position.x(), light_position.y(), light_position.z()}},
+                          {"intensity", Finite(intensity)},
+                          {"intensity_stddev", intensity_stddev ? Finite(*intensity_stddev) : nlohmann::json()},
+                          {"undetermined", undetermined_light},
+                          {"absolute", absolute}};
+  light["stddev"] = light_stddev ? nlohmann::json({light_stddev->x(), light_stddev->y(), light_stddev->z()})
+                                 : nlohmann::json();
+  j["light"] = light;
+  if (!scale_param_names.empty()) {
+    nlohmann::json per = nlohmann::json::object();
+    for (size_t k = 0; k < scale_param_names.size(); ++k) {
+      nlohmann::json values = nlohmann::json::array();
+      for (const auto& ch : scale_params_per_channel) values.push_back(Finite(ch[k]));
+      per[scale_param_names[k]] = values;
+    }
+    j["params_per_channel"] = per;
+  }
+  if (!absolute && !scale_param_names.empty()) {
+    // Without a white reference only the product with the lamp intensity is measured.
+    nlohmann::json prod = nlohmann::json::object();
+    for (size_t k = 0; k < scale_param_names.size(); ++k) {
+      nlohmann::json values = nlohmann::json::array();
+      for (const auto& ch : scale_params_per_channel) values.push_back(Finite(ch[k] * intensity));
+      prod[scale_param_names[k] + "_x_intensity"] = values;
+    }
+    j["relative"] = prod;
+  }
+  nlohmann::json frames_json = nlohmann::json::array();
+  for (const auto& f : frames) {
+    frames_json.push_back({{"frame", f.frame},
+                           {"file", f.file},
+                           {"n", f.n},
+                           {"rms_sigma", Finite(f.rms_sigma)},
+                           {"mean_relative_residual", Finite(f.mean_relative)}});
+  }
+  j["frames"] = frames_json;
+  j["warnings"] = warnings;
+  j["n_observations"] = n_observations;
+  return j;
+}
+
+nlohmann::json JointSelectionResult::ToJson() const {
+  nlohmann::json j = gonio::ToJson(selection);
+  nlohmann::json candidates = nlohmann::json::array();
+  for (const auto& f : fits) candidates.push_back(f.ToJson());
+  j["candidates"] = candidates;
+  j["candidates_fitted_on"] = fits.empty() ? 0 : fits[0].n_observations;
+  const nlohmann::json final_json = final_fit.ToJson();
+  j["final"] = final_json;
+  j["light"] = final_json["light"];
+  j["frames"] = final_json["frames"];
+  j["warnings"] = final_json["warnings"];
+  return j;
+}
+
+std::string JointSelectionResult::Report() const {
+  std::ostringstream s;
+  s << selection.Report();
+  const auto& f = final_fit;
+  s << "final fit on " << f.n_observations << " observations: " << f.material.Report() << "\n";
+  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", f.light_frame, f.light_position.x(),
+                   f.light_position.y(), f.light_position.z());
+  if (f.light_stddev) {
+    s << fmt::format(" +- ({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(), f.light_stddev->y(),
+                     f.light_stddev->z());
+  }
+  s << fmt::format("; intensity {:.5g}{}\n", f.intensity, f.absolute ? "" : " (relative: no white reference)");
+  for (const auto& u : f.undetermined_light) s << "undetermined: " << u << "\n";
+  for (const auto& w : f.warnings) s << "warning: " << w << "\n";
+  return s.str();
+}
+
+}  // namespace gonio

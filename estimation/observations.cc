@@ -1,0 +1,115 @@
+#include "estimation/observations.h"
+
+#include <cstdio>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/csv.h"
+#include "common/error.h"
+#include "common/io.h"
+
+namespace gonio {
+
+void WriteObservations(const std::filesystem::path& path, const ObservationSet& set) {
+  std::string out;
+  out.reserve(set.observations.size() * 160 + 256);
+  out += "# gonio observations: board-frame metres, linear relative radiance\n";
+  for (size_t f = 0; f < set.frame_files.size(); ++f) {
+    out += fmt::format("# frame {} {}\n", f, set.frame_files[f]);
+  }
+  out += "frame,px,py,x,y,z,cam_x,cam_y,cam_z,aa_x,aa_y,aa_z,region,n";
+  for (int c = 0; c < set.channels; ++c) out += fmt::format(",L{}", c);
+  for (int c = 0; c < set.channels; ++c) out += fmt::format(",var{}", c);
+  out += "\n";
+  for (const auto& o : set.observations) {
+    out += fmt::format("{},{:.2f},{:.2f},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.9g},{:.9g},{:.9g},{},{}",
+                       o.frame, o.px, o.py, o.p_in_board.x(), o.p_in_board.y(), o.p_in_board.z(),
+                       o.camera_in_board.x(), o.camera_in_board.y(), o.camera_in_board.z(),
+                       o.board_from_cam_aa.x(), o.board_from_cam_aa.y(), o.board_from_cam_aa.z(),
+                       o.white ? "white" : "sample", o.num_pixels);
+    for (double v : o.radiance) out += fmt::format(",{:.7g}", v);
+    for (double v : o.variance) out += fmt::format(",{:.7g}", v);
+    out += "\n";
+  }
+  WriteTextAtomically(path, out);
+}
+
+ObservationSet ReadObservations(const std::filesystem::path& path) {
+  const std::string text = ReadTextFile(path);
+  ObservationSet set;
+  {
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line) && !line.empty() && line[0] == '#') {
+      int f;
+      char name[4096];
+      if (std::sscanf(line.c_str(), "# frame %d %4095s", &f, name) == 2) {
+        if (f >= static_cast<int>(set.frame_files.size())) set.frame_files.resize(f + 1);
+        set.frame_files[f] = name;
+      }
+    }
+  }
+  const CsvTable csv = CsvTable::Parse(text, path.string());
+  const char* required[] = {"frame", "px", "py", "x", "y", "z", "cam_x", "cam_y", "cam_z",
+                            "aa_x", "aa_y", "aa_z", "region", "n"};
+  std::vector<size_t> col;
+  for (const char* r : required) col.push_back(csv.Require(r));
+  set.channels = 0;
+  while (csv.Find(fmt::format("L{}", set.channels))) ++set.channels;
+  if (set.channels == 0) throw InputError(path.string() + ": missing column 'L0'");
+  std::vector<size_t> lc, vc;
+  for (int c = 0; c < set.channels; ++c) {
+    lc.push_back(csv.Require(fmt::format("L{}", c)));
+    vc.push_back(csv.Require(fmt::format("var{}", c)));
+  }
+  for (size_t r = 0; r < csv.num_rows(); ++r) {
+    Observation o;
+    o.frame = static_cast<int>(csv.Number(r, col[0]));
+    o.px = csv.Number(r, col[1]);
+    o.py = csv.Number(r, col[2]);
+    o.p_in_board = {csv.Number(r, col[3]), csv.Number(r, col[4]), csv.Number(r, col[5])};
+    o.camera_in_board = {csv.Number(r, col[6]), csv.Number(r, col[7]), csv.Number(r, col[8])};
+    o.board_from_cam_aa = {csv.Number(r, col[9]), csv.Number(r, col[10]), csv.Number(r, col[11])};
+    const std::string& region = csv.Cell(r, col[12]);
+    if (region != "sample" && region != "white") {
+      throw InputError(fmt::format("{}: line {}: region must be sample or white", path.string(),
+                                   csv.LineOf(r)));
+    }
+    o.white = region == "white";
+    o.num_pixels = static_cast<int>(csv.Number(r, col[13]));
+    for (int c = 0; c < set.channels; ++c) {
+      o.radiance.push_back(csv.Number(r, lc[c]));
+      o.variance.push_back(csv.Number(r, vc[c]));
+      if (o.variance.back() < 0) {
+        throw InputError(fmt::format("{}: line {}: negative variance", path.string(), csv.LineOf(r)));
+      }
+    }
+    if (o.frame < 0) throw InputError(fmt::format("{}: line {}: negative frame", path.string(), csv.LineOf(r)));
+    if (o.frame >= static_cast<int>(set.frame_files.size())) set.frame_files.resize(o.frame + 1);
+    set.observations.push_back(std::move(o));
+  }
+  if (set.observations.empty()) throw InputError(path.string() + ": no observations");
+  return set;
+}
+
+ObservationSet MergeObservations(const std::vector<ObservationSet>& sets) {
+  ObservationSet out;
+  if (sets.empty()) return out;
+  out.channels = sets[0].channels;
+  for (const auto& s : sets) {
+    if (s.channels != out.channels) {
+      throw InputError("observation files have different channel counts");
+    }
+    const int offset = static_cast<int>(out.frame_files.size());
+    out.frame_files.insert(out.frame_files.end(), s.frame_files.begin(), s.frame_files.end());
+    for (auto o : s.observations) {
+      o.frame += offset;
+      out.observations.push_back(std::move(o));
+    }
+    out.excluded.insert(out.excluded.end(), s.excluded.begin(), s.excluded.end());
+  }
+  return out;
+}
+
+}  // namespace gonio
