@@ -356,6 +356,27 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
     }
     if (light_ok) r.light_stddev = light_sd;
   }
+  {
+    double e_min = INFINITY, e_max = 0;
+    for (size_t i : use) {
+      const Observation& obs = data.observations[i];
+      if (obs.white) continue;
+      double lb[3], ls[3], vs[3];
+      LightInBoard(obs, in_camera, s.light.data(), lb);
+      const double e = Geometry(obs, lb, ls, vs);
+      e_min = std::min(e_min, e);
+      e_max = std::max(e_max, e);
+    }
+    const double contrast = e_min > 0 ? e_max / e_min - 1.0 : 0.0;
+    if (contrast < o.min_irradiance_contrast) {
+      r.light_stddev.reset();
+      r.undetermined_light.push_back("light_distance");
+      if (!r.absolute) r.undetermined_light.push_back("intensity");
+      r.warnings.push_back(fmt::format(
+          "the irradiance varies only {:.2f}% across the sample: the lamp's distance cannot be "
+          "measured (only its direction); move the lamp closer", 100 * contrast));
+    }
+  }
 
   // Metrics over the sample observations; per-frame residuals.
   double ssr_w = 0, sq = 0, mean = 0;
@@ -574,7 +595,13 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
                data.observations.size());
-  out.final_fit = FitJoint(chosen.material.model, data, chosen.light_position, options);
+  // The final fit on (up to final_max_observations of) everything.
+  const auto final_use = Subsample(data, options.final_max_observations);
+  VisitModel(chosen.material.model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    out.final_fit = FitModel<M>(FindModel(chosen.material.model), data, final_use,
+                                chosen.light_position, options, true);
+  });
   return out;
 }
 

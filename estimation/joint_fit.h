@@ -34,6 +34,11 @@ struct JointFitOptions {
   std::string robust_loss = "huber";    // none, huber, cauchy; scale 3 sigma
   double relative_noise_floor = 0.01;   // sigma^2 = variance + (floor * L)^2
   size_t selection_max_observations = 3000;  // candidates compared on a subsample
+  size_t final_max_observations = 30000;     // the selected model's final fit
+  // The lamp distance is only measured through the change of irradiance (cos theta_i / d^2)
+  // across the sample. Below this relative contrast, photometric calibration errors of a few
+  // tenths of a percent would move it arbitrarily: its distance is reported as undetermined.
+  double min_irradiance_contrast = 0.05;
   int cv_folds = 4;
   int max_iterations = 100;
   int threads = 0;

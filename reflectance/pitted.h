@@ -399,6 +399,7 @@ struct PittedExact {
     info.method = "numerical";
     info.reference_model = "";
     info.cost_rank = 30;
+    info.auto_candidate = true;  // Pitted::Info() (copied above) is not a candidate
     return info;
   }
 

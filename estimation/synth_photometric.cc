@@ -1,0 +1,45 @@
+#include "estimation/synth_photometric.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.h"
+
+namespace gonio {
+
+// The data_synth truth's photometric chain as a calibration: D = black + f(X) (max - black),
+// f(x) = x^(1/gamma) or linear, V = 1 + v1 r^2 + v2 r^4 + v3 r^6.
+PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width, int height) {
+  const auto& p = truth.at("photometric");
+  const int bits = p.at("bit_depth").get<int>();
+  const double black = p.at("black_level").get<double>();
+  const double maxv = p.at("max_value").get<double>();
+  PhotometricCalibration cal = PhotometricCalibration::Linear(bits, 1, black);
+  const std::string type = p.at("response").at("type").get<std::string>();
+  const double gamma = type == "gamma" ? p.at("response").at("gamma").get<double>() : 1.0;
+  if (type != "gamma" && type != "linear") {
+    throw InputError("demo: truth response '" + type + "' is not gamma or linear");
+  }
+  auto& table = cal.response.inverse_response[0];
+  for (size_t z = 0; z < table.size(); ++z) {
+    const double u = std::clamp((z - black) / (maxv - black), 0.0, 1.0);
+    table[z] = std::pow(u, gamma);
+  }
+  cal.response.saturation_level = {maxv};
+  const auto& v = p.at("vignetting");
+  const auto c = v.at("coefficients").get<std::vector<double>>();
+  const auto centre = v.at("center").get<std::vector<double>>();
+  const double radius = v.at("radius_px").get<double>();
+  cal.vignette = cv::Mat(height, width, CV_32F);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const double r2 = (std::pow(x - centre[0], 2) + std::pow(y - centre[1], 2)) / (radius * radius);
+      cal.vignette.at<float>(y, x) =
+          static_cast<float>(1 + c[0] * r2 + c[1] * r2 * r2 + c[2] * r2 * r2 * r2);
+    }
+  }
+  return cal;
+}
+
+
+}  // namespace gonio
