@@ -33,6 +33,11 @@ struct PaperRegion {
   std::array<double, 4> grid_box{};         // bounding box of the tag grid
   bool has_grid = false;
   std::vector<Eigen::Vector2d> sample_region, white_region;
+  // A flat field: tag-free white target of uniform radiance (read from a board file with no
+  // tags). Its texture is then one constant, which the pose-by-pose texture grid cannot
+  // establish when every view looks at the same target point from the same distance (a radial
+  // V(r) change and a radial texture change are then nearly indistinguishable).
+  bool uniform = false;
 
   static PaperRegion FromBoard(const Board& board);
   // A board file; a tag-free flat target ("columns" or "rows" 0, as data_synth's flat-field
@@ -74,6 +79,9 @@ struct VignetteResult {
   int iterations = 0;
   double rms_relative_residual = 0;  // sqrt(mean ((I - V C) / (V C))^2) over the samples
   double map_vs_radial_rms = 0;      // map model: RMS of map / radial fit - 1 over covered cells
+  // 99th percentile of the samples' r (distance to the principal point / half-diagonal): the
+  // radial fit is extrapolated beyond it.
+  double covered_radius = 0;
   std::string Report() const;
 };
 

@@ -91,14 +91,19 @@ inline std::vector<VignetteFrame> LoadVignetteFrames(const std::filesystem::path
   return frames;
 }
 
-inline double RmsRelative(const cv::Mat& estimate, const cv::Mat& truth) {
+// Over the pixels where `mask` is non-zero (all when empty).
+inline double RmsRelative(const cv::Mat& estimate, const cv::Mat& truth,
+                          const cv::Mat& mask = cv::Mat()) {
   double sq = 0;
+  size_t n = 0;
   for (int y = 0; y < truth.rows; ++y) {
     for (int x = 0; x < truth.cols; ++x) {
+      if (!mask.empty() && !mask.at<uint8_t>(y, x)) continue;
       sq += std::pow(estimate.at<float>(y, x) / truth.at<float>(y, x) - 1, 2);
+      ++n;
     }
   }
-  return std::sqrt(sq / truth.total());
+  return std::sqrt(sq / std::max<size_t>(n, 1));
 }
 
 }  // namespace gonio::testing
