@@ -111,6 +111,7 @@ cv::Mat ReadRaw(const fs::path& file) {
 }
 
 void WriteImage(const fs::path& path, const cv::Mat& m) {
+  if (path.has_parent_path()) EnsureDirectory(path.parent_path());
   WriteAtomically(path, [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
 }
 
