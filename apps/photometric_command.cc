@@ -171,6 +171,8 @@ void RunVignette(VignetteArgs& args) {
                       {"note", r.note}};
   WriteJsonAtomically(fs::path(args.out).replace_extension(".json"), j);
   if (!args.photometric_out.empty()) {
+    const fs::path out(args.photometric_out);
+    if (out.has_parent_path()) EnsureDirectory(out.parent_path());
     calib.vignette = r.map;
     calib.Write(args.photometric_out);
   }
