@@ -1,16 +1,25 @@
-// gonio photometric: inverse response from an exposure sweep (and, with the board, vignetting).
+// gonio photometric: inverse response from an exposure sweep, vignetting from board frames,
+// pixel values -> radiance, HDR merge of brackets.
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
+#include "calib/hdr.h"
+#include "calib/photometric.h"
 #include "calib/response.h"
+#include "calib/vignette.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/plot.h"
+#include "common/session.h"
 
 namespace fs = std::filesystem;
 
@@ -91,6 +100,152 @@ void RunResponse(const ResponseArgs& args) {
   std::cout << r.Report();
 }
 
+cv::Mat ReadRaw(const fs::path& file) {
+  if (!fs::exists(file)) throw InputError(file.string() + ": no such file");
+  cv::Mat m = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty()) throw InputError(file.string() + ": not a readable image");
+  if (m.depth() != CV_8U && m.depth() != CV_16U) {
+    throw InputError(file.string() + ": pixel values must be 8- or 16-bit integers");
+  }
+  return m;
+}
+
+void WriteImage(const fs::path& path, const cv::Mat& m) {
+  if (path.has_parent_path()) EnsureDirectory(path.parent_path());
+  WriteAtomically(path, [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
+}
+
+struct VignetteArgs {
+  std::string session, camera, board, poses, response, out, photometric_out, model = "map";
+  VignetteOptions options;
+};
+
+void RunVignette(VignetteArgs& args) {
+  args.options.model = args.model;
+  args.options.Check();
+  const Session session = ReadSession(args.session);
+  const CameraModel camera = CameraModel::Read(args.camera);
+  const PaperRegion board = PaperRegion::Read(args.board);
+  const auto poses = ReadPoses(args.poses);
+  PhotometricCalibration calib;
+  calib.response = ResponseResult::FromJson(ReadJsonFile(args.response), args.response);
+  std::vector<VignetteFrame> frames;
+  for (size_t i = 0; i < session.frames.size(); ++i) {
+    const auto& sf = session.frames[i];
+    auto it =
+        std::find_if(poses.begin(), poses.end(), [&](const auto& p) { return p.first == sf.file; });
+    if (it == poses.end()) continue;  // no pose (gonio locate skipped it)
+    VignetteFrame f;
+    f.file = sf.file;
+    f.image = ReadRaw(session.FramePath(i));
+    f.exposure_s = sf.exposure_s;
+    f.gain = sf.gain;
+    f.cam_from_board = it->second;
+    frames.push_back(std::move(f));
+  }
+  if (frames.empty()) {
+    throw InputError(args.poses + ": no pose for any frame of " + args.session);
+  }
+  spdlog::info("vignetting from {} frames", frames.size());
+  const VignetteResult r = CalibrateVignette(camera, board, calib, frames, args.options);
+  WriteImage(args.out, r.map);
+  // Visualisation: V in [0.5, 1] stretched to 8 bits.
+  cv::Mat vis;
+  r.map.convertTo(vis, CV_8U, 255.0 / 0.5, -255.0);
+  cv::applyColorMap(vis, vis, cv::COLORMAP_VIRIDIS);
+  WriteImage(fs::path(args.out).replace_extension(".png"), vis);
+  nlohmann::json j = {{"format", "gonio-vignette"},
+                      {"version", 1},
+                      {"map", fs::path(args.out).filename().string()},
+                      {"model", r.model_used},
+                      {"radial",
+                       {{"coefficients", r.radial},
+                        {"center", {camera.intrinsics[2], camera.intrinsics[3]}},
+                        {"radius_px", 0.5 * std::hypot(camera.width, camera.height)}}},
+                      {"coverage", r.coverage},
+                      {"frames_used", r.frames_used},
+                      {"poses", r.poses},
+                      {"samples", r.samples},
+                      {"rms_relative_residual", r.rms_relative_residual},
+                      {"map_vs_radial_rms", r.map_vs_radial_rms},
+                      {"note", r.note}};
+  WriteJsonAtomically(fs::path(args.out).replace_extension(".json"), j);
+  if (!args.photometric_out.empty()) {
+    const fs::path out(args.photometric_out);
+    if (out.has_parent_path()) EnsureDirectory(out.parent_path());
+    calib.vignette = r.map;
+    calib.Write(args.photometric_out);
+  }
+  std::cout << r.Report();
+}
+
+struct ApplyArgs {
+  std::string image, photometric, out, variance;
+  double exposure_s = 0, gain = 1;
+};
+
+void RunApply(const ApplyArgs& args) {
+  const PhotometricCalibration calib = PhotometricCalibration::Read(args.photometric);
+  const cv::Mat raw = ReadRaw(args.image);
+  if (!calib.vignette.empty() && calib.vignette.size() != raw.size()) {
+    throw InputError(fmt::format("{}: image is {}x{}, the vignetting map of {} {}x{}", args.image,
+                                 raw.cols, raw.rows, args.photometric, calib.vignette.cols,
+                                 calib.vignette.rows));
+  }
+  cv::Mat radiance, variance, valid;
+  calib.ToRadiance(raw, args.exposure_s, args.gain, &radiance, &variance, &valid);
+  WriteImage(args.out, radiance);
+  if (!args.variance.empty()) WriteImage(args.variance, variance);
+  std::cout << fmt::format("{}: {:.1f}% of the pixels valid (not saturated, above black)\n",
+                           args.out, 100.0 * cv::countNonZero(valid) / valid.total());
+}
+
+struct HdrArgs {
+  std::string session, photometric, out;
+};
+
+void RunHdr(const HdrArgs& args) {
+  const Session session = ReadSession(args.session);
+  const PhotometricCalibration calib = PhotometricCalibration::Read(args.photometric);
+  std::map<int, std::vector<size_t>> brackets;
+  for (size_t i = 0; i < session.frames.size(); ++i) {
+    brackets[session.frames[i].bracket].push_back(i);
+  }
+  EnsureDirectory(args.out);
+  nlohmann::json index = {{"format", "gonio-hdr"},
+                          {"version", 1},
+                          {"session", args.session},
+                          {"photometric", args.photometric}};
+  index["poses"] = nlohmann::json::array();
+  for (const auto& [bracket, members] : brackets) {
+    std::vector<HdrFrame> frames;
+    nlohmann::json sources = nlohmann::json::array();
+    for (size_t i : members) {
+      HdrFrame f;
+      f.file = session.frames[i].file;
+      f.raw = ReadRaw(session.FramePath(i));
+      f.exposure_s = session.frames[i].exposure_s;
+      f.gain = session.frames[i].gain;
+      sources.push_back(f.file);
+      frames.push_back(std::move(f));
+    }
+    const HdrResult r = MergeBracket(calib, frames);
+    const std::string stem = fmt::format("radiance_{:04d}", bracket);
+    WriteImage(fs::path(args.out) / (stem + ".tiff"), r.radiance);
+    WriteImage(fs::path(args.out) / (stem + "_variance.tiff"), r.variance);
+    WriteImage(fs::path(args.out) / (stem + "_valid.png"), r.valid);
+    index["poses"].push_back({{"bracket", bracket},
+                              {"radiance", stem + ".tiff"},
+                              {"variance", stem + "_variance.tiff"},
+                              {"valid", stem + "_valid.png"},
+                              {"frames", sources},
+                              {"valid_fraction", r.valid_fraction},
+                              {"extended_fraction", r.extended_fraction}});
+    std::cout << fmt::format("bracket {} ({} frames): ", bracket, frames.size()) << r.Report();
+  }
+  WriteJsonAtomically(fs::path(args.out) / "hdr.json", index);
+}
+
 }  // namespace
 
 void AddPhotometricCommand(CLI::App& app) {
@@ -112,6 +267,49 @@ void AddPhotometricCommand(CLI::App& app) {
                  "Leave out frames whose brightness contradicts their listed exposure "
                  "(default: re-time them)");
   resp->callback([args] { RunResponse(*args); });
+
+  auto vargs = std::make_shared<VignetteArgs>();
+  auto* vig = cmd->add_subcommand("vignette", "Vignetting map from board frames of many poses");
+  vig->add_option("--session", vargs->session, "Session folder")->required();
+  vig->add_option("--camera", vargs->camera, "camera.cameramodel")->required();
+  vig->add_option("--board", vargs->board, "board.json")->required();
+  vig->add_option("--poses", vargs->poses, "poses.json from gonio locate")->required();
+  vig->add_option("--response", vargs->response, "response.json")->required();
+  vig->add_option("--out", vargs->out,
+                  "vignette.tiff (32-bit float; a .png view and .json next to it)")
+      ->required();
+  vig->add_option("--photometric-out", vargs->photometric_out,
+                  "Write photometric.json (response + vignetting)");
+  vig->add_option("--model", vargs->model, "map (grid, radial fill-in) or radial")
+      ->capture_default_str();
+  vig->add_option("--cell-px", vargs->options.cell_px, "Vignette grid cell, pixels")
+      ->capture_default_str();
+  vig->add_option("--albedo-cell-m", vargs->options.albedo_cell_m, "Board texture cell, metres")
+      ->capture_default_str();
+  vig->add_option("--tag-margin-m", vargs->options.tag_margin_m,
+                  "Paper this close to a tag or the sample is left out, metres")
+      ->capture_default_str();
+  vig->add_option("--min-coverage", vargs->options.min_coverage,
+                  "Map model: grid fraction needed, else radial fallback")
+      ->capture_default_str();
+  vig->callback([vargs] { RunVignette(*vargs); });
+
+  auto aargs = std::make_shared<ApplyArgs>();
+  auto* app_cmd = cmd->add_subcommand("apply", "Pixel values -> linear relative radiance");
+  app_cmd->add_option("--image", aargs->image, "Raw image")->required();
+  app_cmd->add_option("--photometric", aargs->photometric, "photometric.json")->required();
+  app_cmd->add_option("--exposure", aargs->exposure_s, "Exposure time, seconds")->required();
+  app_cmd->add_option("--gain", aargs->gain, "Analogue gain")->capture_default_str();
+  app_cmd->add_option("--out", aargs->out, "radiance.tiff (32-bit float)")->required();
+  app_cmd->add_option("--variance", aargs->variance, "variance.tiff (32-bit float)");
+  app_cmd->callback([aargs] { RunApply(*aargs); });
+
+  auto hargs = std::make_shared<HdrArgs>();
+  auto* hdr = cmd->add_subcommand("hdr", "Merge exposure brackets (equal 'bracket') into radiance");
+  hdr->add_option("--session", hargs->session, "Session folder")->required();
+  hdr->add_option("--photometric", hargs->photometric, "photometric.json")->required();
+  hdr->add_option("--out", hargs->out, "Output folder")->required();
+  hdr->callback([hargs] { RunHdr(*hargs); });
 }
 
 }  // namespace gonio::cli

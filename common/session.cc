@@ -58,6 +58,9 @@ void Session::Check(const std::string& what) const {
                      "' is not one of analogue, device, iso100");
   }
   if (!board.empty()) CheckRelative(what, "board", board);
+  if (bit_depth != 0 && (bit_depth < 8 || bit_depth > 16)) {
+    throw InputError(what + ": bit_depth must be 8..16");
+  }
   if (frames.empty()) throw InputError(what + ": the session has no frames");
   std::set<std::string> seen;
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -83,9 +86,9 @@ Session ReadSession(const fs::path& dir_or_file) {
   const std::string what = file.string();
   const nlohmann::json j = ReadJsonFile(file);
   if (!j.is_object()) throw InputError(what + ": not a JSON object");
-  RejectUnknownKeys(
-      what, j,
-      {"format", "version", "camera_id", "board", "gain_unit", "bit_depth", "frames", "provenance"});
+  RejectUnknownKeys(what, j,
+                    {"format", "version", "camera_id", "board", "gain_unit", "bit_depth", "frames",
+                     "provenance"});
   if (Get<std::string>(what, j, "format") != kFormat) {
     throw InputError(what + ": format is not '" + std::string(kFormat) + "'");
   }
@@ -153,7 +156,7 @@ void WriteSession(const fs::path& dir, const Session& session) {
                       {"gain_unit", session.gain_unit},
                       {"frames", frames}};
   if (!session.board.empty()) j["board"] = session.board;
-  if (session.bit_depth) j["bit_depth"] = session.bit_depth;
+  if (session.bit_depth > 0) j["bit_depth"] = session.bit_depth;
   WriteJsonAtomically(file, j);
 }
 

@@ -28,9 +28,7 @@ struct Session {
   std::string camera_id;
   std::string board;  // board file relative to the folder; empty when the session has none
   std::string gain_unit = kGainAnalogue;
-  // Significant bits of the pixel values (12 for 12-bit data in 16-bit PNGs); 0 = the
-  // container's depth.
-  int bit_depth = 0;
+  int bit_depth = 0;  // significant bits of the pixel values (docs/formats.md); 0: not given
   std::vector<SessionFrame> frames;
 
   // Folder the session was read from (set by ReadSession); the paths below resolve against it.

@@ -62,6 +62,22 @@ TEST(Session, RoundTripKeepsEveryField) {
   EXPECT_EQ(ReadJsonFile(dir.path() / "session.json")["provenance"]["tool"], "gonio");
 }
 
+// bit_depth (docs/formats.md, written by gonio synth) is optional, kept, and checked.
+TEST(Session, BitDepthRoundTripsAndIsChecked) {
+  testing::TempDir dir;
+  Session s = TwoFrameSession(dir.path());
+  EXPECT_EQ(s.bit_depth, 0);
+  s.bit_depth = 12;
+  WriteSession(dir.path(), s);
+  EXPECT_EQ(ReadSession(dir.path()).bit_depth, 12);
+  s.bit_depth = 7;
+  EXPECT_THROW(WriteSession(dir.path(), s), InputError);
+  std::ofstream(dir.path() / "session.json")
+      << R"({"format": "gonio-session", "version": 1, "bit_depth": 20,
+             "frames": [{"file": "frame_0000.png", "exposure_s": 0.01}]})";
+  ExpectReadError(dir.path() / "session.json", "bit_depth must be 8..16");
+}
+
 TEST(Session, ReadsTheDocumentedExampleWithDefaults) {
   testing::TempDir dir;
   Touch(dir.path() / "frame_0000.png");

@@ -1,0 +1,154 @@
+// Vignetting (calib/vignette.h) against data_synth's known radial vignetting, and the
+// `gonio photometric vignette` command.
+#include "calib/vignette.h"
+
+#include <gtest/gtest.h>
+
+#include "calib/board.h"
+#include "common/camera_model.h"
+#include "common/error.h"
+#include "tests/calib/photometric_test_util.h"
+#include "tests/test_util.h"
+
+namespace gonio {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RunGonio;
+
+// Renders once per suite: the flat-field preset (tag-free white target filling the view, 6
+// poses) and the default board preset (tag ring, point lamp, 12 of its views), both at 320x240
+// with noise, gamma 2.2 and vignetting (-0.3, 0.05, -0.02).
+class VignetteSynthetic : public ::testing::Test {
+ protected:
+  // The texture cell that covers as many pixels at 320x240 as the default 2 mm at 1280x960.
+  static constexpr double kAlbedoCell = 0.008;
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir();
+    flat_ = testing::SmallPreset("flat-field", 4);
+    synth::RenderBoardSession(flat_, dir_->path() / "flat");
+    testing::WriteTruthPoses(dir_->path() / "flat", dir_->path() / "flat_poses.json");
+    board_ = testing::SmallPreset("default", 4);
+    board_.views.rings_deg = {15, 35, 55};
+    board_.views.per_ring = 4;
+    board_.views.distance = 0.3;  // the board fills more of the view
+    synth::RenderBoardSession(board_, dir_->path() / "board");
+    testing::WriteTruthPoses(dir_->path() / "board", dir_->path() / "board_poses.json");
+  }
+  static void TearDownTestSuite() { delete dir_; }
+
+  static testing::TempDir* dir_;
+  static synth::Scene flat_, board_;
+};
+testing::TempDir* VignetteSynthetic::dir_ = nullptr;
+synth::Scene VignetteSynthetic::flat_;
+synth::Scene VignetteSynthetic::board_;
+
+TEST_F(VignetteSynthetic, FlatFieldMapWithinOnePercentRms) {
+  const fs::path d = dir_->path() / "flat";
+  const auto frames = testing::LoadVignetteFrames(d, dir_->path() / "flat_poses.json");
+  const PaperRegion board = PaperRegion::Read(d / "board.json");
+  VignetteOptions o;
+  o.cell_px = 8;
+
+  const VignetteResult r =
+      CalibrateVignette(flat_.camera, board, testing::TruthCalibration(flat_), frames, o);
+  ASSERT_EQ(r.model_used, "map") << r.Report();
+  EXPECT_GT(r.coverage, 0.95) << r.Report();
+  const double rms = testing::RmsRelative(r.map, testing::TruthVignette(flat_));
+  EXPECT_LT(rms, 0.01) << r.Report();
+  // The radial fit recovers the coefficients too (corner V = 0.73).
+  EXPECT_NEAR(RadialVignetting(flat_.camera, r.radial, 0, 0),
+              RadialVignetting(flat_.camera, {-0.3, 0.05, -0.02}, 0, 0), 0.01);
+  std::cout << r.Report() << "RMS vs truth " << 100 * rms << "%\n";
+}
+
+// The board never reaches the image corners from these views: the map model falls back to the
+// radial polynomial, whose joint fit with the board texture (lamp fall-off, tag-free paper)
+// still matches the truth over the whole image.
+TEST_F(VignetteSynthetic, BoardSceneFallsBackToRadialWithinOnePercentRms) {
+  const fs::path d = dir_->path() / "board";
+  const auto frames = testing::LoadVignetteFrames(d, dir_->path() / "board_poses.json");
+  const PaperRegion board = PaperRegion::Read(d / "board.json");
+  VignetteOptions o;
+  o.albedo_cell_m = kAlbedoCell;
+  const VignetteResult r =
+      CalibrateVignette(board_.camera, board, testing::TruthCalibration(board_), frames, o);
+  EXPECT_EQ(r.model_used, "radial") << r.Report();
+  EXPECT_FALSE(r.note.empty());
+  const cv::Mat truth = testing::TruthVignette(board_);
+  const double rd = 0.5 * std::hypot(board_.camera.width, board_.camera.height);
+  cv::Mat inside(truth.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < truth.rows; ++y) {
+    for (int x = 0; x < truth.cols; ++x) {
+      const double r_px =
+          std::hypot(x - board_.camera.intrinsics[2], y - board_.camera.intrinsics[3]);
+      inside.at<uint8_t>(y, x) = r_px / rd <= r.covered_radius;
+    }
+  }
+  const double rms = testing::RmsRelative(r.map, truth, inside);
+  const double rms_all = testing::RmsRelative(r.map, truth);
+  EXPECT_GT(r.covered_radius, 0.5) << r.Report();
+  EXPECT_LT(rms, 0.01) << r.Report();
+  std::cout << r.Report() << "RMS vs truth " << 100 * rms << "% within the covered radius "
+            << r.covered_radius << ", " << 100 * rms_all << "% over the whole image\n";
+}
+
+TEST_F(VignetteSynthetic, OnePoseIsAnInputError) {
+  const fs::path d = dir_->path() / "flat";
+  auto frames = testing::LoadVignetteFrames(d, dir_->path() / "flat_poses.json");
+  frames.resize(1);
+  frames.push_back(frames[0]);  // the same pose twice is still one pose
+  EXPECT_THROW(CalibrateVignette(flat_.camera, PaperRegion::Read(d / "board.json"),
+                                 testing::TruthCalibration(flat_), frames, {}),
+               InputError);
+}
+
+TEST_F(VignetteSynthetic, CliWritesMapAndPhotometricJson) {
+  const fs::path d = dir_->path() / "flat";
+  const fs::path out = dir_->path() / "cli";
+  fs::create_directories(out);
+  WriteJsonAtomically(out / "response.json", testing::TruthCalibration(flat_).response.ToJson());
+  const std::string common = "photometric vignette --session " + d.string() + " --camera " +
+                             (d / "camera.cameramodel").string() + " --board " +
+                             (d / "board.json").string() + " --response " +
+                             (out / "response.json").string();
+  auto r = RunGonio(common + " --poses " + (dir_->path() / "flat_poses.json").string() + " --out " +
+                    (out / "vignette.tiff").string() + " --photometric-out " +
+                    (out / "photometric.json").string() + " --cell-px 8");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("vignetting (map)"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(out / "vignette.png"));
+  EXPECT_TRUE(fs::exists(out / "vignette.json"));
+  const PhotometricCalibration p = PhotometricCalibration::Read(out / "photometric.json");
+  ASSERT_EQ(p.vignette.size(), cv::Size(flat_.camera.width, flat_.camera.height));
+  EXPECT_LT(testing::RmsRelative(p.vignette, testing::TruthVignette(flat_)), 0.01);
+
+  // Bad input: one line on stderr, exit 2.
+  r = RunGonio(common + " --poses " + (out / "missing.json").string() + " --out " +
+               (out / "v2.tiff").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
+  testing::WriteTruthPoses(d, out / "one_pose.json", 1);
+  r = RunGonio(common + " --poses " + (out / "one_pose.json").string() + " --out " +
+               (out / "v3.tiff").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("two poses"), std::string::npos) << r.err;
+  // A camera model of another size than the frames.
+  CameraModel other = flat_.camera;
+  other.width *= 2;
+  other.height *= 2;
+  other.Write(out / "other.cameramodel");
+  r = RunGonio("photometric vignette --session " + d.string() + " --camera " +
+               (out / "other.cameramodel").string() + " --board " + (d / "board.json").string() +
+               " --response " + (out / "response.json").string() + " --poses " +
+               (dir_->path() / "flat_poses.json").string() + " --out " +
+               (out / "v4.tiff").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
+  EXPECT_FALSE(fs::exists(out / "v4.tiff"));
+}
+
+}  // namespace
+}  // namespace gonio
