@@ -12,6 +12,7 @@
 #include "apps/pipeline.h"
 #include "common/error.h"
 #include "common/io.h"
+#include "calib/vignette.h"
 #include "estimation/extract.h"
 #include "estimation/joint_fit.h"
 
@@ -47,8 +48,10 @@ void RunExtract(const ExtractArgs& a) {
   o.patch = a.patch;
   o.threads = a.threads;
   const Board board = Board::Read(a.board.empty() ? (fs::path(a.session) / "board.json").string() : a.board);
+  std::map<std::string, Rigid3d> poses;
+  for (const auto& [file, pose] : ReadPoses(a.poses)) poses[file] = pose;
   const ObservationSet set = ExtractObservations(
-      a.session, CameraModel::Read(a.camera), board, ReadPoses(a.poses),
+      a.session, CameraModel::Read(a.camera), board, poses,
       LoadPhotometric(a.photometric, a.session), o);
   WriteObservations(a.out, set);
   std::cout << fmt::format("{} observations -> {}\n", set.observations.size(), a.out);

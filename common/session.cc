@@ -102,10 +102,7 @@ Session ReadSession(const fs::path& dir_or_file) {
   s.camera_id = j.contains("camera_id") ? Get<std::string>(what, j, "camera_id") : "";
   if (j.contains("board") && !j["board"].is_null()) s.board = Get<std::string>(what, j, "board");
   if (j.contains("gain_unit")) s.gain_unit = Get<std::string>(what, j, "gain_unit");
-  if (j.contains("bit_depth")) {
-    s.bit_depth = Get<int>(what, j, "bit_depth");
-    if (s.bit_depth < 8 || s.bit_depth > 16) throw InputError(what + ": bit_depth must be 8 to 16");
-  }
+  if (j.contains("bit_depth")) s.bit_depth = Get<int>(what, j, "bit_depth");
   const nlohmann::json frames = j.contains("frames") ? j["frames"] : nlohmann::json();
   if (!frames.is_array()) throw InputError(what + ": 'frames' must be an array");
   for (size_t i = 0; i < frames.size(); ++i) {

@@ -47,22 +47,6 @@ void ExtractOptions::Check() const {
   if (!(edge_margin_px >= 0)) throw InputError("edge margin must be >= 0");
 }
 
-std::map<std::string, Rigid3d> ReadPoses(const std::filesystem::path& path) {
-  const nlohmann::json j = ReadJsonFile(path);
-  if (!j.contains("frames") || !j["frames"].is_array()) {
-    throw InputError(path.string() + ": not a poses.json (no 'frames' array)");
-  }
-  std::map<std::string, Rigid3d> poses;
-  for (const auto& f : j["frames"]) {
-    try {
-      poses[f.at("file").get<std::string>()] = RigidFromJson(f.at("cam_from_board"));
-    } catch (const std::exception& e) {
-      throw InputError(path.string() + ": frame without a valid file/cam_from_board");
-    }
-  }
-  return poses;
-}
-
 ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
                                    const CameraModel& camera, const Board& board,
                                    const std::map<std::string, Rigid3d>& poses,

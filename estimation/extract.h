@@ -23,9 +23,7 @@ struct ExtractOptions {
   void Check() const;
 };
 
-// frame file -> cam_from_board, from poses.json (gonio locate). InputError naming the file.
-std::map<std::string, Rigid3d> ReadPoses(const std::filesystem::path& path);
-
+// poses: frame file -> cam_from_board (poses.json via calib/vignette.h ReadPoses).
 // InputError when the board has no sample_region, no frame has a pose, or a frame cannot be
 // read. Frames without a pose are skipped (counted in `excluded`).
 ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
