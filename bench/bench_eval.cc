@@ -12,15 +12,57 @@
 #include "common/math.h"
 #include "common/parallel.h"
 #include "reflectance/oren_nayar_facet.h"
+#include "reflectance/pitted.h"
 #include "reflectance/registry.h"
+#include "reflectance/van_ginneken.h"
 
 namespace gonio::bench {
 namespace {
 
-// oren-nayar-facet has no more exact model; its own integral at 3x the Gauss-Legendre order in
-// both dimensions is the reference of its quadrature error.
-using FacetHighOrder = OrenNayarFacetN<48, 24>;
-constexpr const char* kFacetHighName = "oren-nayar-facet@48x24";
+// Numerical models without a more exact model are compared with themselves at 3x their
+// quadrature order: that difference is their quadrature error.
+struct HighOrderReference {
+  const char* name;   // "<model>@<order>"
+  const char* model;  // the registry model it refines (validity and parameters)
+  double (*eval)(const double* p, const Angles<double>& a);
+};
+
+const std::vector<HighOrderReference>& HighOrderReferences() {
+  static const std::vector<HighOrderReference> refs = {
+      {"oren-nayar-facet@48x24", "oren-nayar-facet",
+       [](const double* p, const Angles<double>& a) {
+         return OrenNayarFacetN<48, 24>::Evaluate(p, a);
+       }},
+      {"pitted-exact@96", "pitted-exact",
+       [](const double* p, const Angles<double>& a) {
+         return PittedExact::EvaluateWithNodes(p, a, 3 * kPittedQuadratureNodes);
+       }},
+      {"pitted-hemispherical@96", "pitted-hemispherical",
+       [](const double* p, const Angles<double>& a) {
+         return PittedHemispherical::EvaluateWithNodes(p, a, 3 * kPittedQuadratureNodes);
+       }},
+      // vg::Evaluate's default order is 12 points per panel (van_ginneken.h).
+      {"van-ginneken@36", "van-ginneken",
+       [](const double* p, const Angles<double>& a) {
+         const vg::Terms<double> t = vg::Evaluate<double, 36>(p[1], a);
+         return p[0] * (p[2] * t.specular + (1.0 - p[2]) * t.diffuse);
+       }},
+      {"van-ginneken-fresnel@36", "van-ginneken-fresnel",
+       [](const double* p, const Angles<double>& a) {
+         const vg::Terms<double> t = vg::Evaluate<double, 36>(p[1], a);
+         const double f = vg::FresnelUnpolarized(p[3], std::cos(vg::Normalized(a).theta_i));
+         return p[0] * (f * t.specular + (1.0 - f) * p[2] * t.diffuse);
+       }},
+  };
+  return refs;
+}
+
+const HighOrderReference* FindHighOrder(const std::string& name) {
+  for (const auto& r : HighOrderReferences()) {
+    if (name == r.name) return &r;
+  }
+  return nullptr;
+}
 
 double Seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
@@ -78,13 +120,18 @@ std::string MostExactReference(const std::string& model) {
     if (next.empty() || next == current) break;
     ref = current = next;
   }
-  if (ref.empty() && model == "oren-nayar-facet") ref = kFacetHighName;
+  if (ref.empty()) {
+    for (const auto& h : HighOrderReferences()) {
+      if (model == h.model) ref = h.name;
+    }
+  }
   return ref;
 }
 
 std::vector<double> MapParams(const std::string& model, const std::vector<double>& params,
                               const std::string& ref) {
-  const std::string ref_model = ref == kFacetHighName ? "oren-nayar-facet" : ref;
+  const HighOrderReference* high = FindHighOrder(ref);
+  const std::string ref_model = high ? high->model : ref;
   const ModelInfo& from = FindModel(model);
   const ModelInfo& to = FindModel(ref_model);
   std::vector<double> out;
@@ -100,10 +147,10 @@ std::vector<double> MapParams(const std::string& model, const std::vector<double
 
 std::string EvaluateAny(const std::string& name, const std::vector<double>& params,
                         const Angles<double>& a, double* value) {
-  if (name == kFacetHighName) {
-    std::string why = EvaluateChecked("oren-nayar-facet", params, a, value);
+  if (const HighOrderReference* high = FindHighOrder(name)) {
+    std::string why = EvaluateChecked(high->model, params, a, value);
     if (!why.empty()) return why;
-    *value = FacetHighOrder::Evaluate(params.data(), a);
+    *value = high->eval(params.data(), a);
     if (!std::isfinite(*value)) {
       *value = 0;
       return "model gave a non-finite value";
@@ -164,8 +211,8 @@ std::vector<EvalRow> RunEvaluationBench(const BenchSizes& s, int threads) {
     if (row.reference.empty()) {
       row.reference_note = "no reference";
     } else {
-      row.reference_note = row.reference == kFacetHighName ? "same model, higher quadrature"
-                                                           : "reference_model chain";
+      row.reference_note =
+          FindHighOrder(row.reference) ? "same model, 3x quadrature order" : "reference chain";
       const std::vector<double> ref_params = MapParams(info.name, params, row.reference);
       const double unit = ErrorUnit(info, params);
       std::vector<double> err(grid.size(), -1.0);
