@@ -32,7 +32,7 @@ struct BenchOptions {
 // The concrete sizes a BenchOptions::size stands for.
 struct BenchSizes {
   double target_rep_s = 0.2;   // wall time one timed repetition aims at
-  size_t max_batch = 1 << 18;  // largest batch per repetition
+  size_t max_batch = 1 << 20;  // largest batch per repetition
   int repetitions = 5;         // timed repetitions (the median is reported)
   double grid_step_deg = 5.0;  // theta_i, theta_r grid step (0 .. 80 deg)
   double phi_step_deg = 22.5;  // phi grid step (0 .. 180 deg)
@@ -40,6 +40,7 @@ struct BenchSizes {
   std::vector<std::string> fit_models = {"lambert", "oren-nayar", "tson", "van-ginneken",
                                          "pitted-exact"};
   int fit_starts = 6;
+  int fit_repeats = 3;  // noise draws per (model, size)
   double fit_noise = 0.02;
 };
 BenchSizes SizesFor(const BenchOptions& options);
@@ -80,9 +81,10 @@ struct FitRow {
   std::string method;  // "FitBrdf" or a hook's name
   int n_samples = 0;
   double noise = 0;
+  int repeats = 1;  // noise draws: time_s is their median, the errors their mean
   double time_s = 0;
-  // max over determined parameters of |fitted - true| / registry range; nullopt-like -1 when no
-  // parameter is determined.
+  // max over determined parameters of |fitted - true| / registry range; -1 when no parameter
+  // is determined.
   double max_param_err = 0;
   double rms_param_err = 0;
   int n_undetermined = 0;

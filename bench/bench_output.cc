@@ -76,7 +76,11 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   }
   for (auto& [name, s] : series) spec.series.push_back(s);
   if (!front.x.empty()) spec.series.push_back(front);
-  if (!left_out.empty()) spec.title += "\\n(error 0 / no reference, not shown: " + left_out + ")";
+  if (!left_out.empty()) {
+    extra << "set bmargin 6\nset label "
+          << Quoted("not shown (error 0 or no reference): " + left_out)
+          << " at screen 0.01, screen 0.02 font ',8' noenhanced\n";
+  }
   spec.extra = extra.str();
   if (spec.series.empty()) {
     // Nothing on a log axis (e.g. a smoke run without references): draw an empty frame.
@@ -147,6 +151,8 @@ BenchSizes SizesFor(const BenchOptions& o) {
     s.fit_sizes = {50, 200, 800};
     s.fit_models = {"lambert", "oren-nayar", "tson", "van-ginneken", "pitted-exact"};
     s.fit_starts = 2;
+    s.fit_repeats = 2;
+    s.repetitions = 5;
   } else if (o.size == "smoke") {
     s.target_rep_s = 0.002;
     s.max_batch = 4096;
@@ -156,6 +162,7 @@ BenchSizes SizesFor(const BenchOptions& o) {
     s.fit_sizes = {50};
     s.fit_models = {"lambert", "oren-nayar"};
     s.fit_starts = 1;
+    s.fit_repeats = 1;
   }
   return s;
 }
@@ -204,6 +211,7 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
                           {"method", r.method},
                           {"n_samples", r.n_samples},
                           {"noise", r.noise},
+                          {"repeats", r.repeats},
                           {"time_s", r.time_s},
                           {"max_param_err", r.max_param_err},
                           {"rms_param_err", r.rms_param_err},
