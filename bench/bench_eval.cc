@@ -90,13 +90,21 @@ AngleArrays RandomAngles(size_t n, unsigned seed) {
 
 // ns per evaluation of run(n): a small warm-up sizes the batch so one repetition takes about
 // target_rep_s, then the median of `repetitions` timed runs is reported.
-double TimeNsPerEval(const std::function<void(size_t)>& run, const BenchSizes& s, size_t* batch) {
+// A `fixed_batch` > 0 skips the sizing: the all-thread timing uses the single-thread batch
+// times the threads, since sizing it from a 64-evaluation run would measure thread start-up.
+double TimeNsPerEval(const std::function<void(size_t)>& run, const BenchSizes& s, size_t* batch,
+                     size_t fixed_batch = 0) {
   size_t n = std::min<size_t>(64, s.max_batch);
   run(n);  // warm-up: caches, quadrature tables, page faults of the output
-  auto t0 = std::chrono::steady_clock::now();
-  run(n);
-  const double per_eval = std::max(1e-9, Seconds(t0, std::chrono::steady_clock::now()) / n);
-  n = static_cast<size_t>(std::clamp(s.target_rep_s / per_eval, 64.0, double(s.max_batch)));
+  if (fixed_batch > 0) {
+    n = std::min(fixed_batch, s.max_batch);
+  } else {
+    auto t0 = std::chrono::steady_clock::now();
+    run(n);
+    const double per_eval = std::max(1e-9, Seconds(t0, std::chrono::steady_clock::now()) / n);
+    n = static_cast<size_t>(std::clamp(s.target_rep_s / per_eval, 64.0, double(s.max_batch)));
+  }
+  std::chrono::steady_clock::time_point t0;
   std::vector<double> ns;
   for (int r = 0; r < std::max(1, s.repetitions); ++r) {
     t0 = std::chrono::steady_clock::now();
@@ -204,8 +212,8 @@ std::vector<EvalRow> RunEvaluationBench(const BenchSizes& s, int threads) {
       };
     };
     row.ns_per_eval_1t = TimeNsPerEval(run(1), s, &row.batch);
-    size_t batch_mt = 0;
-    row.ns_per_eval_mt = TimeNsPerEval(run(threads), s, &batch_mt);
+    row.ns_per_eval_mt = TimeNsPerEval(run(threads), s, &row.batch_mt,
+                                       row.batch * static_cast<size_t>(ResolveThreads(threads)));
 
     row.reference = MostExactReference(info.name);
     if (row.reference.empty()) {

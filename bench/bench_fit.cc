@@ -220,7 +220,7 @@ StabilityReport RunFitStability(const BenchSizes& s) {
         x.phi = 0;
         x.value = v0 * (1.0 + s.fit_noise * gauss(rng));
       }
-      add("one geometry", "50 samples at (30,30,0)", samples, base, false);
+      add("one geometry", "50 at (30,30,0) deg", samples, base, false);
     }
     {
       BrdfFitOptions rel = base;

@@ -52,7 +52,7 @@ struct EvalRow {
   std::string reference;       // model name of the reference, "<model>@<order>" or empty
   std::string reference_note;  // "reference chain", "same model, higher quadrature", ...
   double ns_per_eval_1t = 0, ns_per_eval_mt = 0;
-  size_t batch = 0;                 // evaluations per timed repetition
+  size_t batch = 0, batch_mt = 0;   // evaluations per timed repetition (1t, mt)
   double max_err = 0, rms_err = 0;  // albedo/pi units; 0 with reference "" ("no reference")
   size_t grid_points = 0, grid_skipped = 0;  // points where model or reference is undefined
 };

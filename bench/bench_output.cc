@@ -37,7 +37,7 @@ void RenderBoth(const PlotSpec& spec, const fs::path& stem) {
 void ParetoChart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
                  const std::vector<std::string>& labels, const std::vector<std::string>& group,
                  const std::vector<double>& cost, const std::vector<double>& err,
-                 const fs::path& stem) {
+                 const fs::path& stem, const std::string& style = "points pt 7 ps 1.2") {
   PlotSpec spec;
   spec.title = title;
   spec.xlabel = xlabel;
@@ -58,7 +58,7 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
     }
     PlotSeries& s = series[group[k]];
     s.label = group[k];
-    s.style = "points pt 7 ps 1.2";
+    s.style = style;
     s.x.push_back(cost[k]);
     s.y.push_back(err[k]);
     c.push_back(cost[k]);
@@ -90,6 +90,16 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   RenderBoth(spec, stem);
 }
 
+// Tic labels are gnuplot format strings: a literal % must be doubled.
+std::string TicLabel(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    out += c;
+    if (c == '%') out += '%';
+  }
+  return Quoted(out);
+}
+
 // A status map: rows x columns of filled squares coloured valid / degraded / error.
 void StatusMap(const std::string& title, const std::vector<std::string>& rows,
                const std::vector<std::string>& cols,
@@ -100,7 +110,7 @@ void StatusMap(const std::string& title, const std::vector<std::string>& rows,
   spec.xlabel = "";
   spec.ylabel = "";
   spec.width = std::max(900, 60 * static_cast<int>(cols.size()) + 400);
-  spec.height = std::max(400, 28 * static_cast<int>(rows.size()) + 260);
+  spec.height = std::max(560, 28 * static_cast<int>(rows.size()) + 380);
   const std::vector<std::pair<std::string, std::string>> kinds = {
       {"valid", "#2ca02c"}, {"degraded", "#ff9f1c"}, {"error", "#d62728"}};
   for (const auto& [kind, colour] : kinds) {
@@ -121,11 +131,11 @@ void StatusMap(const std::string& title, const std::vector<std::string>& rows,
   }
   std::ostringstream ex;
   ex << "unset grid\nset xtics rotate by 50 right noenhanced font ',9' (";
-  for (size_t k = 0; k < cols.size(); ++k) ex << (k ? ", " : "") << Quoted(cols[k]) << " " << k;
+  for (size_t k = 0; k < cols.size(); ++k) ex << (k ? ", " : "") << TicLabel(cols[k]) << " " << k;
   ex << ")\nset ytics noenhanced font ',9' (";
-  for (size_t k = 0; k < rows.size(); ++k) ex << (k ? ", " : "") << Quoted(rows[k]) << " " << k;
+  for (size_t k = 0; k < rows.size(); ++k) ex << (k ? ", " : "") << TicLabel(rows[k]) << " " << k;
   ex << ")\nset xrange [-0.6:" << cols.size() - 0.4 << "]\nset yrange [" << rows.size() - 0.4
-     << ":-0.6]\nset bmargin 10\n";
+     << ":-0.6]\nset bmargin 14\n";
   spec.extra = ex.str();
   RenderBoth(spec, stem);
 }
@@ -191,7 +201,8 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
                   {"reference_note", r.reference_note},
                   {"ns_per_eval_1t", r.ns_per_eval_1t},
                   {"ns_per_eval_mt", r.ns_per_eval_mt},
-                  {"batch", r.batch},
+                  {"batch_1t", r.batch},
+                  {"batch_mt", r.batch_mt},
                   {"max_err", r.max_err},
                   {"rms_err", r.rms_err},
                   {"grid_points", r.grid_points},
@@ -261,7 +272,7 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
   ParetoChart("Fitting: time vs parameter error (synthetic, " +
                   std::to_string(int(s.fit_noise * 100)) + "% noise)",
               "fit time [s] (log)", "max parameter error [fraction of range] (log)", labels, groups,
-              cost, err, dir / "fit_pareto");
+              cost, err, dir / "fit_pareto", "linespoints pt 7 ps 1.2 lw 1");
   WriteJsonAtomically(dir / "bench.json", j);
 }
 
@@ -280,9 +291,9 @@ void WriteStabilityOutputs(const fs::path& dir, const BenchOptions& options,
       const bool is_fit = c.method == "FitBrdf" || c.subject.rfind("fit:", 0) == 0 ||
                           c.subject.rfind("joint", 0) == 0;
       if (is_fit != fits) continue;
-      // Model maps merge "->min"/"->max" per parameter and all "out of range" columns so the
-      // chart stays readable; stability.json keeps every point.
-      std::string col = c.axis;
+      // Fit maps show every point (few columns); model maps merge "->min"/"->max" per parameter
+      // and all "out of range" columns so the chart stays readable; stability.json keeps all.
+      std::string col = fits ? c.axis + ": " + c.value : c.axis;
       if (!fits) {
         if (col.size() > 5 &&
             (col.rfind("->min") == col.size() - 5 || col.rfind("->max") == col.size() - 5) &&
@@ -302,7 +313,8 @@ void WriteStabilityOutputs(const fs::path& dir, const BenchOptions& options,
       if (it == status.end() || rank(c.status) > rank(it->second)) status[key] = c.status;
     }
     if (rows.empty()) continue;
-    StatusMap(fits ? "Fit stability (worst status per axis)"
+    StatusMap(fits ? "Fit stability (degraded = undetermined parameters, not converged or > " +
+                         std::to_string(kDegradedTolerance).substr(0, 4) + " of a range off)"
                    : "Model stability (worst status per axis; degraded = > " +
                          std::to_string(kDegradedTolerance).substr(0, 4) +
                          " albedo/pi off the reference)",
