@@ -108,6 +108,9 @@ std::vector<size_t> ParetoFront(const std::vector<double>& cost, const std::vect
 
 // Tolerance (albedo/pi units) above which a finite value is "degraded" against its reference.
 inline constexpr double kDegradedTolerance = 0.1;
+// A finite value above this (albedo/pi units) or below 0 is "degraded" whatever the reference:
+// it is a pole of the formula, not a BRDF (narrow specular lobes stay below ~1e5).
+inline constexpr double kImplausibleMagnitude = 1e9;
 
 struct StabilityCell {
   std::string subject;  // model name, or "fit:<model>"

@@ -55,6 +55,14 @@ StabilityCell Classify(const ModelInfo& info, const std::string& ref,
       return c;
     }
     if (!std::isfinite(v)) ++rep->nonfinite_escaped;
+    // Finite is not enough: a divergent term evaluated at its pole (tan(pi/2) ~ 1.6e16) or a
+    // negative BRDF is no valid value either, reference or not.
+    if (v < 0 || v / unit > kImplausibleMagnitude) {
+      c.status = "degraded";
+      c.detail = "implausible value " + Fmt(v) + " 1/sr at theta_i=" + Fmt(RadToDeg(a.theta_i)) +
+                 " theta_r=" + Fmt(RadToDeg(a.theta_r)) + " phi=" + Fmt(RadToDeg(a.phi)) + " deg";
+      return c;
+    }
     double r = 0;
     if (!ref.empty() && EvaluateAny(ref, ref_params, a, &r).empty()) {
       max_err = std::max(max_err, std::abs(v - r) / unit);

@@ -47,6 +47,11 @@ TEST(BenchStability, EveryModelAtTheGridEdgesIsFiniteOrAnExplicitError) {
             const std::string why = EvaluateChecked(info.name, p, a, &v);
             if (why.empty()) {
               EXPECT_TRUE(std::isfinite(v)) << info.name << " at theta " << t;
+              EXPECT_GE(v, 0.0) << info.name << " at theta " << t << " phi " << phi;
+              // Exactly on the horizon a pole of the formula (tan(pi/2) ~ 1.6e16) is no value.
+              if (a.theta_i == kHalfPi && a.theta_r == kHalfPi) {
+                EXPECT_LT(v, 1e9) << info.name << " phi " << phi;
+              }
             } else {
               EXPECT_GT(why.size(), 10u) << info.name << ": a reason says what is wrong";
             }
