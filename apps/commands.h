@@ -15,6 +15,7 @@ void AddCaptureCommand(CLI::App& app);
 void AddMicrosimCommand(CLI::App& app);
 void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
 void AddSynthCommand(CLI::App& app);
+void AddBenchCommand(CLI::App& app);  // speed vs accuracy, stability sweeps
 
 void AddPipelineCommands(CLI::App& app);
 

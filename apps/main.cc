@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddMicrosimCommand(app);
   gonio::cli::AddCalibCommands(app);
   gonio::cli::AddSynthCommand(app);
+  gonio::cli::AddBenchCommand(app);
 
   try {
     app.parse(argc, argv);

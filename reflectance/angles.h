@@ -35,4 +35,12 @@ Angles<T> AnglesFromDirections(const T l[3], const T v[3]) {
   return a;
 }
 
+// Both source and viewer on the horizon (to 1e-9 in cos): where closed forms with tan(beta) or
+// 1/(cos theta_i cos theta_r) factors evaluate their pole (tan(pi/2) ~ 1.6e16). Models use it in
+// Invalid() so EvaluateChecked reports the reason instead of a meaningless 1e14-1e26 1/sr
+// (found by `gonio bench --stability`, docs/bench.md).
+inline bool BothAtHorizon(const Angles<double>& a) {
+  return std::cos(a.theta_i) < 1e-9 && std::cos(a.theta_r) < 1e-9;
+}
+
 }  // namespace gonio

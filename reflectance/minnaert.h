@@ -25,6 +25,14 @@ namespace gonio {
 
 struct Minnaert {
   static constexpr int kNumParams = 2;
+  // For k < 1, (cos theta_i cos theta_r)^(k-1) diverges when either direction reaches the
+  // horizon (2e31 1/sr at 90/90 deg, k = 0); k = 1 is Lambert and stays finite.
+  static const char* Invalid(const double* p, const Angles<double>& a) {
+    if (p[1] < 1.0 && (std::cos(a.theta_i) < 1e-9 || std::cos(a.theta_r) < 1e-9)) {
+      return "minnaert: (cos theta_i cos theta_r)^(k-1) diverges at the horizon for k < 1";
+    }
+    return nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "minnaert";

@@ -140,6 +140,13 @@ SingleSlopeRadiance<T> IsotropicSingleSlope(const T& theta_a, const T& tan_alpha
 template <int N>
 struct OrenNayarVCavityN {
   static constexpr int kNumParams = 2;
+  // Source and viewer both at the horizon: tan(beta) of eq. 27/30 and the
+  // slope integrals diverge as beta -> 90 deg (236 1/sr at 89.99 deg backscatter, albedo 0.5).
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return BothAtHorizon(a)
+               ? "oren-nayar family: f_r diverges with source and viewer both at the horizon"
+               : nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "oren-nayar-vcavity";

@@ -405,6 +405,13 @@ struct PittedExact {
 
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
+    return EvaluateWithNodes(p, a, kPittedQuadratureNodes);
+  }
+
+  // The same with `nodes` Gauss-Legendre points per quadrature dimension (gonio bench compares
+  // against 3x the nodes to measure the quadrature error).
+  template <typename T>
+  static T EvaluateWithNodes(const T* p, const Angles<T>& a, int nodes) {
     using std::cos;
     using std::sin;
     const T& rho = p[0];
@@ -418,9 +425,8 @@ struct PittedExact {
     // Orifice -> 0: the cap is flat and f_pit = rho/pi to O(Psi^2); avoid 0/0 at Psi = 0.
     if (!(psi > T(1e-6))) return rho * T(kInvPi);
     const T sp = sin(psi);
-    const T single =
-        pitted_internal::CapSingleScatter(psi, theta_i, theta_r, a.phi, kPittedQuadratureNodes) /
-        (T(kPi) * sp * sp * cos(theta_i) * cos(theta_r));
+    const T single = pitted_internal::CapSingleScatter(psi, theta_i, theta_r, a.phi, nodes) /
+                     (T(kPi) * sp * sp * cos(theta_i) * cos(theta_r));
     const T pit_gain = single - T(1) + pitted_internal::DiffuseFactor(rho, psi);
     return rho * T(kInvPi) * (T(1) + p[2] * pit_gain);
   }
@@ -450,11 +456,16 @@ struct PittedHemispherical {
 
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
+    return EvaluateWithNodes(p, a, kPittedQuadratureNodes);
+  }
+
+  // The same with `nodes` quadrature points (gonio bench: quadrature error vs 3x the nodes).
+  template <typename T>
+  static T EvaluateWithNodes(const T* p, const Angles<T>& a, int nodes) {
     const bool swap = a.theta_r > a.theta_i;
     const T& theta_l = swap ? a.theta_r : a.theta_i;
     const T& theta_v = swap ? a.theta_i : a.theta_r;
-    const T single =
-        pitted_internal::HemisphereSingleScatter(theta_l, theta_v, a.phi, kPittedQuadratureNodes);
+    const T single = pitted_internal::HemisphereSingleScatter(theta_l, theta_v, a.phi, nodes);
     const T rho = p[0];
     const T f_pit = rho * single / T(kPi * kPi) + rho * rho / (T(2 * kPi) * (T(2) - rho));
     return p[1] * f_pit + (T(1) - p[1]) * rho * T(kInvPi);

@@ -25,10 +25,10 @@
 namespace gonio {
 
 using AllModels =
-    std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity,
-               OrenNayarFacet, TorranceSparrow, TorranceSparrowF1, Tson, Pitted, PittedExact,
-               PittedHemispherical, VanGinneken, VanGinnekenFresnel, LiTorranceFull,
-               LiTorranceDd, LiTorranceDdUdf, LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
+    std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity, OrenNayarFacet,
+               TorranceSparrow, TorranceSparrowF1, Tson, Pitted, PittedExact, PittedHemispherical,
+               VanGinneken, VanGinnekenFresnel, LiTorranceFull, LiTorranceDd, LiTorranceDdUdf,
+               LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
 
 template <typename M>
 struct ModelTag {

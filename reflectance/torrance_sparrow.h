@@ -153,6 +153,13 @@ T LobeWithoutFresnel(const T& sigma_s, const Angles<T>& a, T* cos_sh) {
 
 struct TorranceSparrow {
   static constexpr int kNumParams = 3;
+  // Source and viewer both at the horizon: the 1/(cos theta_i cos theta_r)
+  // of the facet-to-surface conversion diverges (7e26 1/sr at 90/90 deg, phi = 180).
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return BothAtHorizon(a) ? "torrance-sparrow: f_r diverges with source and viewer both at the "
+                              "horizon (1/cos theta_r)"
+                            : nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "torrance-sparrow";
@@ -175,6 +182,13 @@ struct TorranceSparrow {
 
 struct TorranceSparrowF1 {
   static constexpr int kNumParams = 2;
+  // Source and viewer both at the horizon: the 1/(cos theta_i cos theta_r)
+  // of the facet-to-surface conversion diverges (7e26 1/sr at 90/90 deg, phi = 180).
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return BothAtHorizon(a) ? "torrance-sparrow: f_r diverges with source and viewer both at the "
+                              "horizon (1/cos theta_r)"
+                            : nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "torrance-sparrow-f1";
@@ -195,6 +209,13 @@ struct TorranceSparrowF1 {
 
 struct Tson {
   static constexpr int kNumParams = 4;
+  // Source and viewer both at the horizon: both the Oren-Nayar body (tan beta)
+  // and the lobe (1/cos theta_r) diverge.
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return BothAtHorizon(a) ? "tson: f_r diverges with source and viewer both at the horizon "
+                              "(Oren-Nayar body and lobe)"
+                            : nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "tson";

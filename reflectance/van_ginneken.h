@@ -271,6 +271,13 @@ Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = Specula
 
 struct VanGinneken {
   static constexpr int kNumParams = 3;
+  // Source and viewer both at the horizon: f_r grows without bound as both
+  // directions approach the horizon (268 1/sr at 89.99 deg, 7e14 at 90 deg).
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return BothAtHorizon(a)
+               ? "van-ginneken: f_r diverges with source and viewer both at the horizon"
+               : nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "van-ginneken";
@@ -293,6 +300,13 @@ struct VanGinneken {
 
 struct VanGinnekenFresnel {
   static constexpr int kNumParams = 4;
+  // Source and viewer both at the horizon: f_r grows without bound as both
+  // directions approach the horizon (268 1/sr at 89.99 deg, 7e14 at 90 deg).
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return BothAtHorizon(a)
+               ? "van-ginneken: f_r diverges with source and viewer both at the horizon"
+               : nullptr;
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "van-ginneken-fresnel";

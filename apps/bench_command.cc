@@ -1,0 +1,68 @@
+// gonio bench: speed against accuracy of every model and fit, and stability sweeps towards the
+// failure regions (docs/bench.md).
+#include <iostream>
+
+#include <spdlog/spdlog.h>
+
+#include "apps/cli_util.h"
+#include "apps/commands.h"
+#include "bench/bench_lib.h"
+#include "common/error.h"
+
+namespace gonio::cli {
+namespace {
+
+struct BenchArgs {
+  std::string out;
+  bool quick = false, smoke = false, stability = false;
+  int threads = 0;
+};
+
+void RunBench(const BenchArgs& args) {
+  bench::BenchOptions opt;
+  opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
+  opt.threads = args.threads;
+  opt.Check();
+  const bench::BenchSizes sizes = bench::SizesFor(opt);
+  if (args.stability) {
+    const bench::StabilityReport rep = bench::RunStabilitySweeps(sizes);
+    bench::WriteStabilityOutputs(args.out, opt, rep);
+    nlohmann::json j = rep.ToJson();
+    j.erase("cells");
+    PrintJson(j);
+    if (rep.nonfinite_escaped > 0) {
+      throw NumericalError(std::to_string(rep.nonfinite_escaped) +
+                           " non-finite values passed the checks (see " + args.out +
+                           "/stability.json)");
+    }
+    return;
+  }
+  const auto eval = bench::RunEvaluationBench(sizes, opt.threads);
+  const auto baseline = bench::RunBaseline(sizes);
+  const auto fits = bench::RunFittingBench(sizes);
+  bench::WriteBenchOutputs(args.out, opt, eval, baseline, fits);
+  spdlog::info("oren-nayar / hand-written baseline = {:.2f} (target <= 1.5)", baseline.ratio);
+  PrintJson({{"out", args.out},
+             {"models", eval.size()},
+             {"fits", fits.size()},
+             {"baseline_ratio", baseline.ratio}});
+}
+
+}  // namespace
+
+void AddBenchCommand(CLI::App& app) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "bench",
+      "Time every model and fit against its accuracy (bench.json + charts), or run the "
+      "stability sweeps (--stability: stability.json + maps)");
+  cmd->add_option("--out", args->out, "output folder")->required();
+  cmd->add_flag("--quick", args->quick, "smaller batches and grids (under 2 minutes)");
+  cmd->add_flag("--smoke", args->smoke, "tiny sizes for CI smoke tests (seconds)");
+  cmd->add_flag("--stability", args->stability, "run the stability sweeps instead of the timings");
+  cmd->add_option("--threads", args->threads, "threads of the all-thread timings (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->callback([args] { RunBench(*args); });
+}
+
+}  // namespace gonio::cli

@@ -1,0 +1,154 @@
+// Speed against accuracy and stability where methods fail (issue 10): the library behind
+// `gonio bench`. Every registered model is timed on batches (EvaluateBatch, single thread and
+// all threads) and compared with the most exact method available for its physics; fits
+// (FitBrdf) are timed against their parameter error; stability sweeps drive every model and fit
+// towards its failure regions and classify each point as valid / degraded / error.
+//
+// Errors of evaluations are in units of albedo/pi: |f - f_ref| divided by (s/pi), where s is the
+// model's first scale parameter (albedo, ks, scale: ParamInfo.is_scale) at the benchmark
+// parameters, so 0.01 means "1% of a Lambertian surface of the same albedo".
+//
+// Hooks for the joint BRDF + lamp fit (owned by the pipeline): FitBenchCase and StabilityHook
+// let callers add more fitting cases (e.g. lamp distance -> infinity) without changing this file.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace gonio::bench {
+
+// How big a run is: "full" (docs/bench.md table), "quick" (< 2 min on 2 loaded cores) and
+// "smoke" (a few seconds, for CI).
+struct BenchOptions {
+  std::string size = "full";
+  int threads = 0;     // threads of the "mt" timings and of the error grids (<= 0: all cores)
+  void Check() const;  // InputError on an unknown size or negative threads
+};
+
+// The concrete sizes a BenchOptions::size stands for.
+struct BenchSizes {
+  double target_rep_s = 0.2;   // wall time one timed repetition aims at
+  size_t max_batch = 1 << 20;  // largest batch per repetition
+  int repetitions = 5;         // timed repetitions (the median is reported)
+  double grid_step_deg = 5.0;  // theta_i, theta_r grid step (0 .. 80 deg)
+  double phi_step_deg = 22.5;  // phi grid step (0 .. 180 deg)
+  std::vector<int> fit_sizes = {50, 200, 800};
+  std::vector<std::string> fit_models = {"lambert", "oren-nayar", "tson", "van-ginneken",
+                                         "pitted-exact"};
+  int fit_starts = 6;
+  int fit_repeats = 3;  // noise draws per (model, size)
+  double fit_noise = 0.02;
+};
+BenchSizes SizesFor(const BenchOptions& options);
+
+// ----- evaluation -----------------------------------------------------------------------------
+
+struct EvalRow {
+  std::string model, method;
+  std::string reference;       // model name of the reference, "<model>@<order>" or empty
+  std::string reference_note;  // "reference chain", "same model, higher quadrature", ...
+  double ns_per_eval_1t = 0, ns_per_eval_mt = 0;
+  size_t batch = 0, batch_mt = 0;   // evaluations per timed repetition (1t, mt)
+  double max_err = 0, rms_err = 0;  // albedo/pi units; 0 with reference "" ("no reference")
+  size_t grid_points = 0, grid_skipped = 0;  // points where model or reference is undefined
+};
+
+// The hand-written loop of Oren-Nayar eq. 27-29 against the registry model, same run.
+struct BaselineResult {
+  double ns_per_eval_baseline = 0;    // hand-written loop, 1 thread
+  double ns_per_eval_oren_nayar = 0;  // EvaluateBatch("oren-nayar"), 1 thread
+  double ratio = 0;                   // oren-nayar / baseline (target <= 1.5)
+  double max_abs_diff = 0;            // the two agree to rounding (1/sr)
+  size_t batch = 0;
+};
+
+// The reference chain of a model: follows ModelInfo.reference_model, plus the
+// oren-nayar-vcavity -> oren-nayar-facet step (the facet integral has no eq. 44/48
+// approximations). Empty for models without a reference.
+std::string MostExactReference(const std::string& model);
+
+std::vector<EvalRow> RunEvaluationBench(const BenchSizes& sizes, int threads);
+BaselineResult RunBaseline(const BenchSizes& sizes);
+
+// ----- fitting --------------------------------------------------------------------------------
+
+struct FitRow {
+  std::string model;
+  std::string method;  // "FitBrdf" or a hook's name
+  int n_samples = 0;
+  double noise = 0;
+  int repeats = 1;  // noise draws: time_s is their median, the errors their mean
+  double time_s = 0;
+  // max over determined parameters of |fitted - true| / registry range; -1 when no parameter
+  // is determined.
+  double max_param_err = 0;
+  double rms_param_err = 0;
+  int n_undetermined = 0;
+  bool converged = false;
+  std::string error;  // exception text when the fit threw
+};
+
+// An extra fitting case, e.g. the joint BRDF + lamp fit: run(n_obs, noise, seed) returns a row.
+struct FitBenchCase {
+  std::string name;
+  std::function<FitRow(int n_obs, double noise, unsigned seed)> run;
+};
+
+std::vector<FitRow> RunFittingBench(const BenchSizes& sizes,
+                                    const std::vector<FitBenchCase>& extra = {});
+
+// Indices of the points on the Pareto front of (cost, error), both minimised, sorted by cost.
+std::vector<size_t> ParetoFront(const std::vector<double>& cost, const std::vector<double>& err);
+
+// ----- stability ------------------------------------------------------------------------------
+
+// Tolerance (albedo/pi units) above which a finite value is "degraded" against its reference.
+inline constexpr double kDegradedTolerance = 0.1;
+// A finite value above this (albedo/pi units) or below 0 is "degraded" whatever the reference:
+// it is a pole of the formula, not a BRDF (narrow specular lobes stay below ~1e5).
+inline constexpr double kImplausibleMagnitude = 1e9;
+
+struct StabilityCell {
+  std::string subject;  // model name, or "fit:<model>"
+  std::string method;   // closed-form / numerical / sampling / FitBrdf
+  std::string axis;     // column of the map: "theta->90", "sigma->min", "noise", ...
+  std::string value;    // the point on the axis, e.g. "89.99 deg", "sigma=0"
+  std::string status;   // "valid", "degraded" or "error"
+  std::string detail;   // reason, error against the reference, undetermined parameters
+};
+
+struct StabilityReport {
+  std::vector<StabilityCell> cells;
+  // Values that were non-finite but reported as valid (must be 0: "no NaN or Inf escapes").
+  int nonfinite_escaped = 0;
+  // Raw formula results (EvaluateBatch, no checks) that were non-finite: caught by the checks.
+  int raw_nonfinite = 0;
+  nlohmann::json ToJson() const;
+};
+
+// An extra stability sweep, e.g. lamp distance -> infinity for the joint fit.
+struct StabilityHook {
+  std::string name;
+  std::function<std::vector<StabilityCell>(const BenchSizes&)> run;
+};
+
+StabilityReport RunModelStability(const BenchSizes& sizes);
+StabilityReport RunFitStability(const BenchSizes& sizes);
+StabilityReport RunStabilitySweeps(const BenchSizes& sizes,
+                                   const std::vector<StabilityHook>& hooks = {});
+
+// ----- outputs --------------------------------------------------------------------------------
+
+// bench.json + eval_pareto.{png,svg} + fit_pareto.{png,svg} in `dir`.
+void WriteBenchOutputs(const std::filesystem::path& dir, const BenchOptions& options,
+                       const std::vector<EvalRow>& eval, const BaselineResult& baseline,
+                       const std::vector<FitRow>& fits);
+// stability.json + stability_models.{png,svg} + stability_fits.{png,svg} in `dir`.
+void WriteStabilityOutputs(const std::filesystem::path& dir, const BenchOptions& options,
+                           const StabilityReport& report);
+
+}  // namespace gonio::bench

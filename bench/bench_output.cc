@@ -1,0 +1,325 @@
+// Run sizes, bench.json / stability.json and the charts.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "bench/bench_lib.h"
+#include "common/error.h"
+#include "common/io.h"
+#include "common/parallel.h"
+#include "common/plot.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio::bench {
+namespace {
+
+std::string Quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') q += '\\';
+    q += c;
+  }
+  return q + "\"";
+}
+
+void RenderBoth(const PlotSpec& spec, const fs::path& stem) {
+  RenderPlot(spec, fs::path(stem).replace_extension(".png"));
+  RenderPlot(spec, fs::path(stem).replace_extension(".svg"));
+}
+
+// Time (log) against error (log): one point per entry, labelled, grouped into series by
+// `group`, with the Pareto front as a dashed line. Entries with error <= 0 cannot sit on a log
+// axis; they are listed in the subtitle instead.
+void ParetoChart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
+                 const std::vector<std::string>& labels, const std::vector<std::string>& group,
+                 const std::vector<double>& cost, const std::vector<double>& err,
+                 const fs::path& stem, const std::string& style = "points pt 7 ps 1.2") {
+  PlotSpec spec;
+  spec.title = title;
+  spec.xlabel = xlabel;
+  spec.ylabel = ylabel;
+  spec.log_x = spec.log_y = true;
+  spec.width = 1200;
+  spec.height = 800;
+  std::vector<double> c, e;
+  std::vector<size_t> map;
+  std::string left_out;
+  std::map<std::string, PlotSeries> series;
+  std::ostringstream extra;
+  extra << "set format y '%.0e'\n";
+  for (size_t k = 0; k < cost.size(); ++k) {
+    if (!(err[k] > 0) || !(cost[k] > 0)) {
+      left_out += (left_out.empty() ? "" : ", ") + labels[k];
+      continue;
+    }
+    PlotSeries& s = series[group[k]];
+    s.label = group[k];
+    s.style = style;
+    s.x.push_back(cost[k]);
+    s.y.push_back(err[k]);
+    c.push_back(cost[k]);
+    e.push_back(err[k]);
+    map.push_back(k);
+    extra << "set label " << Quoted(labels[k]) << " at " << cost[k] << "," << err[k]
+          << " offset 0.6,0.4 font ',8' noenhanced\n";
+  }
+  PlotSeries front;
+  front.label = "Pareto front";
+  front.style = "lines lw 2 dt 2 lc rgb '#444444'";
+  for (size_t k : ParetoFront(c, e)) {
+    front.x.push_back(c[k]);
+    front.y.push_back(e[k]);
+  }
+  for (auto& [name, s] : series) spec.series.push_back(s);
+  if (!front.x.empty()) spec.series.push_back(front);
+  if (!left_out.empty()) {
+    extra << "set bmargin 6\nset label "
+          << Quoted("not shown (error 0 or no reference): " + left_out)
+          << " at screen 0.01, screen 0.02 font ',8' noenhanced\n";
+  }
+  spec.extra = extra.str();
+  if (spec.series.empty()) {
+    // Nothing on a log axis (e.g. a smoke run without references): draw an empty frame.
+    spec.log_x = spec.log_y = false;
+    spec.series.push_back({"(no points with error > 0)", {0.0}, {0.0}, "points pt 0"});
+  }
+  RenderBoth(spec, stem);
+}
+
+// Tic labels are gnuplot format strings: a literal % must be doubled.
+std::string TicLabel(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    out += c;
+    if (c == '%') out += '%';
+  }
+  return Quoted(out);
+}
+
+// A status map: rows x columns of filled squares coloured valid / degraded / error.
+void StatusMap(const std::string& title, const std::vector<std::string>& rows,
+               const std::vector<std::string>& cols,
+               const std::map<std::pair<size_t, size_t>, std::string>& status,
+               const fs::path& stem) {
+  PlotSpec spec;
+  spec.title = title;
+  spec.xlabel = "";
+  spec.ylabel = "";
+  spec.width = std::max(900, 60 * static_cast<int>(cols.size()) + 400);
+  spec.height = std::max(560, 28 * static_cast<int>(rows.size()) + 380);
+  const std::vector<std::pair<std::string, std::string>> kinds = {
+      {"valid", "#2ca02c"}, {"degraded", "#ff9f1c"}, {"error", "#d62728"}};
+  for (const auto& [kind, colour] : kinds) {
+    PlotSeries s;
+    s.label = kind;
+    s.style = "points pt 5 ps 2.6 lc rgb '" + colour + "'";
+    for (const auto& [rc, st] : status) {
+      if (st != kind) continue;
+      s.x.push_back(static_cast<double>(rc.second));
+      s.y.push_back(static_cast<double>(rc.first));
+    }
+    // gnuplot needs a point in every block; park unused kinds outside the visible range.
+    if (s.x.empty()) {
+      s.x.push_back(-10);
+      s.y.push_back(-10);
+    }
+    spec.series.push_back(s);
+  }
+  std::ostringstream ex;
+  ex << "unset grid\nset xtics rotate by 50 right noenhanced font ',9' (";
+  for (size_t k = 0; k < cols.size(); ++k) ex << (k ? ", " : "") << TicLabel(cols[k]) << " " << k;
+  ex << ")\nset ytics noenhanced font ',9' (";
+  for (size_t k = 0; k < rows.size(); ++k) ex << (k ? ", " : "") << TicLabel(rows[k]) << " " << k;
+  ex << ")\nset xrange [-0.6:" << cols.size() - 0.4 << "]\nset yrange [" << rows.size() - 0.4
+     << ":-0.6]\nset bmargin 14\n";
+  spec.extra = ex.str();
+  RenderBoth(spec, stem);
+}
+
+}  // namespace
+
+void BenchOptions::Check() const {
+  if (size != "full" && size != "quick" && size != "smoke") {
+    throw InputError("bench size '" + size + "' is not one of full, quick, smoke");
+  }
+  if (threads < 0) throw InputError("--threads must be >= 0 (0 = all cores)");
+}
+
+BenchSizes SizesFor(const BenchOptions& o) {
+  o.Check();
+  BenchSizes s;
+  if (o.size == "quick") {
+    s.target_rep_s = 0.02;
+    s.max_batch = 1 << 15;
+    s.repetitions = 3;
+    s.grid_step_deg = 10;
+    s.phi_step_deg = 45;
+    s.fit_sizes = {50, 200, 800};
+    s.fit_models = {"lambert", "oren-nayar", "tson", "van-ginneken", "pitted-exact"};
+    s.fit_starts = 2;
+    s.fit_repeats = 2;
+    s.repetitions = 5;
+  } else if (o.size == "smoke") {
+    s.target_rep_s = 0.002;
+    s.max_batch = 4096;
+    s.repetitions = 1;
+    s.grid_step_deg = 20;
+    s.phi_step_deg = 90;
+    s.fit_sizes = {50};
+    s.fit_models = {"lambert", "oren-nayar"};
+    s.fit_starts = 1;
+    s.fit_repeats = 1;
+  }
+  return s;
+}
+
+void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
+                       const std::vector<EvalRow>& eval, const BaselineResult& baseline,
+                       const std::vector<FitRow>& fits) {
+  EnsureDirectory(dir);
+  const BenchSizes s = SizesFor(options);
+  nlohmann::json j;
+  j["settings"] = {
+      {"size", options.size},
+      {"threads_mt", ResolveThreads(options.threads)},
+      {"hardware_threads", std::thread::hardware_concurrency()},
+      {"error_grid", "theta_i, theta_r 0..80 deg step " + std::to_string(s.grid_step_deg) +
+                         ", phi 0..180 deg step " + std::to_string(s.phi_step_deg)},
+      {"error_unit", "albedo/pi: |f - f_ref| / (s/pi), s = first scale parameter"},
+      {"timing", "median of " + std::to_string(s.repetitions) +
+                     " repetitions after warm-up, batches of uniform random angles"},
+      {"param_error_unit", "|fitted - true| / registry range, determined parameters only"}};
+  nlohmann::json ev = nlohmann::json::array();
+  for (const auto& r : eval) {
+    ev.push_back({{"model", r.model},
+                  {"method", r.method},
+                  {"reference", r.reference.empty() ? "no reference" : r.reference},
+                  {"reference_note", r.reference_note},
+                  {"ns_per_eval_1t", r.ns_per_eval_1t},
+                  {"ns_per_eval_mt", r.ns_per_eval_mt},
+                  {"batch_1t", r.batch},
+                  {"batch_mt", r.batch_mt},
+                  {"max_err", r.max_err},
+                  {"rms_err", r.rms_err},
+                  {"grid_points", r.grid_points},
+                  {"grid_skipped", r.grid_skipped}});
+  }
+  j["evaluation"] = ev;
+  j["baseline"] = {{"what", "hand-written loop of Oren-Nayar eq. 27-29, same run"},
+                   {"ns_per_eval_baseline", baseline.ns_per_eval_baseline},
+                   {"ns_per_eval_oren_nayar", baseline.ns_per_eval_oren_nayar},
+                   {"ratio_oren_nayar_over_baseline", baseline.ratio},
+                   {"target_ratio", 1.5},
+                   {"max_abs_diff", baseline.max_abs_diff},
+                   {"batch", baseline.batch}};
+  nlohmann::json fj = nlohmann::json::array();
+  for (const auto& r : fits) {
+    nlohmann::json row = {{"model", r.model},
+                          {"method", r.method},
+                          {"n_samples", r.n_samples},
+                          {"noise", r.noise},
+                          {"repeats", r.repeats},
+                          {"time_s", r.time_s},
+                          {"max_param_err", r.max_param_err},
+                          {"rms_param_err", r.rms_param_err},
+                          {"n_undetermined", r.n_undetermined},
+                          {"converged", r.converged}};
+    if (!r.error.empty()) row["error"] = r.error;
+    fj.push_back(row);
+  }
+  j["fitting"] = fj;
+
+  std::vector<std::string> labels, groups;
+  std::vector<double> cost, err;
+  for (const auto& r : eval) {
+    labels.push_back(r.model);
+    groups.push_back(r.method);
+    cost.push_back(r.ns_per_eval_1t);
+    err.push_back(r.reference.empty() ? 0.0 : r.max_err);
+  }
+  nlohmann::json front = nlohmann::json::array();
+  {
+    std::vector<double> c, e;
+    std::vector<size_t> idx;
+    for (size_t k = 0; k < cost.size(); ++k) {
+      if (err[k] > 0) {
+        c.push_back(cost[k]);
+        e.push_back(err[k]);
+        idx.push_back(k);
+      }
+    }
+    for (size_t k : ParetoFront(c, e)) front.push_back(labels[idx[k]]);
+  }
+  j["pareto_evaluation"] = front;
+  ParetoChart("Evaluation: time vs max error against the most exact method",
+              "ns per evaluation (1 thread, log)", "max error over grid [albedo/pi] (log)", labels,
+              groups, cost, err, dir / "eval_pareto");
+
+  labels.clear();
+  groups.clear();
+  cost.clear();
+  err.clear();
+  for (const auto& r : fits) {
+    labels.push_back(r.model + " n=" + std::to_string(r.n_samples));
+    groups.push_back(r.model);
+    cost.push_back(r.error.empty() ? r.time_s : 0.0);
+    err.push_back(r.error.empty() ? r.max_param_err : 0.0);
+  }
+  ParetoChart("Fitting: time vs parameter error (synthetic, " +
+                  std::to_string(int(s.fit_noise * 100)) + "% noise)",
+              "fit time [s] (log)", "max parameter error [fraction of range] (log)", labels, groups,
+              cost, err, dir / "fit_pareto", "linespoints pt 7 ps 1.2 lw 1");
+  WriteJsonAtomically(dir / "bench.json", j);
+}
+
+void WriteStabilityOutputs(const fs::path& dir, const BenchOptions& options,
+                           const StabilityReport& report) {
+  EnsureDirectory(dir);
+  nlohmann::json j = report.ToJson();
+  j["settings"] = {{"size", options.size}};
+  WriteJsonAtomically(dir / "stability.json", j);
+
+  auto rank = [](const std::string& st) { return st == "error" ? 2 : st == "degraded" ? 1 : 0; };
+  for (const bool fits : {false, true}) {
+    std::vector<std::string> rows, cols;
+    std::map<std::pair<size_t, size_t>, std::string> status;
+    for (const auto& c : report.cells) {
+      const bool is_fit = c.method == "FitBrdf" || c.subject.rfind("fit:", 0) == 0 ||
+                          c.subject.rfind("joint", 0) == 0;
+      if (is_fit != fits) continue;
+      // Fit maps show every point (few columns); model maps merge "->min"/"->max" per parameter
+      // and all "out of range" columns so the chart stays readable; stability.json keeps all.
+      std::string col = fits ? c.axis + ": " + c.value : c.axis;
+      if (!fits) {
+        if (col.size() > 5 &&
+            (col.rfind("->min") == col.size() - 5 || col.rfind("->max") == col.size() - 5) &&
+            col != "theta->90") {
+          col = col.substr(0, col.size() - 5) + " min/max";
+        } else if (col.find(" out of range") != std::string::npos) {
+          col = "param out of range";
+        }
+      }
+      const std::string row = c.subject + " (" + c.method + ")";
+      auto r = std::find(rows.begin(), rows.end(), row);
+      if (r == rows.end()) r = rows.insert(rows.end(), row);
+      auto k = std::find(cols.begin(), cols.end(), col);
+      if (k == cols.end()) k = cols.insert(cols.end(), col);
+      const std::pair<size_t, size_t> key(r - rows.begin(), k - cols.begin());
+      auto it = status.find(key);
+      if (it == status.end() || rank(c.status) > rank(it->second)) status[key] = c.status;
+    }
+    if (rows.empty()) continue;
+    StatusMap(fits ? "Fit stability (degraded = undetermined parameters, not converged or > " +
+                         std::to_string(kDegradedTolerance).substr(0, 4) + " of a range off)"
+                   : "Model stability (worst status per axis; degraded = > " +
+                         std::to_string(kDegradedTolerance).substr(0, 4) +
+                         " albedo/pi off the reference)",
+              rows, cols, status, dir / (fits ? "stability_fits" : "stability_models"));
+  }
+}
+
+}  // namespace gonio::bench

@@ -1,0 +1,57 @@
+// `gonio bench` end to end at the smoke size: the files the issue asks for, no timing asserts.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "common/io.h"
+#include "tests/test_util.h"
+
+namespace gonio {
+namespace {
+
+using testing::RunGonio;
+using testing::TempDir;
+
+TEST(BenchCli, SmokeRunWritesBenchJsonAndCharts) {
+  TempDir dir;
+  const auto r = RunGonio("bench --smoke --threads 2 --out " + dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "bench.json");
+  ASSERT_TRUE(j.contains("evaluation") && j.contains("fitting") && j.contains("baseline"));
+  ASSERT_GE(j["evaluation"].size(), 10u);
+  for (const auto& row : j["evaluation"]) {
+    for (const char* key :
+         {"model", "method", "ns_per_eval_1t", "ns_per_eval_mt", "max_err", "rms_err"}) {
+      ASSERT_TRUE(row.contains(key)) << key;
+    }
+    EXPECT_GT(row["ns_per_eval_1t"].get<double>(), 0.0) << row["model"];
+    EXPECT_GE(row["max_err"].get<double>(), 0.0);
+  }
+  EXPECT_GT(j["baseline"]["ratio_oren_nayar_over_baseline"].get<double>(), 0.0);
+  ASSERT_FALSE(j["fitting"].empty());
+  for (const char* f : {"eval_pareto.png", "eval_pareto.svg", "fit_pareto.png", "fit_pareto.svg"}) {
+    EXPECT_GT(std::filesystem::file_size(dir.path() / f), 1000u) << f;
+  }
+}
+
+TEST(BenchCli, StabilityWritesMapsAndNoNonFinite) {
+  TempDir dir;
+  const auto r = RunGonio("bench --smoke --stability --out " + dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "stability.json");
+  EXPECT_EQ(j["nonfinite_escaped"].get<int>(), 0);
+  ASSERT_TRUE(j["map"].contains("oren-nayar"));
+  ASSERT_TRUE(j["map"].contains("fit:lambert"));
+  for (const char* f : {"stability_models.png", "stability_models.svg", "stability_fits.png"}) {
+    EXPECT_GT(std::filesystem::file_size(dir.path() / f), 1000u) << f;
+  }
+}
+
+TEST(BenchCli, MissingOutIsAnInputError) {
+  const auto r = RunGonio("bench --smoke");
+  EXPECT_EQ(r.exit_code, 2);
+}
+
+}  // namespace
+}  // namespace gonio

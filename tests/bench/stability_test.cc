@@ -1,0 +1,200 @@
+// The stability sweeps as tests: every model at the grid edges gives a finite value or an
+// explicit reason, fits on degenerate data flag undetermined parameters instead of reporting
+// confident numbers, and the bench's own machinery (references, Pareto front, baseline) is right.
+#include <cmath>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "bench/bench_lib.h"
+#include "common/error.h"
+#include "common/math.h"
+#include "estimation/brdf_fit.h"
+#include "reflectance/registry.h"
+
+namespace gonio::bench {
+namespace {
+
+BenchSizes Smoke() {
+  BenchOptions o;
+  o.size = "smoke";
+  return SizesFor(o);
+}
+
+TEST(BenchStability, EveryModelAtTheGridEdgesIsFiniteOrAnExplicitError) {
+  // Directly through the checked API, independent of the sweep code: theta -> 90 deg and every
+  // parameter at its bounds.
+  const std::vector<double> thetas = {DegToRad(89), DegToRad(89.9), DegToRad(89.99), kHalfPi};
+  for (const ModelInfo& info : RegisteredModels()) {
+    std::vector<std::vector<double>> param_sets;
+    std::vector<double> p0;
+    for (const auto& q : info.params) p0.push_back(q.default_value);
+    param_sets.push_back(p0);
+    for (int k = 0; k < info.num_params(); ++k) {
+      for (double v : {info.params[k].min, info.params[k].max}) {
+        auto p = p0;
+        p[k] = v;
+        param_sets.push_back(p);
+      }
+    }
+    for (const auto& p : param_sets) {
+      for (double t : thetas) {
+        for (double phi : {0.0, kHalfPi, kPi}) {
+          for (const Angles<double>& a :
+               {Angles<double>{t, t, phi}, Angles<double>{t, DegToRad(30), phi},
+                Angles<double>{0.0, t, phi}}) {
+            double v = NAN;
+            const std::string why = EvaluateChecked(info.name, p, a, &v);
+            if (why.empty()) {
+              EXPECT_TRUE(std::isfinite(v)) << info.name << " at theta " << t;
+              EXPECT_GE(v, 0.0) << info.name << " at theta " << t << " phi " << phi;
+              // Exactly on the horizon a pole of the formula (tan(pi/2) ~ 1.6e16) is no value.
+              if (a.theta_i == kHalfPi && a.theta_r == kHalfPi) {
+                EXPECT_LT(v, 1e9) << info.name << " phi " << phi;
+              }
+            } else {
+              EXPECT_GT(why.size(), 10u) << info.name << ": a reason says what is wrong";
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(BenchStability, SweepClassifiesEveryPointAndNoNonFiniteEscapes) {
+  const StabilityReport rep = RunModelStability(Smoke());
+  EXPECT_EQ(rep.nonfinite_escaped, 0);
+  std::set<std::string> with_theta;
+  for (const auto& c : rep.cells) {
+    EXPECT_TRUE(c.status == "valid" || c.status == "degraded" || c.status == "error") << c.status;
+    if (c.status == "error") {
+      EXPECT_FALSE(c.detail.empty()) << c.subject << " " << c.axis;
+    }
+    // Past a registry bound the only acceptable answer is an explicit error.
+    if (c.axis.find("out of range") != std::string::npos) {
+      EXPECT_EQ(c.status, "error") << c.subject << " " << c.value;
+      EXPECT_NE(c.detail.find("outside"), std::string::npos) << c.detail;
+    }
+    if (c.axis == "theta->90") with_theta.insert(c.subject);
+  }
+  EXPECT_EQ(with_theta.size(), RegisteredModels().size());
+  // The sweep must be able to find trouble: pitted diverges with both directions at the horizon
+  // (paper fig. 4) and has to be reported as an error there.
+  bool pitted_90_error = false;
+  for (const auto& c : rep.cells) {
+    if (c.subject == "pitted" && c.axis == "theta->90" && c.value == "90 deg") {
+      pitted_90_error = c.status == "error";
+    }
+  }
+  EXPECT_TRUE(pitted_90_error);
+}
+
+TEST(BenchStability, OneGeometryFitFlagsUndeterminedParameters) {
+  // 40 noisy samples all at one geometry: albedo and sigma trade off along a curve.
+  std::vector<BrdfSample> samples;
+  double v = 0;
+  ASSERT_TRUE(EvaluateChecked("oren-nayar", {0.5, 0.35}, {0.5, 0.5, 0.0}, &v).empty());
+  for (int k = 0; k < 40; ++k) {
+    BrdfSample s;
+    s.theta_i = 0.5;
+    s.theta_r = 0.5;
+    s.phi = 0;
+    s.value = v * (1.0 + 0.02 * std::sin(3.7 * k));
+    samples.push_back(s);
+  }
+  BrdfFitOptions opt;
+  opt.num_starts = 2;
+  const BrdfFitResult fit = FitBrdf("oren-nayar", samples, opt);
+  EXPECT_FALSE(fit.undetermined.empty()) << fit.Report();
+  EXPECT_LT(fit.n_effective, 2);
+}
+
+TEST(BenchStability, RelativeScaleLambertHasNoConfidentAlbedo) {
+  std::vector<BrdfSample> samples;
+  for (int k = 0; k < 30; ++k) {
+    BrdfSample s;
+    s.theta_i = DegToRad(2.5 * k);
+    s.theta_r = DegToRad(80 - 2.5 * k);
+    s.phi = 0.1 * k;
+    s.value = 0.7 * kInvPi * (1.0 + 0.02 * std::cos(1.3 * k));
+    samples.push_back(s);
+  }
+  BrdfFitOptions opt;
+  opt.relative_scale = true;
+  opt.num_starts = 1;
+  const BrdfFitResult fit = FitBrdf("lambert", samples, opt);
+  ASSERT_EQ(fit.undetermined.size(), 1u) << fit.Report();
+  EXPECT_EQ(fit.undetermined[0], "albedo");
+  EXPECT_FALSE(fit.stddev[0].has_value());
+}
+
+TEST(BenchStability, FitSweepReportsDegenerateDataAndTooFewSamples) {
+  const StabilityReport rep = RunFitStability(Smoke());
+  EXPECT_EQ(rep.nonfinite_escaped, 0);
+  int checked = 0;
+  for (const auto& c : rep.cells) {
+    if (c.axis == "one geometry" && c.subject == "fit:lambert") {
+      // One parameter, one geometry: the albedo is fully observable.
+      EXPECT_EQ(c.status, "valid") << c.detail;
+      ++checked;
+    } else if (c.axis == "one geometry" || c.axis == "relative scale") {
+      EXPECT_EQ(c.status, "degraded") << c.subject << " " << c.axis << ": " << c.detail;
+      EXPECT_NE(c.detail.find("undetermined"), std::string::npos) << c.detail;
+      ++checked;
+    }
+    if (c.axis == "few samples" && c.value == "1") {
+      EXPECT_EQ(c.status, "error") << c.subject;
+      EXPECT_NE(c.detail.find("InputError"), std::string::npos) << c.detail;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 6);  // lambert and oren-nayar at the smoke size
+}
+
+TEST(BenchReferences, ChainsEndAtTheMostExactMethod) {
+  EXPECT_EQ(MostExactReference("oren-nayar"), "oren-nayar-facet");
+  EXPECT_EQ(MostExactReference("oren-nayar-qualitative"), "oren-nayar-facet");
+  EXPECT_EQ(MostExactReference("oren-nayar-vcavity"), "oren-nayar-facet");
+  EXPECT_EQ(MostExactReference("pitted"), "pitted-exact");
+  EXPECT_EQ(MostExactReference("lambert"), "");
+  // The facet integral is its own reference at a higher quadrature order.
+  EXPECT_NE(MostExactReference("oren-nayar-facet").find("oren-nayar-facet@"), std::string::npos);
+}
+
+TEST(BenchPareto, FrontKeepsOnlyUndominatedPoints) {
+  // (cost, err): (1, 5) (2, 3) (3, 4) dominated by (2, 3); (4, 1); (5, 1) dominated.
+  const auto front = ParetoFront({1, 2, 3, 4, 5}, {5, 3, 4, 1, 1});
+  EXPECT_EQ(front, (std::vector<size_t>{0, 1, 3}));
+}
+
+TEST(BenchBaseline, HandLoopComputesTheSameOrenNayar) {
+  const BaselineResult b = RunBaseline(Smoke());
+  EXPECT_GT(b.batch, 0u);
+  EXPECT_LT(b.max_abs_diff, 1e-12);  // same maths, same double operations up to reordering
+  EXPECT_GT(b.ns_per_eval_baseline, 0);
+  EXPECT_GT(b.ns_per_eval_oren_nayar, 0);
+}
+
+TEST(BenchEvaluation, ErrorsAgainstReferencesAreFiniteAndOrdered) {
+  const auto rows = RunEvaluationBench(Smoke(), 2);
+  ASSERT_EQ(rows.size(), RegisteredModels().size());
+  double on = -1, onq = -1, facet = -1;
+  for (const auto& r : rows) {
+    EXPECT_TRUE(std::isfinite(r.max_err) && std::isfinite(r.rms_err)) << r.model;
+    EXPECT_LE(r.rms_err, r.max_err + 1e-15) << r.model;
+    if (r.reference.empty()) {
+      EXPECT_EQ(r.max_err, 0.0);
+    }
+    if (r.model == "oren-nayar") on = r.rms_err;
+    if (r.model == "oren-nayar-qualitative") onq = r.rms_err;
+    if (r.model == "oren-nayar-facet") facet = r.max_err;
+  }
+  // The full functional approximation (eq. 27-29) is closer to the integral than the
+  // qualitative one (eq. 30), and the facet quadrature is converged far below both.
+  EXPECT_LT(on, onq);
+  EXPECT_LT(facet, 0.1 * on);
+}
+
+}  // namespace
+}  // namespace gonio::bench
