@@ -15,5 +15,6 @@ void AddCaptureCommand(CLI::App& app);
 void AddMicrosimCommand(CLI::App& app);
 void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
 void AddSynthCommand(CLI::App& app);
+void AddSfsCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddMicrosimCommand(app);
   gonio::cli::AddCalibCommands(app);
   gonio::cli::AddSynthCommand(app);
+  gonio::cli::AddSfsCommand(app);
 
   try {
     app.parse(argc, argv);
