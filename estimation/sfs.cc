@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <thread>
 
@@ -199,18 +200,38 @@ bool NormalAt(const Level& lv, const cv::Mat& u, int x, int y, Eigen::Vector3d* 
   return true;
 }
 
-// Convex initial surface from the mask's distance transform (a sphere profile
-// h = sqrt(d (2R - d)) for the largest inscribed radius R), with the anchor pixel (ax, ay) at
-// depth `anchor`.
+// Convex initial surface from the mask's distance transform d: circular cross-sections
+// perpendicular to the contour, h = sqrt(d (2a - d)), where a is the local radius (d at the
+// medial-axis point reached by steepest ascent of d; exact for spheres and for surfaces of
+// revolution seen side-on), with the anchor pixel (ax, ay) at depth `anchor`.
 cv::Mat BalloonLogDepth(const Level& lv, double f_px, double anchor, int ax, int ay) {
   cv::Mat dt;
   cv::distanceTransform(lv.mask, dt, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  double rmax = 0;
-  cv::minMaxLoc(dt, nullptr, &rmax);
-  cv::Mat z(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  std::vector<std::pair<float, int>> order;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (lv.In(x, y)) order.push_back({dt.at<float>(y, x), y * lv.w + x});
+    }
+  }
+  std::sort(order.begin(), order.end(), std::greater<>());
+  cv::Mat a = dt.clone();
+  for (const auto& [d, k] : order) {
+    const int x = k % lv.w, y = k / lv.w;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if ((dx == 0 && dy == 0) || !lv.In(x + dx, y + dy)) continue;
+        // Only moves nearly straight away from the contour (d grows ~1 per pixel step);
+        // along the medial axis d changes slowly and nothing propagates.
+        const double step = std::hypot(dx, dy);
+        if (dt.at<float>(y + dy, x + dx) - d >= 0.7 * step) {
+          a.at<float>(y, x) = std::max(a.at<float>(y, x), a.at<float>(y + dy, x + dx));
+        }
+      }
+    }
+  }
   auto height = [&](int x, int y) {
-    const double d = std::min<double>(dt.at<float>(y, x), rmax);
-    return std::sqrt(std::max(0.0, d * (2 * rmax - d))) * lv.scale;  // full-res pixels
+    const double r = a.at<float>(y, x), d = std::min<double>(dt.at<float>(y, x), r);
+    return std::sqrt(std::max(0.0, d * (2 * r - d))) * lv.scale;  // full-res pixels
   };
   const double h_anchor = height(ax, ay);
   cv::Mat u(lv.h, lv.w, CV_64F, cv::Scalar(0));
