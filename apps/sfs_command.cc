@@ -81,7 +81,8 @@ void AddSfsCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-iterations", args->options.max_iterations, "Per coarse pyramid level")
       ->capture_default_str();
-  cmd->add_option("--max-iterations-finest", args->options.max_iterations_finest, "At full resolution")
+  cmd->add_option("--max-iterations-finest", args->options.max_iterations_finest,
+                  "At full resolution")
       ->capture_default_str();
   cmd->add_option("--threads", args->options.threads, "Threads (0 = all cores)")
       ->capture_default_str();

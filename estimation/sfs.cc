@@ -333,6 +333,9 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
   // f * (second difference of log z) is the change of the surface slope dz/dx per pixel
   // (dimensionless): the same weight means the same bend at every pyramid level.
   const double smooth = opt.smoothness * pr.camera.intrinsics[0] / lv.scale;
+  // Coarse levels keep only blocks wholly inside the mask, so their boundary lies ~scale
+  // full-resolution pixels inside the silhouette where n . v grows like sqrt(distance).
+  const double max_cos = std::min(0.95, opt.contour_max_cos * std::sqrt(lv.scale));
   size_t photometric = 0;
   for (int y = 0; y < lv.h; ++y) {
     for (int x = 0; x < lv.w; ++x) {
@@ -368,7 +371,7 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
                                     static_cast<double>(xa - x),
                                     static_cast<double>(yb - y),
                                     opt.contour_weight,
-                                    opt.contour_max_cos};
+                                    max_cos};
           problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ContourCost, 1, 1, 1, 1>(c),
                                    nullptr, U(x, y), U(xa, y), U(x, yb));
         }
@@ -400,9 +403,9 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
   so.num_threads = opt.threads > 0
                        ? opt.threads
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  so.function_tolerance = 1e-9;
-  so.gradient_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-10;
+  so.function_tolerance = 1e-6;
+  so.gradient_tolerance = 1e-10;
+  so.parameter_tolerance = 1e-8;
   so.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
@@ -509,12 +512,12 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
   result.reflectance = opt.reflectance;
   result.mask_pixels = static_cast<size_t>(cv::countNonZero(pr.mask));
 
-  // Pyramid depth: halve until the object is ~40 px across.
+  // Pyramid depth: halve until the object is at most 320 px across.
   int levels = opt.levels;
   if (levels == 0) {
     const cv::Rect box = cv::boundingRect(pr.mask);
     levels = 1;
-    for (int s = std::max(box.width, box.height); s > 80 && levels < 6; s /= 2) ++levels;
+    for (int s = std::max(box.width, box.height); s > 320 && levels < 6; s /= 2) ++levels;
   }
   std::vector<double> measured;
   for (int y = 0; y < pr.radiance.rows; ++y) {

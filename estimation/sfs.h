@@ -34,17 +34,18 @@ namespace gonio {
 struct SfsOptions {
   // "material": the given registry model and parameters; "lambert": f_r = k / pi.
   std::string reflectance = "material";
-  // Pyramid levels; 0 chooses them so the coarsest object is about 40 px across.
+  // Pyramid levels; 0 chooses them so the coarsest object is about 160-320 px across (coarser
+  // starts lose accuracy to the eroded coarse masks, docs/sfs.md).
   int levels = 0;
   // Weight of the log-depth second differences (per pixel, relative to the photometric
   // residual, which is normalized by the median measured radiance).
-  double smoothness = 0.02;
+  double smoothness = 0.1;
   // Weight of the occluding-contour residual n . v at mask-boundary pixels.
   double contour_weight = 1.0;
   // Largest n . v tolerated at mask-boundary pixels before the contour residual acts.
   double contour_max_cos = 0.35;
-  int max_iterations = 60;         // per coarse level
-  int max_iterations_finest = 15;  // at full resolution (starts from the upsampled solution)
+  int max_iterations = 30;         // per coarse level
+  int max_iterations_finest = 10;  // at full resolution (starts from the upsampled solution)
   int threads = 0;                 // <= 0: all cores
   void Check() const;
 };
