@@ -85,7 +85,8 @@ struct SfsResult {
 
 SfsResult SolveSfs(const SfsProblem& problem, const SfsOptions& options);
 
-// Radiance of the material (k = 1) at the given normal and point, for re-rendering truth.
+// Radiance predicted with reflectance "material" or "lambert" and scale k at a surface point
+// with the given outward normal (camera frame); 0 in attached shadow. Used for re-rendering.
 double SfsRadiance(const SfsProblem& problem, const std::string& reflectance, double scale,
                    const Eigen::Vector3d& normal, const Eigen::Vector3d& point);
 
