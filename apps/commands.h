@@ -18,5 +18,6 @@ void AddSynthCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);  // speed vs accuracy, stability sweeps
 
 void AddPipelineCommands(CLI::App& app);
+void AddSfsCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddCalibCommands(app);
   gonio::cli::AddSynthCommand(app);
   gonio::cli::AddBenchCommand(app);
+  gonio::cli::AddSfsCommand(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,92 @@
+// gonio sfs: perspective shape-from-shading of one masked object with a fitted rough BRDF as
+// the reflectance prior, or a Lambertian one for comparison (issue 11, docs/sfs.md).
+#include <filesystem>
+#include <memory>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "apps/cli_util.h"
+#include "apps/commands.h"
+#include "common/error.h"
+#include "common/log.h"
+#include "estimation/sfs.h"
+#include "estimation/sfs_io.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio::cli {
+namespace {
+
+struct SfsArgs {
+  std::string init_depth, input, image, camera, light, material, mask, out;
+  double distance = 0;
+  SfsOptions options;
+};
+
+void RunSfs(const SfsArgs& args) {
+  if (args.out.empty()) throw InputError("sfs: --out DIR is required");
+  args.options.Check();
+  SfsInputPaths paths;
+  paths.image = args.image;
+  paths.camera = args.camera;
+  paths.material = args.material;
+  paths.mask = args.mask;
+  paths.light = args.light;
+  paths.distance = args.distance;
+  if (!args.input.empty()) paths.FillFromFolder(args.input);
+  SfsInput input = LoadSfsInput(paths, args.options.reflectance);
+  if (!args.init_depth.empty()) {
+    const cv::Mat d = cv::imread(args.init_depth, cv::IMREAD_UNCHANGED);
+    if (d.empty() || d.channels() != 1 || d.size() != input.problem.radiance.size()) {
+      throw InputError("--init-depth: " + args.init_depth +
+                       " is not a one-channel depth map of the image's size");
+    }
+    d.convertTo(input.problem.initial_depth, CV_64F);
+  }
+  const SfsResult result = SolveSfs(input.problem, args.options);
+  spdlog::info("{}", result.Report());
+  const auto truth = CompareWithTruth(paths.truth_dir, input, result);
+  nlohmann::json j = WriteSfsOutputs(args.out, input, result, truth);
+  j.erase("provenance");
+  j["out"] = args.out;
+  PrintJson(j);
+}
+
+}  // namespace
+
+void AddSfsCommand(CLI::App& app) {
+  auto args = std::make_shared<SfsArgs>();
+  auto* cmd = app.add_subcommand(
+      "sfs", "Shape from shading of a masked object under a point lamp with a fitted BRDF");
+  cmd->add_option("--input", args->input,
+                  "Folder written by gonio synth --preset sfs-*: defaults for every file");
+  cmd->add_option("--image", args->image, "Linear image (8/16-bit PNG or TIFF)");
+  cmd->add_option("--camera", args->camera, "camera.cameramodel (mrcal)");
+  cmd->add_option("--light", args->light,
+                  "Lamp position X,Y,Z in the camera frame (m) or 'collocated'");
+  cmd->add_option("--material", args->material, "fit.json (selected model and parameters)");
+  cmd->add_option("--mask", args->mask, "Object mask (8-bit, >127 = object)");
+  cmd->add_option("--out", args->out, "Output folder");
+  cmd->add_option("--reflectance", args->options.reflectance, "material or lambert")
+      ->capture_default_str();
+  cmd->add_option("--distance", args->distance,
+                  "Depth of the brightest object pixel (m); default from absolute radiometry");
+  cmd->add_option("--init-depth", args->init_depth,
+                  "Initial depth map (float TIFF, metres) instead of the mask balloon");
+  cmd->add_option("--smoothness", args->options.smoothness, "Log-depth second-difference weight")
+      ->capture_default_str();
+  cmd->add_option("--contour-weight", args->options.contour_weight, "Occluding-contour weight")
+      ->capture_default_str();
+  cmd->add_option("--levels", args->options.levels, "Pyramid levels (0 = auto)")
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", args->options.max_iterations, "Per coarse pyramid level")
+      ->capture_default_str();
+  cmd->add_option("--max-iterations-finest", args->options.max_iterations_finest,
+                  "At full resolution")
+      ->capture_default_str();
+  cmd->add_option("--threads", args->options.threads, "Threads (0 = all cores)")
+      ->capture_default_str();
+  cmd->callback([args] { RunSfs(*args); });
+}
+
+}  // namespace gonio::cli

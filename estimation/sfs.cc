@@ -1,0 +1,519 @@
+#include "estimation/sfs.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <thread>
+
+#include <ceres/ceres.h>
+#include <opencv2/imgproc.hpp>
+
+#include "common/error.h"
+#include "common/log.h"
+#include "estimation/sfs_costs.h"
+#include "reflectance/registry.h"
+
+namespace gonio {
+namespace {
+
+using sfs_internal::ContourCost;
+using sfs_internal::PhotometricCost;
+using sfs_internal::Radiance;
+using sfs_internal::SmoothCost;
+
+// One pyramid level: radiance averaged over 2^L x 2^L blocks wholly inside the mask.
+struct Level {
+  int scale = 1, w = 0, h = 0;
+  cv::Mat radiance, mask;             // CV_64F, CV_8U
+  std::vector<Eigen::Vector3d> rays;  // per pixel, (x, y, 1)
+  bool In(int x, int y) const {
+    return x >= 0 && y >= 0 && x < w && y < h && mask.at<uint8_t>(y, x);
+  }
+  const Eigen::Vector3d& Ray(int x, int y) const { return rays[static_cast<size_t>(y) * w + x]; }
+};
+
+Level MakeLevel(const SfsProblem& pr, int scale) {
+  Level lv;
+  lv.scale = scale;
+  lv.w = pr.radiance.cols / scale;
+  lv.h = pr.radiance.rows / scale;
+  lv.radiance = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  lv.mask = cv::Mat(lv.h, lv.w, CV_8U, cv::Scalar(0));
+  lv.rays.resize(static_cast<size_t>(lv.w) * lv.h);
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      bool all = true;
+      double sum = 0;
+      for (int j = 0; j < scale && all; ++j) {
+        for (int i = 0; i < scale; ++i) {
+          const int fx = x * scale + i, fy = y * scale + j;
+          if (!pr.mask.at<uint8_t>(fy, fx)) {
+            all = false;
+            break;
+          }
+          sum += pr.radiance.at<double>(fy, fx);
+        }
+      }
+      if (all) {
+        lv.mask.at<uint8_t>(y, x) = 255;
+        lv.radiance.at<double>(y, x) = sum / (scale * scale);
+      }
+      // The block centre in full-resolution pixels (pixel centres at integers).
+      const Eigen::Vector3d r = pr.camera.Unproject(
+          Eigen::Vector2d(x * scale + 0.5 * (scale - 1), y * scale + 0.5 * (scale - 1)));
+      lv.rays[static_cast<size_t>(y) * lv.w + x] = r / r.z();
+    }
+  }
+  return lv;
+}
+
+bool Interior(const Level& lv, int x, int y) {
+  return lv.In(x, y) && lv.In(x - 1, y) && lv.In(x + 1, y) && lv.In(x, y - 1) && lv.In(x, y + 1);
+}
+
+// Normal at a mask pixel from the depth map: central differences, one-sided where a neighbour
+// is outside the mask. False when a direction has no neighbour at all.
+bool NormalAt(const Level& lv, const cv::Mat& u, int x, int y, Eigen::Vector3d* n) {
+  auto P = [&](int xx, int yy) { return lv.Ray(xx, yy) * std::exp(u.at<double>(yy, xx)); };
+  Eigen::Vector3d tx, ty;
+  if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
+    tx = P(x + 1, y) - P(x - 1, y);
+  } else if (lv.In(x + 1, y)) {
+    tx = P(x + 1, y) - P(x, y);
+  } else if (lv.In(x - 1, y)) {
+    tx = P(x, y) - P(x - 1, y);
+  } else {
+    return false;
+  }
+  if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
+    ty = P(x, y + 1) - P(x, y - 1);
+  } else if (lv.In(x, y + 1)) {
+    ty = P(x, y + 1) - P(x, y);
+  } else if (lv.In(x, y - 1)) {
+    ty = P(x, y) - P(x, y - 1);
+  } else {
+    return false;
+  }
+  const Eigen::Vector3d c = ty.cross(tx);
+  if (!(c.norm() > 0)) return false;
+  *n = c.normalized();
+  return true;
+}
+
+// Convex initial surface from the mask's distance transform d: circular cross-sections
+// perpendicular to the contour, h = sqrt(d (2a - d)), where a is the local radius (d at the
+// medial-axis point reached by steepest ascent of d; exact for spheres and for surfaces of
+// revolution seen side-on), with the anchor pixel (ax, ay) at depth `anchor`.
+cv::Mat BalloonLogDepth(const Level& lv, double f_px, double anchor, int ax, int ay) {
+  cv::Mat dt;
+  cv::distanceTransform(lv.mask, dt, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<std::pair<float, int>> order;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (lv.In(x, y)) order.push_back({dt.at<float>(y, x), y * lv.w + x});
+    }
+  }
+  std::sort(order.begin(), order.end(), std::greater<>());
+  cv::Mat a = dt.clone();
+  for (const auto& [d, k] : order) {
+    const int x = k % lv.w, y = k / lv.w;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if ((dx == 0 && dy == 0) || !lv.In(x + dx, y + dy)) continue;
+        // Only moves nearly straight away from the contour (d grows ~1 per pixel step);
+        // along the medial axis d changes slowly and nothing propagates.
+        const double step = std::hypot(dx, dy);
+        if (dt.at<float>(y + dy, x + dx) - d >= 0.7 * step) {
+          a.at<float>(y, x) = std::max(a.at<float>(y, x), a.at<float>(y + dy, x + dx));
+        }
+      }
+    }
+  }
+  auto height = [&](int x, int y) {
+    const double r = a.at<float>(y, x), d = std::min<double>(dt.at<float>(y, x), r);
+    return std::sqrt(std::max(0.0, d * (2 * r - d))) * lv.scale;  // full-res pixels
+  };
+  const double h_anchor = height(ax, ay);
+  cv::Mat u(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (!lv.In(x, y)) continue;
+      u.at<double>(y, x) = std::log(anchor + (h_anchor - height(x, y)) * anchor / f_px);
+    }
+  }
+  return u;
+}
+
+// Extends u outside the mask by repeated neighbour averaging so bilinear upsampling near the
+// contour has values on both sides.
+void FillOutside(const cv::Mat& mask, cv::Mat* u, int rings) {
+  cv::Mat known = mask.clone();
+  for (int it = 0; it < rings; ++it) {
+    cv::Mat next_known = known.clone();
+    cv::Mat next = u->clone();
+    for (int y = 0; y < u->rows; ++y) {
+      for (int x = 0; x < u->cols; ++x) {
+        if (known.at<uint8_t>(y, x)) continue;
+        double sum = 0;
+        int n = 0;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= u->cols || yy >= u->rows) continue;
+            if (known.at<uint8_t>(yy, xx)) {
+              sum += u->at<double>(yy, xx);
+              ++n;
+            }
+          }
+        }
+        if (n > 0) {
+          next.at<double>(y, x) = sum / n;
+          next_known.at<uint8_t>(y, x) = 255;
+        }
+      }
+    }
+    *u = next;
+    known = next_known;
+  }
+}
+
+cv::Mat Upsample(const Level& coarse, cv::Mat u, const Level& fine) {
+  FillOutside(coarse.mask, &u, 3);
+  const double r = static_cast<double>(coarse.scale) / fine.scale;
+  cv::Mat out(fine.h, fine.w, CV_64F, cv::Scalar(0));
+  for (int y = 0; y < fine.h; ++y) {
+    for (int x = 0; x < fine.w; ++x) {
+      if (!fine.In(x, y)) continue;
+      const double cx = std::clamp((x + 0.5) / r - 0.5, 0.0, coarse.w - 1.0);
+      const double cy = std::clamp((y + 0.5) / r - 0.5, 0.0, coarse.h - 1.0);
+      const int x0 = std::min(static_cast<int>(cx), coarse.w - 2);
+      const int y0 = std::min(static_cast<int>(cy), coarse.h - 2);
+      const double fx = cx - x0, fy = cy - y0;
+      out.at<double>(y, x) =
+          (1 - fy) * ((1 - fx) * u.at<double>(y0, x0) + fx * u.at<double>(y0, x0 + 1)) +
+          fy * ((1 - fx) * u.at<double>(y0 + 1, x0) + fx * u.at<double>(y0 + 1, x0 + 1));
+    }
+  }
+  return out;
+}
+
+// The brightest interior pixel (robust to one hot pixel: 3x3 mean).
+void Brightest(const Level& lv, int* bx, int* by) {
+  double best = -1;
+  for (int y = 1; y + 1 < lv.h; ++y) {
+    for (int x = 1; x + 1 < lv.w; ++x) {
+      if (!Interior(lv, x, y)) continue;
+      double s = 0;
+      for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) s += lv.radiance.at<double>(y + j, x + i);
+      }
+      if (s > best) {
+        best = s;
+        *bx = x;
+        *by = y;
+      }
+    }
+  }
+}
+
+struct LevelSolve {
+  int iterations = 0;
+};
+
+template <typename M>
+LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
+                      int max_iterations, cv::Mat* u, double* log_k) {
+  ceres::Problem::Options po;
+  ceres::Problem problem(po);
+  const bool lambert = opt.reflectance == "lambert";
+  const double inv_ref = 1.0 / ref;
+  auto U = [&](int x, int y) { return &u->at<double>(y, x); };
+  problem.AddParameterBlock(log_k, 1);
+  // f * (second difference of log z) is the change of the surface slope dz/dx per pixel
+  // (dimensionless): the same weight means the same bend at every pyramid level.
+  const double smooth = opt.smoothness * pr.camera.intrinsics[0] / lv.scale;
+  // Coarse levels keep only blocks wholly inside the mask, so their boundary lies ~scale
+  // full-resolution pixels inside the silhouette where n . v grows like sqrt(distance).
+  const double max_cos = std::min(0.95, opt.contour_max_cos * std::sqrt(lv.scale));
+  size_t photometric = 0;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (!lv.In(x, y)) continue;
+      problem.AddParameterBlock(U(x, y), 1);
+    }
+  }
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (!lv.In(x, y)) continue;
+      if (Interior(lv, x, y)) {
+        auto* c = new PhotometricCost<M>{lv.Ray(x, y),
+                                         lv.Ray(x - 1, y),
+                                         lv.Ray(x + 1, y),
+                                         lv.Ray(x, y - 1),
+                                         lv.Ray(x, y + 1),
+                                         pr.params.data(),
+                                         lambert,
+                                         pr.lamp_in_camera,
+                                         pr.lamp_intensity,
+                                         lv.radiance.at<double>(y, x),
+                                         inv_ref};
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<PhotometricCost<M>, 1, 1, 1, 1, 1, 1, 1>(c), nullptr,
+            U(x, y), U(x - 1, y), U(x + 1, y), U(x, y - 1), U(x, y + 1), log_k);
+        ++photometric;
+      } else {
+        const int xa = lv.In(x + 1, y) ? x + 1 : x - 1, yb = lv.In(x, y + 1) ? y + 1 : y - 1;
+        if (lv.In(xa, y) && lv.In(x, yb)) {
+          auto* c = new ContourCost{lv.Ray(x, y),
+                                    lv.Ray(xa, y),
+                                    lv.Ray(x, yb),
+                                    static_cast<double>(xa - x),
+                                    static_cast<double>(yb - y),
+                                    opt.contour_weight,
+                                    max_cos};
+          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ContourCost, 1, 1, 1, 1>(c),
+                                   nullptr, U(x, y), U(xa, y), U(x, yb));
+        }
+      }
+      if (opt.smoothness > 0) {
+        if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
+          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(
+                                       new SmoothCost{opt.smoothness}),
+                                   nullptr, U(x - 1, y), U(x, y), U(x + 1, y));
+        }
+        if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
+          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(
+                                       new SmoothCost{opt.smoothness}),
+                                   nullptr, U(x, y - 1), U(x, y), U(x, y + 1));
+        }
+      }
+    }
+  }
+  if (photometric == 0) {
+    throw InputError("sfs: the mask has no interior pixels at pyramid level " +
+                     std::to_string(lv.scale) + " (object too small)");
+  }
+  // k is fixed (see sfs.h): a free k and a free depth scale are one degenerate direction
+  // under a collocated lamp (uniform scaling about the camera changes only 1/d^2).
+  problem.SetParameterBlockConstant(log_k);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = max_iterations;
+  so.num_threads = opt.threads > 0
+                       ? opt.threads
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  so.function_tolerance = 1e-6;
+  so.gradient_tolerance = 1e-10;
+  so.parameter_tolerance = 1e-8;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (!summary.IsSolutionUsable()) {
+    throw NumericalError("sfs: Ceres failed at pyramid level " + std::to_string(lv.scale) + ": " +
+                         summary.message);
+  }
+  spdlog::debug("{}", summary.BriefReport());
+  LevelSolve r;
+  r.iterations = static_cast<int>(summary.iterations.size());
+  return r;
+}
+
+}  // namespace
+
+void SfsOptions::Check() const {
+  if (reflectance != "material" && reflectance != "lambert") {
+    throw InputError("--reflectance: '" + reflectance + "' is not lambert or material");
+  }
+  if (levels < 0 || levels > 8) throw InputError("sfs levels: need 0 (auto) .. 8");
+  if (!(smoothness >= 0) || !(contour_weight >= 0)) {
+    throw InputError("sfs: smoothness and contour weight must be >= 0");
+  }
+  if (max_iterations < 0 || max_iterations_finest < 0) {
+    throw InputError("sfs: max_iterations must be >= 0");
+  }
+}
+
+void SfsProblem::Check() const {
+  if (radiance.empty() || radiance.type() != CV_64F) {
+    throw InputError("sfs: image is empty or not converted to radiance");
+  }
+  if (mask.size() != radiance.size()) {
+    throw InputError("sfs: mask size " + std::to_string(mask.cols) + "x" +
+                     std::to_string(mask.rows) + " differs from the image's " +
+                     std::to_string(radiance.cols) + "x" + std::to_string(radiance.rows));
+  }
+  if (camera.width != radiance.cols || camera.height != radiance.rows) {
+    throw InputError("sfs: camera model is " + std::to_string(camera.width) + "x" +
+                     std::to_string(camera.height) + " but the image is " +
+                     std::to_string(radiance.cols) + "x" + std::to_string(radiance.rows));
+  }
+  if (cv::countNonZero(mask) == 0) throw InputError("sfs: the mask is empty (no object pixels)");
+  for (int x = 0; x < mask.cols; ++x) {
+    if (mask.at<uint8_t>(0, x) || mask.at<uint8_t>(mask.rows - 1, x)) {
+      throw InputError(
+          "sfs: the mask touches the image border (the occluding contour must be visible)");
+    }
+  }
+  for (int y = 0; y < mask.rows; ++y) {
+    if (mask.at<uint8_t>(y, 0) || mask.at<uint8_t>(y, mask.cols - 1)) {
+      throw InputError(
+          "sfs: the mask touches the image border (the occluding contour must be visible)");
+    }
+  }
+  if (!(anchor_depth > 0) || !std::isfinite(anchor_depth)) {
+    throw InputError("sfs: need a positive object distance (anchor depth)");
+  }
+  if (!(lamp_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
+  bool found = VisitModel(model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    if (static_cast<int>(params.size()) != M::kNumParams) {
+      throw InputError("sfs: material '" + model + "' needs " + std::to_string(M::kNumParams) +
+                       " parameters");
+    }
+  });
+  if (!found) FindModel(model);  // throws the "unknown model" InputError
+  CheckParams(FindModel(model), params);
+  for (int y = 0; y < radiance.rows; ++y) {
+    for (int x = 0; x < radiance.cols; ++x) {
+      if (mask.at<uint8_t>(y, x) && !std::isfinite(radiance.at<double>(y, x))) {
+        throw InputError("sfs: non-finite radiance inside the mask");
+      }
+    }
+  }
+}
+
+std::string SfsResult::Report() const {
+  char buf[256];
+  std::snprintf(buf, sizeof(buf),
+                "sfs (%s): %zu mask pixels, %d levels, %d iterations, %.2f s, scale k = %.4g, "
+                "rms residual %.4f of the median radiance",
+                reflectance.c_str(), mask_pixels, levels, iterations, seconds, scale,
+                rms_relative_residual);
+  return buf;
+}
+
+double SfsRadiance(const SfsProblem& pr, const std::string& reflectance, double scale,
+                   const Eigen::Vector3d& normal, const Eigen::Vector3d& point) {
+  double value = 0;
+  VisitModel(pr.model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    value = Radiance<M, double>(pr.params.data(), reflectance == "lambert", scale, normal, point,
+                                pr.lamp_in_camera, pr.lamp_intensity);
+  });
+  return std::isfinite(value) ? value : 0.0;
+}
+
+SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
+  const auto start = std::chrono::steady_clock::now();
+  opt.Check();
+  pr.Check();
+  SfsResult result;
+  result.reflectance = opt.reflectance;
+  result.mask_pixels = static_cast<size_t>(cv::countNonZero(pr.mask));
+
+  // Pyramid depth: halve until the object is at most 320 px across.
+  int levels = opt.levels;
+  if (levels == 0) {
+    const cv::Rect box = cv::boundingRect(pr.mask);
+    levels = 1;
+    for (int s = std::max(box.width, box.height); s > 320 && levels < 6; s /= 2) ++levels;
+  }
+  std::vector<double> measured;
+  for (int y = 0; y < pr.radiance.rows; ++y) {
+    for (int x = 0; x < pr.radiance.cols; ++x) {
+      if (pr.mask.at<uint8_t>(y, x)) measured.push_back(pr.radiance.at<double>(y, x));
+    }
+  }
+  std::nth_element(measured.begin(), measured.begin() + measured.size() / 2, measured.end());
+  const double ref = measured[measured.size() / 2];
+  if (!(ref > 0)) throw InputError("sfs: the object is black (median radiance <= 0 in the mask)");
+  result.median_radiance = ref;
+
+  const double f_px = pr.camera.intrinsics[0];
+  double log_k = 0;
+  cv::Mat u;
+  Level prev;
+  Progress progress("sfs pyramid levels", static_cast<size_t>(levels));
+  Level lv;
+  for (int l = levels - 1; l >= 0; --l) {
+    lv = MakeLevel(pr, 1 << l);
+    if (cv::countNonZero(lv.mask) < 9) {
+      if (l == 0) throw InputError("sfs: the mask has too few pixels");
+      continue;
+    }
+    int ax = 0, ay = 0;
+    Brightest(lv, &ax, &ay);
+    if (u.empty()) {
+      u = BalloonLogDepth(lv, f_px, pr.anchor_depth, ax, ay);
+      if (!pr.initial_depth.empty()) {
+        for (int y = 0; y < lv.h; ++y) {
+          for (int x = 0; x < lv.w; ++x) {
+            const double z = pr.initial_depth.at<double>(y * lv.scale + lv.scale / 2,
+                                                         x * lv.scale + lv.scale / 2);
+            if (lv.In(x, y) && z > 0) u.at<double>(y, x) = std::log(z);
+          }
+        }
+      }
+      if (opt.reflectance == "lambert" || !pr.absolute) {
+        // k such that the brightest pixel, at the anchor depth with its normal facing the
+        // camera, matches (the Lambertian albedo of the comparison, or the relative scale).
+        const Eigen::Vector3d p = lv.Ray(ax, ay) * pr.anchor_depth;
+        const double pred = SfsRadiance(pr, opt.reflectance, 1.0, -p.normalized(), p);
+        const double meas = lv.radiance.at<double>(ay, ax);
+        log_k = pred > 0 && meas > 0 ? std::log(meas / pred) : 0.0;
+      }
+    } else {
+      u = Upsample(prev, u, lv);
+    }
+    const auto level_start = std::chrono::steady_clock::now();
+    bool ok = VisitModel(pr.model, [&](auto tag) {
+      using M = typename decltype(tag)::type;
+      const int it =
+          SolveLevel<M>(pr, opt, lv, ref, l == 0 ? opt.max_iterations_finest : opt.max_iterations,
+                        &u, &log_k)
+              .iterations;
+      result.iterations += it;
+      spdlog::info(
+          "sfs level 1/{}: {}x{}, {} iterations, {:.2f} s", lv.scale, lv.w, lv.h, it,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - level_start).count());
+    });
+    if (!ok) FindModel(pr.model);
+    prev = lv;
+    ++result.levels;
+    progress.Step();
+  }
+  progress.Done();
+  result.scale = std::exp(log_k);
+
+  // Outputs at full resolution.
+  result.depth = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  result.normals = cv::Mat(lv.h, lv.w, CV_64FC3, cv::Scalar(0, 0, 0));
+  result.rendered = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  double sq = 0;
+  size_t n_interior = 0;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (!lv.In(x, y)) continue;
+      const double z = std::exp(u.at<double>(y, x));
+      result.depth.at<double>(y, x) = z;
+      Eigen::Vector3d n;
+      if (!NormalAt(lv, u, x, y, &n)) n = -lv.Ray(x, y).normalized();
+      result.normals.at<cv::Vec3d>(y, x) = cv::Vec3d(n.x(), n.y(), n.z());
+      const double pred = SfsRadiance(pr, opt.reflectance, result.scale, n, lv.Ray(x, y) * z);
+      result.rendered.at<double>(y, x) = pred;
+      if (Interior(lv, x, y)) {
+        const double r = (pred - pr.radiance.at<double>(y, x)) / ref;
+        sq += r * r;
+        ++n_interior;
+      }
+    }
+  }
+  result.rms_relative_residual = n_interior ? std::sqrt(sq / n_interior) : 0.0;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace gonio

@@ -1,0 +1,362 @@
+#include "estimation/sfs_io.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/error.h"
+#include "common/io.h"
+#include "common/plot.h"
+#include "reflectance/registry.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio {
+namespace {
+
+using json = nlohmann::json;
+
+cv::Mat ReadImage(const fs::path& path, int flags, const std::string& what) {
+  if (!fs::exists(path)) throw InputError(path.string() + ": " + what + " not found");
+  cv::Mat m = cv::imread(path.string(), flags);
+  if (m.empty()) throw InputError(path.string() + ": cannot read the " + what);
+  return m;
+}
+
+Eigen::Vector3d ParseLight(const std::string& s) {
+  if (s == "collocated") return Eigen::Vector3d::Zero();
+  std::stringstream ss(s);
+  std::string part;
+  std::vector<double> v;
+  while (std::getline(ss, part, ',')) {
+    try {
+      size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size()) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw InputError("--light: '" + s + "' is not X,Y,Z (metres, camera frame) or collocated");
+    }
+  }
+  if (v.size() != 3 || !std::isfinite(v[0] + v[1] + v[2])) {
+    throw InputError("--light: '" + s + "' is not X,Y,Z (metres, camera frame) or collocated");
+  }
+  return {v[0], v[1], v[2]};
+}
+
+// The selected candidate of a fit.json, parameters in registry order (defaults for missing).
+void ReadMaterial(const fs::path& path, std::string* model, std::vector<double>* params) {
+  const json j = ReadJsonFile(path);
+  if (!j.contains("candidates") || !j["candidates"].is_array() || j["candidates"].empty()) {
+    throw InputError(path.string() + ": no 'candidates' array (fit.json layout)");
+  }
+  const std::string selected = j.contains("selected")
+                                   ? j["selected"].get<std::string>()
+                                   : j["candidates"][0].value("model", std::string());
+  const json* cand = nullptr;
+  for (const auto& c : j["candidates"]) {
+    if (c.value("model", std::string()) == selected) cand = &c;
+  }
+  if (!cand)
+    throw InputError(path.string() + ": selected model '" + selected + "' not in candidates");
+  const ModelInfo& info = FindModel(selected);
+  *model = selected;
+  params->clear();
+  for (const auto& p : info.params) params->push_back(p.default_value);
+  if (cand->contains("params")) {
+    const json& ps = (*cand)["params"];
+    if (!ps.is_object()) throw InputError(path.string() + ": 'params' is not an object");
+    for (auto it = ps.begin(); it != ps.end(); ++it) {
+      int k = -1;
+      for (int i = 0; i < info.num_params(); ++i) {
+        if (info.params[i].name == it.key()) k = i;
+      }
+      if (k < 0 || !it.value().is_number()) {
+        throw InputError(path.string() + ": parameter '" + it.key() + "' is not a number of " +
+                         selected);
+      }
+      (*params)[k] = it.value().get<double>();
+    }
+  }
+  CheckParams(info, *params);
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+}  // namespace
+
+void SfsInputPaths::FillFromFolder(const fs::path& dir) {
+  if (!fs::is_directory(dir)) throw InputError("--input: '" + dir.string() + "' is not a folder");
+  if (image.empty()) image = dir / "image.png";
+  if (camera.empty()) camera = dir / "camera.cameramodel";
+  if (material.empty()) material = dir / "material.json";
+  if (mask.empty()) mask = dir / "mask.png";
+  if (light_json.empty() && fs::exists(dir / "light.json")) light_json = dir / "light.json";
+  if (truth_dir.empty()) truth_dir = dir;
+}
+
+SfsInput LoadSfsInput(const SfsInputPaths& paths, const std::string& reflectance) {
+  SfsInput in;
+  SfsProblem& pr = in.problem;
+  if (paths.image.empty()) throw InputError("--image: required (or --input DIR)");
+  if (paths.camera.empty()) throw InputError("--camera: required (or --input DIR)");
+  if (paths.mask.empty()) throw InputError("--mask: required (or --input DIR)");
+  in.image_path = paths.image.string();
+  cv::Mat image = ReadImage(paths.image, cv::IMREAD_UNCHANGED, "image");
+  if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
+  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2GRAY);
+  cv::Mat mask = ReadImage(paths.mask, cv::IMREAD_GRAYSCALE, "mask");
+  pr.camera = CameraModel::Read(paths.camera);
+
+  double intensity = 1.0;
+  Eigen::Vector3d lamp = Eigen::Vector3d::Zero();
+  bool have_lamp = false;
+  if (!paths.light_json.empty()) {
+    const json l = ReadJsonFile(paths.light_json);
+    if (l.contains("position")) {
+      const auto& p = l["position"];
+      if (!p.is_array() || p.size() != 3) {
+        throw InputError(paths.light_json.string() + ": 'position' is not [x, y, z]");
+      }
+      lamp = {p[0].get<double>(), p[1].get<double>(), p[2].get<double>()};
+      have_lamp = true;
+    }
+    if (l.value("frame", std::string("camera")) != "camera") {
+      throw InputError(paths.light_json.string() + ": only frame 'camera' lamps are supported");
+    }
+    intensity = l.value("intensity", 1.0);
+    if (l.contains("radiance_per_dn")) {
+      in.radiance_per_dn = l["radiance_per_dn"].get<double>();
+      in.black_level = l.value("black_level", 0.0);
+      in.absolute = l.contains("intensity");
+    }
+  }
+  if (!paths.light.empty()) {
+    lamp = ParseLight(paths.light);
+    have_lamp = true;
+  }
+  if (!have_lamp) throw InputError("--light: required (X,Y,Z or collocated) without light.json");
+  pr.lamp_in_camera = lamp;
+  pr.lamp_intensity = intensity;
+  if (!(in.radiance_per_dn > 0)) {
+    throw InputError(paths.light_json.string() + ": radiance_per_dn must be > 0");
+  }
+
+  image.convertTo(pr.radiance, CV_64F);
+  pr.radiance = (pr.radiance - in.black_level) * in.radiance_per_dn;
+  cv::max(pr.radiance, 0.0, pr.radiance);
+  pr.mask = mask > 127;
+
+  const bool have_material = !paths.material.empty() && fs::exists(paths.material);
+  pr.absolute = in.absolute && have_material && reflectance == "material";
+  if (have_material) {
+    ReadMaterial(paths.material, &pr.model, &pr.params);
+  } else if (reflectance == "lambert") {
+    pr.model = "lambert";
+    pr.params = {1.0};
+  } else {
+    throw InputError("--material: " + (paths.material.empty()
+                                           ? std::string("required for --reflectance material")
+                                           : paths.material.string() + " not found"));
+  }
+
+  if (paths.distance > 0) {
+    pr.anchor_depth = paths.distance;
+    in.anchor_source = "--distance";
+  } else if (in.absolute && have_material && !pr.mask.empty() && pr.mask.size() == image.size()) {
+    // Brightest 3x3 mean inside the mask, read as the material at normal incidence facing
+    // the lamp: L = I f_r(0, 0, 0) / z^2 (exact for a collocated lamp at the surface point
+    // facing it; an estimate of the object distance otherwise).
+    cv::Mat blurred;
+    cv::blur(pr.radiance, blurred, cv::Size(3, 3));
+    cv::Mat eroded;
+    cv::erode(pr.mask, eroded, cv::Mat::ones(3, 3, CV_8U));
+    double lmax = 0;
+    cv::minMaxLoc(blurred, nullptr, &lmax, nullptr, nullptr, eroded);
+    double f0 = 0;
+    EvaluateChecked(pr.model, pr.params, Angles<double>{0, 0, 0}, &f0);
+    if (lmax > 0 && f0 > 0) pr.anchor_depth = std::sqrt(intensity * f0 / lmax);
+    in.anchor_source = "absolute radiometry: z = sqrt(I f_r(0,0,0) / L_max)";
+  }
+  if (!(pr.anchor_depth > 0)) {
+    throw InputError(
+        "--distance: required (object distance in metres) when the radiance is not absolute "
+        "(no radiance_per_dn in light.json) or no material is given");
+  }
+  return in;
+}
+
+std::optional<SfsTruthComparison> CompareWithTruth(const fs::path& dir, const SfsInput& input,
+                                                   const SfsResult& result) {
+  if (dir.empty() || !fs::exists(dir / "normals.tiff") || !fs::exists(dir / "depth.tiff")) {
+    return std::nullopt;
+  }
+  SfsTruthComparison t;
+  cv::Mat n = ReadImage(dir / "normals.tiff", cv::IMREAD_UNCHANGED, "truth normals");
+  cv::Mat d = ReadImage(dir / "depth.tiff", cv::IMREAD_UNCHANGED, "truth depth");
+  if (n.channels() != 3 || d.channels() != 1 || n.size() != result.depth.size() ||
+      d.size() != result.depth.size()) {
+    throw InputError((dir / "normals.tiff").string() + ": size or channels do not match");
+  }
+  // The TIFF stores RGB = (x, y, z); OpenCV returns BGR.
+  cv::cvtColor(n, n, cv::COLOR_BGR2RGB);
+  n.convertTo(t.normals, CV_64FC3);
+  d.convertTo(t.depth, CV_64F);
+  std::vector<double> errors, depth_errors;
+  const cv::Mat& mask = input.problem.mask;
+  for (int y = 0; y < mask.rows; ++y) {
+    for (int x = 0; x < mask.cols; ++x) {
+      if (!mask.at<uint8_t>(y, x)) continue;
+      const cv::Vec3d a = t.normals.at<cv::Vec3d>(y, x), b = result.normals.at<cv::Vec3d>(y, x);
+      const double na = cv::norm(a), nb = cv::norm(b);
+      const double zt = t.depth.at<double>(y, x);
+      if (na < 0.5 || nb < 0.5 || !(zt > 0)) continue;
+      const double c = std::clamp(a.dot(b) / (na * nb), -1.0, 1.0);
+      errors.push_back(std::acos(c) * 180.0 / M_PI);
+      depth_errors.push_back(std::abs(result.depth.at<double>(y, x) - zt) / zt);
+    }
+  }
+  if (errors.empty()) throw InputError(dir.string() + ": truth has no pixels inside the mask");
+  double sum = 0;
+  for (double e : errors) sum += e;
+  t.pixels = errors.size();
+  t.mean_normal_error_deg = sum / errors.size();
+  t.p95_normal_error_deg = Percentile(errors, 0.95);
+  t.median_normal_error_deg = Percentile(errors, 0.5);
+  t.median_depth_error_rel = Percentile(depth_errors, 0.5);
+  return t;
+}
+
+json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult& result,
+                     const std::optional<SfsTruthComparison>& truth) {
+  EnsureDirectory(out);
+  const SfsProblem& pr = input.problem;
+  auto write_image = [&](const std::string& name, const cv::Mat& m) {
+    WriteAtomically(out / name, [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
+  };
+  cv::Mat depth32;
+  result.depth.convertTo(depth32, CV_32F);
+  write_image("depth.tiff", depth32);
+  // Normal map: RGB = (n + 1) / 2 (OpenCV writes BGR).
+  cv::Mat normals8(result.normals.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  for (int y = 0; y < normals8.rows; ++y) {
+    for (int x = 0; x < normals8.cols; ++x) {
+      if (!pr.mask.at<uint8_t>(y, x)) continue;
+      const cv::Vec3d n = result.normals.at<cv::Vec3d>(y, x);
+      auto c = [](double v) { return cv::saturate_cast<uint8_t>((v + 1) * 127.5); };
+      normals8.at<cv::Vec3b>(y, x) = cv::Vec3b(c(n[2]), c(n[1]), c(n[0]));
+    }
+  }
+  write_image("normals.png", normals8);
+  // Re-render in the input's pixel units (16-bit).
+  cv::Mat rerender(result.rendered.size(), CV_16U, cv::Scalar(0));
+  for (int y = 0; y < rerender.rows; ++y) {
+    for (int x = 0; x < rerender.cols; ++x) {
+      rerender.at<uint16_t>(y, x) = cv::saturate_cast<uint16_t>(
+          result.rendered.at<double>(y, x) / input.radiance_per_dn + input.black_level);
+    }
+  }
+  write_image("rerender.png", rerender);
+
+  // Cross-sections along the middle row of the object's bounding box (Oren-Nayar fig. 23).
+  const cv::Rect box = cv::boundingRect(pr.mask);
+  const int row = box.y + box.height / 2;
+  PlotSeries measured{"measured", {}, {}, "lines lw 2"};
+  PlotSeries rendered{
+      "re-rendered (recovered shape, " + result.reflectance + ")", {}, {}, "lines lw 2 dt 2"};
+  PlotSeries lambert_truth{"Lambertian on the true shape (best albedo)", {}, {}, "lines lw 1"};
+  PlotSeries depth_est{"recovered", {}, {}, "lines lw 2"};
+  PlotSeries depth_true{"truth", {}, {}, "lines lw 2 dt 2"};
+  std::vector<double> lt_raw;
+  for (int x = 0; x < pr.mask.cols; ++x) {
+    if (!pr.mask.at<uint8_t>(row, x)) continue;
+    measured.x.push_back(x);
+    measured.y.push_back(pr.radiance.at<double>(row, x));
+    rendered.x.push_back(x);
+    rendered.y.push_back(result.rendered.at<double>(row, x));
+    depth_est.x.push_back(x);
+    depth_est.y.push_back(result.depth.at<double>(row, x) * 1e3);
+    if (truth) {
+      const cv::Vec3d n = truth->normals.at<cv::Vec3d>(row, x);
+      const double z = truth->depth.at<double>(row, x);
+      if (z > 0) {
+        const Eigen::Vector3d ray = pr.camera.Unproject(Eigen::Vector2d(x, row));
+        lambert_truth.x.push_back(x);
+        lt_raw.push_back(
+            SfsRadiance(pr, "lambert", 1.0, Eigen::Vector3d(n[0], n[1], n[2]), ray / ray.z() * z));
+        lambert_truth.y.push_back(pr.radiance.at<double>(row, x));
+        depth_true.x.push_back(x);
+        depth_true.y.push_back(z * 1e3);
+      }
+    }
+  }
+  // Best Lambertian albedo for the true shape along the row (least squares).
+  double num = 0, den = 0;
+  for (size_t i = 0; i < lt_raw.size(); ++i) {
+    num += lt_raw[i] * lambert_truth.y[i];
+    den += lt_raw[i] * lt_raw[i];
+  }
+  for (size_t i = 0; i < lt_raw.size(); ++i)
+    lambert_truth.y[i] = den > 0 ? lt_raw[i] * num / den : 0;
+  const std::string units = input.absolute ? "radiance (W m^-2 sr^-1)" : "relative radiance";
+  PlotSpec bright;
+  bright.title = "Brightness along row " + std::to_string(row);
+  bright.xlabel = "image column (px)";
+  bright.ylabel = units;
+  bright.series = {measured, rendered};
+  if (truth) bright.series.push_back(lambert_truth);
+  bright.extra = "set key bottom center";
+  RenderPlot(bright, out / "cross_section.png");
+  PlotSpec dplot;
+  dplot.title = "Depth along row " + std::to_string(row);
+  dplot.xlabel = "image column (px)";
+  dplot.ylabel = "camera-frame z (mm)";
+  dplot.series = {depth_est};
+  if (truth) dplot.series.push_back(depth_true);
+  dplot.extra = "set yrange [*:*] reverse\nset key top center";
+  RenderPlot(dplot, out / "depth_section.png");
+
+  json j = {
+      {"format", "gonio-sfs"},
+      {"version", 1},
+      {"image", input.image_path},
+      {"reflectance", result.reflectance},
+      {"material", {{"model", pr.model}, {"params", pr.params}}},
+      {"lamp_in_camera", {pr.lamp_in_camera.x(), pr.lamp_in_camera.y(), pr.lamp_in_camera.z()}},
+      {"lamp_intensity", pr.lamp_intensity},
+      {"radiance_absolute", input.absolute},
+      {"scale_k", result.scale},
+      {"scale_meaning",
+       result.reflectance == "lambert"
+           ? "fitted Lambertian albedo (times lamp intensity / exposure error if any)"
+           : "fitted factor on the material BRDF (1 = radiance, lamp and material exact)"},
+      {"anchor_depth_m", pr.anchor_depth},
+      {"anchor_source", input.anchor_source},
+      {"residual_rms_relative", result.rms_relative_residual},
+      {"median_radiance", result.median_radiance},
+      {"mask_pixels", result.mask_pixels},
+      {"levels", result.levels},
+      {"iterations", result.iterations},
+      {"seconds", result.seconds},
+      {"cross_section_row", row},
+      {"files",
+       {"depth.tiff", "normals.png", "rerender.png", "cross_section.png", "depth_section.png"}}};
+  if (truth) {
+    j["mean_normal_error_deg"] = truth->mean_normal_error_deg;
+    j["p95_normal_error_deg"] = truth->p95_normal_error_deg;
+    j["median_normal_error_deg"] = truth->median_normal_error_deg;
+    j["median_depth_error_relative"] = truth->median_depth_error_rel;
+    j["truth_pixels"] = truth->pixels;
+  }
+  WriteJsonAtomically(out / "sfs.json", j);
+  return j;
+}
+
+}  // namespace gonio
