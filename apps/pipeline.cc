@@ -5,8 +5,8 @@
 #include <iostream>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "apps/report.h"
 #include "calib/calibrate.h"
@@ -67,8 +67,10 @@ PhotometricCalibration LoadPhotometric(const std::string& path, const std::strin
   const fs::path in_session = fs::path(session_dir) / "photometric.json";
   if (fs::exists(in_session)) return PhotometricCalibration::Read(in_session);
   const int bits = SessionBitDepth(session_dir);
-  spdlog::warn("no photometric calibration: assuming a linear camera, black level 0, no "
-               "vignetting ({} bit)", bits ? bits : 8);
+  spdlog::warn(
+      "no photometric calibration: assuming a linear camera, black level 0, no "
+      "vignetting ({} bit)",
+      bits ? bits : 8);
   return PhotometricCalibration::Linear(bits ? bits : 8, 1, 0.0);
 }
 
@@ -111,8 +113,8 @@ std::string RunPipeline(const RunOptions& o) {
   ExtractOptions eo;
   eo.patch = o.patch;
   eo.threads = o.threads;
-  const ObservationSet data =
-      ExtractObservations(o.session, camera, board, pose_map, LoadPhotometric(o.photometric, o.session), eo);
+  const ObservationSet data = ExtractObservations(o.session, camera, board, pose_map,
+                                                  LoadPhotometric(o.photometric, o.session), eo);
   WriteObservations(fs::path(o.out) / "observations.csv", data);
   timing["extract_s"] = clock.Lap();
 
@@ -149,9 +151,10 @@ std::string RunPipeline(const RunOptions& o) {
   const std::string fit_path = (fs::path(o.out) / "fit.json").string();
   WriteJsonAtomically(fit_path, j);
   std::cout << fit.Report();
-  std::cout << fmt::format("timing: locate {:.1f} s, extract {:.1f} s, fit {:.1f} s, report {:.1f} s\n",
-                           timing["locate_s"].get<double>(), timing["extract_s"].get<double>(),
-                           timing["fit_s"].get<double>(), timing["report_s"].get<double>());
+  std::cout << fmt::format(
+      "timing: locate {:.1f} s, extract {:.1f} s, fit {:.1f} s, report {:.1f} s\n",
+      timing["locate_s"].get<double>(), timing["extract_s"].get<double>(),
+      timing["fit_s"].get<double>(), timing["report_s"].get<double>());
   return fit_path;
 }
 
@@ -166,7 +169,8 @@ void RunDemo(const DemoOptions& o) {
   // The photometric calibration a user would have measured once for this camera (response from
   // an exposure sweep, vignetting from flat frames): here the renderer's known chain.
   const CameraModel camera = CameraModel::Read(session_dir / "camera.cameramodel");
-  PhotometricFromSynthTruth(truth, camera.width, camera.height).Write(session_dir / "photometric.json");
+  PhotometricFromSynthTruth(truth, camera.width, camera.height)
+      .Write(session_dir / "photometric.json");
   RunOptions ro;
   ro.session = session_dir.string();
   ro.out = result_dir.string();
@@ -178,14 +182,17 @@ void RunDemo(const DemoOptions& o) {
 
   std::cout << "\nrecovered vs true (" << fit_path << "):\n";
   const std::string true_model = truth["material"]["model"];
-  std::cout << fmt::format("  model      {:>12}   true {}\n", fit["selected"].get<std::string>(), true_model);
+  std::cout << fmt::format("  model      {:>12}   true {}\n", fit["selected"].get<std::string>(),
+                           true_model);
   const auto& params = fit["final"]["params"];
-  for (auto it = truth["material"]["params"].begin(); it != truth["material"]["params"].end(); ++it) {
+  for (auto it = truth["material"]["params"].begin(); it != truth["material"]["params"].end();
+       ++it) {
     if (!params.contains(it.key()) || params[it.key()].is_null()) continue;
     const double t = it.value().get<double>(), r = params[it.key()].get<double>();
     const bool angle = it.key() == "sigma";
-    std::cout << fmt::format("  {:<10} {:>12.5g}   true {:.5g}{}\n", it.key(), angle ? RadToDeg(r) : r,
-                             angle ? RadToDeg(t) : t, angle ? " (deg)" : "");
+    std::cout << fmt::format("  {:<10} {:>12.5g}   true {:.5g}{}\n", it.key(),
+                             angle ? RadToDeg(r) : r, angle ? RadToDeg(t) : t,
+                             angle ? " (deg)" : "");
   }
   const auto& lp = fit["light"]["position"];
   const auto& lt = truth["light"]["position_in_board"];
@@ -195,10 +202,11 @@ void RunDemo(const DemoOptions& o) {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const auto& q : board.sample_region()) centre += Eigen::Vector3d(q.x(), q.y(), 0.0);
   centre /= std::max<size_t>(1, board.sample_region().size());
-  std::cout << fmt::format("  lamp       ({:.4f}, {:.4f}, {:.4f}) m   true ({:.4f}, {:.4f}, {:.4f}); "
-                           "error {:.2f}% of its distance\n",
-                           light.x(), light.y(), light.z(), light_true.x(), light_true.y(),
-                           light_true.z(), 100 * (light - light_true).norm() / (light_true - centre).norm());
+  std::cout << fmt::format(
+      "  lamp       ({:.4f}, {:.4f}, {:.4f}) m   true ({:.4f}, {:.4f}, {:.4f}); "
+      "error {:.2f}% of its distance\n",
+      light.x(), light.y(), light.z(), light_true.x(), light_true.y(), light_true.z(),
+      100 * (light - light_true).norm() / (light_true - centre).norm());
 }
 
 }  // namespace gonio::cli

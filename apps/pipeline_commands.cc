@@ -10,9 +10,9 @@
 #include "apps/cli_util.h"
 #include "apps/commands.h"
 #include "apps/pipeline.h"
+#include "calib/vignette.h"
 #include "common/error.h"
 #include "common/io.h"
-#include "calib/vignette.h"
 #include "estimation/extract.h"
 #include "estimation/joint_fit.h"
 
@@ -47,12 +47,13 @@ void RunExtract(const ExtractArgs& a) {
   ExtractOptions o;
   o.patch = a.patch;
   o.threads = a.threads;
-  const Board board = Board::Read(a.board.empty() ? (fs::path(a.session) / "board.json").string() : a.board);
+  const Board board =
+      Board::Read(a.board.empty() ? (fs::path(a.session) / "board.json").string() : a.board);
   std::map<std::string, Rigid3d> poses;
   for (const auto& [file, pose] : ReadPoses(a.poses)) poses[file] = pose;
-  const ObservationSet set = ExtractObservations(
-      a.session, CameraModel::Read(a.camera), board, poses,
-      LoadPhotometric(a.photometric, a.session), o);
+  const ObservationSet set =
+      ExtractObservations(a.session, CameraModel::Read(a.camera), board, poses,
+                          LoadPhotometric(a.photometric, a.session), o);
   WriteObservations(a.out, set);
   std::cout << fmt::format("{} observations -> {}\n", set.observations.size(), a.out);
 }
@@ -102,14 +103,16 @@ void AddPipelineCommands(CLI::App& app) {
                       "photometric.json (default: SESSION/photometric.json, else a linear camera)");
   extract->add_option("--poses", ea->poses, "poses.json from gonio locate")->required();
   extract->add_option("--board", ea->board, "Board file (default: SESSION/board.json)");
-  extract->add_option("--patch", ea->patch, "Square patches of N x N pixels")->capture_default_str();
+  extract->add_option("--patch", ea->patch, "Square patches of N x N pixels")
+      ->capture_default_str();
   extract->add_option("--threads", ea->threads, "Threads (0 = all cores)");
   extract->add_option("--out", ea->out, "observations.csv")->required();
   extract->callback([ea] { RunExtract(*ea); });
 
   auto fa = std::make_shared<FitArgs>();
   auto* fit = app.add_subcommand("fit", "Joint BRDF + lamp fit with model selection");
-  fit->add_option("--observations", fa->observations, "observations.csv (comma-separated to combine)")
+  fit->add_option("--observations", fa->observations,
+                  "observations.csv (comma-separated to combine)")
       ->required();
   fit->add_option("--models", fa->models, "auto, or a comma-separated list")->capture_default_str();
   fit->add_option("--criterion", fa->criterion, "bic, aic or cv")->capture_default_str();
@@ -127,8 +130,10 @@ void AddPipelineCommands(CLI::App& app) {
   auto* run = app.add_subcommand("run", "The whole chain: locate, extract, fit, report");
   run->add_option("--session", ra->session, "Session folder")->required();
   run->add_option("--out", ra->out, "Output folder")->required();
-  run->add_option("--camera", ra->camera, "camera.cameramodel (default: SESSION's, else calibrate)");
-  run->add_option("--photometric", ra->photometric, "photometric.json (default: SESSION's, else linear)");
+  run->add_option("--camera", ra->camera,
+                  "camera.cameramodel (default: SESSION's, else calibrate)");
+  run->add_option("--photometric", ra->photometric,
+                  "photometric.json (default: SESSION's, else linear)");
   run->add_option("--white-albedo", ra->white_albedo, "Known albedo of the white reference");
   run->add_option("--models", ra->models, "auto, or a comma-separated list")->capture_default_str();
   run->add_option("--criterion", ra->criterion, "bic, aic or cv")->capture_default_str();
@@ -139,9 +144,11 @@ void AddPipelineCommands(CLI::App& app) {
   run->callback([ra] { RunPipeline(*ra); });
 
   auto da = std::make_shared<DemoOptions>();
-  auto* demo = app.add_subcommand("demo", "Render the default synthetic session and recover its material");
+  auto* demo =
+      app.add_subcommand("demo", "Render the default synthetic session and recover its material");
   demo->add_option("--out", da->out, "Output folder")->capture_default_str();
-  demo->add_option("--models", da->models, "auto, or a comma-separated list")->capture_default_str();
+  demo->add_option("--models", da->models, "auto, or a comma-separated list")
+      ->capture_default_str();
   demo->add_option("--threads", da->threads, "Threads (0 = all cores)");
   demo->callback([da] { RunDemo(*da); });
 }

@@ -17,17 +17,22 @@ namespace {
 std::string Escape(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else
+      out += c;
   }
   return out;
 }
 
 // Measured f_r = L / (I cos(theta_i) / d^2) against signed theta_r (negative: source side),
 // per theta_i bin, with the fitted model's value at the same geometry: the papers' figures.
-void BrdfPlot(const JointFitResult& f, const ObservationSet& data, const std::filesystem::path& png) {
+void BrdfPlot(const JointFitResult& f, const ObservationSet& data,
+              const std::filesystem::path& png) {
   std::map<int, std::pair<PlotSeries, PlotSeries>> bins;
   const ModelInfo& info = FindModel(f.material.model);
   (void)info;
@@ -81,7 +86,8 @@ void PolarPlot(const JointFitResult& f, double theta_i, const std::filesystem::p
     s.y.push_back(v);
   }
   spec.series.push_back(s);
-  spec.extra = "set polar\nset angles degrees\nset size square\nunset xtics\nunset ytics\nset grid polar 15";
+  spec.extra =
+      "set polar\nset angles degrees\nset size square\nunset xtics\nunset ytics\nset grid polar 15";
   RenderPlot(spec, png);
 }
 
@@ -168,7 +174,8 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   std::ostringstream h;
   h << "<!doctype html><html><head><meta charset='utf-8'><title>gonio report</title>"
        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:"
-       "collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}</style></head><body>";
+       "collapse}td,th{border:1px solid #ccc;padding:3px "
+       "8px;text-align:right}</style></head><body>";
   h << "<h1>gonio: " << Escape(f.material.model) << "</h1>";
   h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
   h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th></tr>";
@@ -177,13 +184,15 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
     h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td></tr>", f.material.param_names[k],
                      f.material.params[k], sd ? fmt::format("{:.2g}", *sd) : "undetermined");
   }
-  h << fmt::format("<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td></tr>",
-                   f.light_frame, f.light_position.x(), f.light_position.y(), f.light_position.z(),
-                   f.light_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(),
-                                                f.light_stddev->y(), f.light_stddev->z())
-                                  : "undetermined");
-  h << fmt::format("<tr><td>intensity</td><td>{:.5g}</td><td>{}</td></tr></table>", f.intensity,
-                   f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined");
+  h << fmt::format(
+      "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td></tr>",
+      f.light_frame, f.light_position.x(), f.light_position.y(), f.light_position.z(),
+      f.light_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(),
+                                   f.light_stddev->y(), f.light_stddev->z())
+                     : "undetermined");
+  h << fmt::format(
+      "<tr><td>intensity</td><td>{:.5g}</td><td>{}</td></tr></table>", f.intensity,
+      f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined");
   if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
   for (const auto& w : f.warnings) h << "<p style='color:#b00'>warning: " << Escape(w) << "</p>";
   h << "<h2>Model comparison</h2><table><tr><th>model</th><th>k</th><th>rel_rms</th><th>AIC</th>"
@@ -192,10 +201,11 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
     const auto& c = fit.selection.candidates[k];
     std::string und;
     for (const auto& u : c.undetermined) und += (und.empty() ? "" : ", ") + u;
-    h << fmt::format("<tr{}><td>{}</td><td>{}</td><td>{:.4f}</td><td>{:.1f}</td><td>{:.1f}</td>"
-                     "<td>{:.4g}</td><td>{}</td></tr>",
-                     static_cast<int>(k) == fit.selection.selected ? " style='font-weight:bold'" : "",
-                     c.model, c.n_params, c.rel_rms, c.aic, c.bic, c.cv_rms.value_or(NAN), und);
+    h << fmt::format(
+        "<tr{}><td>{}</td><td>{}</td><td>{:.4f}</td><td>{:.1f}</td><td>{:.1f}</td>"
+        "<td>{:.4g}</td><td>{}</td></tr>",
+        static_cast<int>(k) == fit.selection.selected ? " style='font-weight:bold'" : "", c.model,
+        c.n_params, c.rel_rms, c.aic, c.bic, c.cv_rms.value_or(NAN), und);
   }
   h << "</table>";
   for (const char* img : {"brdf_vs_theta_r.png", "polar.png", "frames.png", "geometry.png"}) {

@@ -33,8 +33,7 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
   const int channels = raw.channels();
   if (channels != response.channels) {
     throw InputError("image has " + std::to_string(channels) +
-                     " channels, the photometric calibration " +
-                     std::to_string(response.channels));
+                     " channels, the photometric calibration " + std::to_string(response.channels));
   }
   if (!vignette.empty() && vignette.size() != raw.size()) {
     throw InputError("image size differs from the vignetting map's");
@@ -62,7 +61,8 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
         }
         const double slope = response.Slope(c, z);
         double var_z = 1.0 / 12.0 + read_noise_dn * read_noise_dn;
-        if (electrons_per_dn) var_z += std::max(0.0, z - response.black_level[c]) / *electrons_per_dn;
+        if (electrons_per_dn)
+          var_z += std::max(0.0, z - response.black_level[c]) / *electrons_per_dn;
         out[x * channels + c] = static_cast<float>(response.Linearize(c, z) * scale);
         var[x * channels + c] = static_cast<float>(slope * slope * var_z * scale * scale);
       }
@@ -96,8 +96,9 @@ void PhotometricCalibration::Write(const std::filesystem::path& path) const {
   j["electrons_per_dn"] = electrons_per_dn ? nlohmann::json(*electrons_per_dn) : nlohmann::json();
   if (!vignette.empty()) {
     const std::string name = path.stem().string() + "_vignette.tiff";
-    WriteAtomically(path.parent_path() / name,
-                    [&](const std::filesystem::path& tmp) { return cv::imwrite(tmp.string(), vignette); });
+    WriteAtomically(path.parent_path() / name, [&](const std::filesystem::path& tmp) {
+      return cv::imwrite(tmp.string(), vignette);
+    });
     j["vignette"] = name;
   } else {
     j["vignette"] = nullptr;

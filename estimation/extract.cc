@@ -4,10 +4,10 @@
 #include <cmath>
 #include <mutex>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
+#include <Eigen/Geometry>
+#include <opencv2/imgcodecs.hpp>
 
 #include "common/error.h"
 #include "common/io.h"
@@ -91,9 +91,11 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
     const Eigen::AngleAxisd aa(board_from_cam.R);
     const Eigen::Vector3d aa_vec = aa.angle() * aa.axis();
     const cv::Mat raw = cv::imread(session.FramePath(f).string(), cv::IMREAD_UNCHANGED);
-    if (raw.empty()) throw InputError(session.FramePath(f).string() + ": cannot be read as an image");
+    if (raw.empty())
+      throw InputError(session.FramePath(f).string() + ": cannot be read as an image");
     if (raw.cols != camera.width || raw.rows != camera.height) {
-      throw InputError(session.FramePath(f).string() + ": image size differs from the camera model's");
+      throw InputError(session.FramePath(f).string() +
+                       ": image size differs from the camera model's");
     }
     cv::Mat radiance, variance, valid;
     photometric.ToRadiance(raw, frame.exposure_s, frame.gain, &radiance, &variance, &valid);
@@ -119,8 +121,10 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
       }
     }
     const int P = options.patch;
-    const int u0 = std::max(0, static_cast<int>(umin) - 2), u1 = std::min(camera.width - P, static_cast<int>(umax) + 2);
-    const int v0 = std::max(0, static_cast<int>(vmin) - 2), v1 = std::min(camera.height - P, static_cast<int>(vmax) + 2);
+    const int u0 = std::max(0, static_cast<int>(umin) - 2),
+              u1 = std::min(camera.width - P, static_cast<int>(umax) + 2);
+    const int v0 = std::max(0, static_cast<int>(vmin) - 2),
+              v1 = std::min(camera.height - P, static_cast<int>(vmax) + 2);
     const int rows = v1 >= v0 ? (v1 - v0) / P + 1 : 0;
     ParallelFor(rows, options.threads, [&](size_t rb, size_t re) {
       std::vector<Observation> local;
@@ -135,16 +139,25 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
             for (int du = 0; du < P && !reject; ++du) {
               const Eigen::Vector3d ray_in_cam = camera.Unproject(Eigen::Vector2d(u + du, v + dv));
               const Eigen::Vector3d dir = board_from_cam.R * ray_in_cam;
-              if (std::abs(dir.z()) < 1e-12) { reject = true; break; }
+              if (std::abs(dir.z()) < 1e-12) {
+                reject = true;
+                break;
+              }
               const double s = -board_from_cam.t.z() / dir.z();
-              if (s <= 0) { reject = true; break; }
+              if (s <= 0) {
+                reject = true;
+                break;
+              }
               const Eigen::Vector3d p = board_from_cam.t + s * dir;
               const Eigen::Vector2d q(p.x(), p.y());
               int kind = -1;
               for (size_t k = 0; k < regions.size(); ++k) {
                 if (InsideDistance(*regions[k].first, q) > margin) kind = static_cast<int>(k);
               }
-              if (kind < 0 || (region_kind >= 0 && kind != region_kind)) { reject = true; break; }
+              if (kind < 0 || (region_kind >= 0 && kind != region_kind)) {
+                reject = true;
+                break;
+              }
               region_kind = kind;
               for (const auto& t : tags) {
                 if (InsideDistance(t, q) > -margin) {
@@ -187,7 +200,8 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
             o.radiance.push_back(mean);
             // Variance of the patch mean: the larger of the propagated pixel noise and the
             // patch's own scatter (texture) divided by n.
-            const double scatter = n > 1 ? std::max(0.0, sum_sq[c] / n - mean * mean) * n / (n - 1) : 0.0;
+            const double scatter =
+                n > 1 ? std::max(0.0, sum_sq[c] / n - mean * mean) * n / (n - 1) : 0.0;
             o.variance.push_back(std::max(sum_var[c] / n, scatter) / n);
           }
           local.push_back(std::move(o));
@@ -210,7 +224,8 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
                   {"tag", count.tag.load()},
                   {"frames_without_pose", no_pose}};
   if (no_pose == session.frames.size()) {
-    throw InputError(session_dir.string() + ": no frame has a pose (run gonio locate; is the board visible?)");
+    throw InputError(session_dir.string() +
+                     ": no frame has a pose (run gonio locate; is the board visible?)");
   }
   size_t sample = 0;
   for (const auto& o : set.observations) sample += !o.white;
@@ -219,10 +234,11 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
                                  session_dir.string(), count.saturated.load(), count.dark.load(),
                                  count.tag.load()));
   }
-  spdlog::info("extract: {} observations ({} sample, {} white); left out: saturated {}, dark {}, "
-               "tag {}, frames without pose {}",
-               set.observations.size(), sample, set.observations.size() - sample,
-               count.saturated.load(), count.dark.load(), count.tag.load(), no_pose);
+  spdlog::info(
+      "extract: {} observations ({} sample, {} white); left out: saturated {}, dark {}, "
+      "tag {}, frames without pose {}",
+      set.observations.size(), sample, set.observations.size() - sample, count.saturated.load(),
+      count.dark.load(), count.tag.load(), no_pose);
   return set;
 }
 

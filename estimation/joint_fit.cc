@@ -27,7 +27,8 @@ void LightInBoard(const Observation& o, bool light_in_camera, const T* light, T*
     for (int k = 0; k < 3; ++k) lb[k] = light[k];
     return;
   }
-  const T aa[3] = {T(o.board_from_cam_aa.x()), T(o.board_from_cam_aa.y()), T(o.board_from_cam_aa.z())};
+  const T aa[3] = {T(o.board_from_cam_aa.x()), T(o.board_from_cam_aa.y()),
+                   T(o.board_from_cam_aa.z())};
   ceres::AngleAxisRotatePoint(aa, light, lb);
   for (int k = 0; k < 3; ++k) lb[k] += T(o.camera_in_board[k]);
 }
@@ -36,7 +37,8 @@ void LightInBoard(const Observation& o, bool light_in_camera, const T* light, T*
 // (board x, -y, -z: the sample's outward normal is -z_board).
 template <typename T>
 T Geometry(const Observation& o, const T* lb, T* ls, T* vs) {
-  const T l[3] = {lb[0] - T(o.p_in_board.x()), lb[1] - T(o.p_in_board.y()), lb[2] - T(o.p_in_board.z())};
+  const T l[3] = {lb[0] - T(o.p_in_board.x()), lb[1] - T(o.p_in_board.y()),
+                  lb[2] - T(o.p_in_board.z())};
   ls[0] = l[0];
   ls[1] = -l[1];
   ls[2] = -l[2];
@@ -286,7 +288,8 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
       blocks.push_back(plain.shape.data());
       for (int k = 0; k < info.num_params(); ++k) {
         if (!info.params[k].is_scale) {
-          free_cols.push_back({plain.shape.data(), k, info.params[k].max - info.params[k].min, true, info.params[k].name});
+          free_cols.push_back({plain.shape.data(), k, info.params[k].max - info.params[k].min, true,
+                               info.params[k].name});
         }
       }
       for (size_t c = 0; c < plain.chan.size(); ++c) {
@@ -294,14 +297,16 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
         blocks.push_back(plain.chan[c].data());
         for (int k = 0; k < info.num_params(); ++k) {
           if (info.params[k].is_scale) {
-            free_cols.push_back({plain.chan[c].data(), k, info.params[k].max - info.params[k].min,
-                                 true, c == 0 ? info.params[k].name : fmt::format("{}[{}]", info.params[k].name, c)});
+            free_cols.push_back(
+                {plain.chan[c].data(), k, info.params[k].max - info.params[k].min, true,
+                 c == 0 ? info.params[k].name : fmt::format("{}[{}]", info.params[k].name, c)});
           }
         }
       }
     }
     blocks.push_back(plain.light.data());
-    for (int k = 0; k < 3; ++k) free_cols.push_back({plain.light.data(), k, dist, true, std::string("light_") + "xyz"[k]});
+    for (int k = 0; k < 3; ++k)
+      free_cols.push_back({plain.light.data(), k, dist, true, std::string("light_") + "xyz"[k]});
     blocks.push_back(&plain.intensity);
     free_cols.push_back({&plain.intensity, 0, std::abs(s.intensity), true, "intensity"});
     ceres::Problem::EvaluateOptions eo;
@@ -318,7 +323,8 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
     }
     Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, free_cols.size());
     std::map<int, int> col_of;
-    for (size_t j = 0; j < free_cols.size(); ++j) col_of[offset[free_cols[j].block] + free_cols[j].index] = j;
+    for (size_t j = 0; j < free_cols.size(); ++j)
+      col_of[offset[free_cols[j].block] + free_cols[j].index] = j;
     for (int row = 0; row < crs.num_rows; ++row) {
       for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
         const auto it = col_of.find(crs.cols[k]);
@@ -374,7 +380,8 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
       if (!r.absolute) r.undetermined_light.push_back("intensity");
       r.warnings.push_back(fmt::format(
           "the irradiance varies only {:.2f}% across the sample: the lamp's distance cannot be "
-          "measured (only its direction); move the lamp closer", 100 * contrast));
+          "measured (only its direction); move the lamp closer",
+          100 * contrast));
     }
   }
 
@@ -451,7 +458,8 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
         const Observation& obs = data.observations[i];
         if (obs.white) continue;
         for (int c = 0; c < C; ++c) {
-          const double res = Predict<M>(obs, c, t, info, in_camera, o.white_albedo) - obs.radiance[c];
+          const double res =
+              Predict<M>(obs, c, t, info, in_camera, o.white_albedo) - obs.radiance[c];
           cv_sq += res * res;
           ++cv_n;
         }
@@ -510,9 +518,9 @@ Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& 
   if (options.light_init) return *options.light_init;
   std::vector<Eigen::Vector3d> starts;
   if (options.light_frame == "camera") {
-    for (const Eigen::Vector3d& d : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.1, 0, 0),
-                                     Eigen::Vector3d(-0.1, 0, 0), Eigen::Vector3d(0, 0.1, 0),
-                                     Eigen::Vector3d(0, -0.1, 0)}) {
+    for (const Eigen::Vector3d& d :
+         {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.1, 0, 0), Eigen::Vector3d(-0.1, 0, 0),
+          Eigen::Vector3d(0, 0.1, 0), Eigen::Vector3d(0, -0.1, 0)}) {
       starts.push_back(d + Eigen::Vector3d(0, 0, 1e-3));
     }
   } else {

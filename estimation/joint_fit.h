@@ -25,16 +25,16 @@
 namespace gonio {
 
 struct JointFitOptions {
-  std::vector<std::string> candidates;  // empty: AutoCandidates()
-  std::string criterion = "bic";        // aic, bic, cv (held-out frames)
-  std::string light_frame = "board";    // "board" or "camera"
+  std::vector<std::string> candidates;        // empty: AutoCandidates()
+  std::string criterion = "bic";              // aic, bic, cv (held-out frames)
+  std::string light_frame = "board";          // "board" or "camera"
   std::optional<Eigen::Vector3d> light_init;  // in light_frame; none: multi-start
   std::optional<double> white_albedo;         // known albedo of the white reference
-  bool per_channel = true;              // per-channel albedo-like parameters (colour data)
-  std::string robust_loss = "huber";    // none, huber, cauchy; scale 3 sigma
-  double relative_noise_floor = 0.01;   // sigma^2 = variance + (floor * L)^2
-  size_t selection_max_observations = 3000;  // candidates compared on a subsample
-  size_t final_max_observations = 30000;     // the selected model's final fit
+  bool per_channel = true;                    // per-channel albedo-like parameters (colour data)
+  std::string robust_loss = "huber";          // none, huber, cauchy; scale 3 sigma
+  double relative_noise_floor = 0.01;         // sigma^2 = variance + (floor * L)^2
+  size_t selection_max_observations = 3000;   // candidates compared on a subsample
+  size_t final_max_observations = 30000;      // the selected model's final fit
   // The lamp distance is only measured through the change of irradiance (cos theta_i / d^2)
   // across the sample. Below this relative contrast, photometric calibration errors of a few
   // tenths of a percent would move it arbitrarily: its distance is reported as undetermined.
@@ -64,7 +64,7 @@ struct JointFitResult {
   std::optional<Eigen::Vector3d> light_stddev;
   double intensity = 1.0;
   std::optional<double> intensity_stddev;
-  bool absolute = false;  // a white reference fixed the intensity
+  bool absolute = false;                        // a white reference fixed the intensity
   std::vector<std::string> undetermined_light;  // "light_x", "intensity", ...
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
@@ -74,7 +74,7 @@ struct JointFitResult {
 };
 
 struct JointSelectionResult {
-  ModelSelectionResult selection;  // candidates' material results and the rule's reason
+  ModelSelectionResult selection;    // candidates' material results and the rule's reason
   std::vector<JointFitResult> fits;  // same order as selection.candidates
   JointFitResult final_fit;          // the selected model refitted on every observation
   std::string Report() const;

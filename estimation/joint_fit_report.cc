@@ -14,14 +14,16 @@ nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 nlohmann::json JointFitResult::ToJson() const {
   nlohmann::json j = gonio::ToJson(material);
-  nlohmann::json light = {{"frame", light_frame},
-                          {"position", {light_position.x(), light_position.y(), light_position.z()}},
-                          {"intensity", Finite(intensity)},
-                          {"intensity_stddev", intensity_stddev ? Finite(*intensity_stddev) : nlohmann::json()},
-                          {"undetermined", undetermined_light},
-                          {"absolute", absolute}};
-  light["stddev"] = light_stddev ? nlohmann::json({light_stddev->x(), light_stddev->y(), light_stddev->z()})
-                                 : nlohmann::json();
+  nlohmann::json light = {
+      {"frame", light_frame},
+      {"position", {light_position.x(), light_position.y(), light_position.z()}},
+      {"intensity", Finite(intensity)},
+      {"intensity_stddev", intensity_stddev ? Finite(*intensity_stddev) : nlohmann::json()},
+      {"undetermined", undetermined_light},
+      {"absolute", absolute}};
+  light["stddev"] = light_stddev
+                        ? nlohmann::json({light_stddev->x(), light_stddev->y(), light_stddev->z()})
+                        : nlohmann::json();
   j["light"] = light;
   if (!scale_param_names.empty()) {
     nlohmann::json per = nlohmann::json::object();
@@ -75,13 +77,14 @@ std::string JointSelectionResult::Report() const {
   s << selection.Report();
   const auto& f = final_fit;
   s << "final fit on " << f.n_observations << " observations: " << f.material.Report() << "\n";
-  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", f.light_frame, f.light_position.x(),
-                   f.light_position.y(), f.light_position.z());
+  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", f.light_frame,
+                   f.light_position.x(), f.light_position.y(), f.light_position.z());
   if (f.light_stddev) {
     s << fmt::format(" +- ({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(), f.light_stddev->y(),
                      f.light_stddev->z());
   }
-  s << fmt::format("; intensity {:.5g}{}\n", f.intensity, f.absolute ? "" : " (relative: no white reference)");
+  s << fmt::format("; intensity {:.5g}{}\n", f.intensity,
+                   f.absolute ? "" : " (relative: no white reference)");
   for (const auto& u : f.undetermined_light) s << "undetermined: " << u << "\n";
   for (const auto& w : f.warnings) s << "warning: " << w << "\n";
   return s.str();

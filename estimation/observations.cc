@@ -23,11 +23,12 @@ void WriteObservations(const std::filesystem::path& path, const ObservationSet& 
   for (int c = 0; c < set.channels; ++c) out += fmt::format(",var{}", c);
   out += "\n";
   for (const auto& o : set.observations) {
-    out += fmt::format("{},{:.2f},{:.2f},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.9g},{:.9g},{:.9g},{},{}",
-                       o.frame, o.px, o.py, o.p_in_board.x(), o.p_in_board.y(), o.p_in_board.z(),
-                       o.camera_in_board.x(), o.camera_in_board.y(), o.camera_in_board.z(),
-                       o.board_from_cam_aa.x(), o.board_from_cam_aa.y(), o.board_from_cam_aa.z(),
-                       o.white ? "white" : "sample", o.num_pixels);
+    out += fmt::format(
+        "{},{:.2f},{:.2f},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.9g},{:.9g},{:.9g},{},{}",
+        o.frame, o.px, o.py, o.p_in_board.x(), o.p_in_board.y(), o.p_in_board.z(),
+        o.camera_in_board.x(), o.camera_in_board.y(), o.camera_in_board.z(),
+        o.board_from_cam_aa.x(), o.board_from_cam_aa.y(), o.board_from_cam_aa.z(),
+        o.white ? "white" : "sample", o.num_pixels);
     for (double v : o.radiance) out += fmt::format(",{:.7g}", v);
     for (double v : o.variance) out += fmt::format(",{:.7g}", v);
     out += "\n";
@@ -51,8 +52,8 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
     }
   }
   const CsvTable csv = CsvTable::Parse(text, path.string());
-  const char* required[] = {"frame", "px", "py", "x", "y", "z", "cam_x", "cam_y", "cam_z",
-                            "aa_x", "aa_y", "aa_z", "region", "n"};
+  const char* required[] = {"frame", "px",    "py",   "x",    "y",    "z",      "cam_x",
+                            "cam_y", "cam_z", "aa_x", "aa_y", "aa_z", "region", "n"};
   std::vector<size_t> col;
   for (const char* r : required) col.push_back(csv.Require(r));
   set.channels = 0;
@@ -73,8 +74,8 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
     o.board_from_cam_aa = {csv.Number(r, col[9]), csv.Number(r, col[10]), csv.Number(r, col[11])};
     const std::string& region = csv.Cell(r, col[12]);
     if (region != "sample" && region != "white") {
-      throw InputError(fmt::format("{}: line {}: region must be sample or white", path.string(),
-                                   csv.LineOf(r)));
+      throw InputError(
+          fmt::format("{}: line {}: region must be sample or white", path.string(), csv.LineOf(r)));
     }
     o.white = region == "white";
     o.num_pixels = static_cast<int>(csv.Number(r, col[13]));
@@ -82,10 +83,12 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
       o.radiance.push_back(csv.Number(r, lc[c]));
       o.variance.push_back(csv.Number(r, vc[c]));
       if (o.variance.back() < 0) {
-        throw InputError(fmt::format("{}: line {}: negative variance", path.string(), csv.LineOf(r)));
+        throw InputError(
+            fmt::format("{}: line {}: negative variance", path.string(), csv.LineOf(r)));
       }
     }
-    if (o.frame < 0) throw InputError(fmt::format("{}: line {}: negative frame", path.string(), csv.LineOf(r)));
+    if (o.frame < 0)
+      throw InputError(fmt::format("{}: line {}: negative frame", path.string(), csv.LineOf(r)));
     if (o.frame >= static_cast<int>(set.frame_files.size())) set.frame_files.resize(o.frame + 1);
     set.observations.push_back(std::move(o));
   }

@@ -9,7 +9,8 @@ namespace gonio {
 
 // The data_synth truth's photometric chain as a calibration: D = black + f(X) (max - black),
 // f(x) = x^(1/gamma) or linear, V = 1 + v1 r^2 + v2 r^4 + v3 r^6.
-PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width, int height) {
+PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width,
+                                                 int height) {
   const auto& p = truth.at("photometric");
   const int bits = p.at("bit_depth").get<int>();
   const double black = p.at("black_level").get<double>();
@@ -33,13 +34,13 @@ PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, in
   cal.vignette = cv::Mat(height, width, CV_32F);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
-      const double r2 = (std::pow(x - centre[0], 2) + std::pow(y - centre[1], 2)) / (radius * radius);
+      const double r2 =
+          (std::pow(x - centre[0], 2) + std::pow(y - centre[1], 2)) / (radius * radius);
       cal.vignette.at<float>(y, x) =
           static_cast<float>(1 + c[0] * r2 + c[1] * r2 * r2 + c[2] * r2 * r2 * r2);
     }
   }
   return cal;
 }
-
 
 }  // namespace gonio

@@ -10,6 +10,7 @@
 namespace gonio {
 
 // InputError for a response type other than gamma or linear.
-PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width, int height);
+PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width,
+                                                 int height);
 
 }  // namespace gonio

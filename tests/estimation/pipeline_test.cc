@@ -54,9 +54,9 @@ SceneRun RenderAndFit(const synth::Scene& scene, JointFitOptions options, int pa
   for (const auto& f : poses.frames) pose_map[f.file] = f.pose.cam_from_board;
   ExtractOptions eo;
   eo.patch = patch;
-  const ObservationSet data = ExtractObservations(
-      dir.path(), camera, board, pose_map,
-      PhotometricFromSynthTruth(r.truth, camera.width, camera.height), eo);
+  const ObservationSet data =
+      ExtractObservations(dir.path(), camera, board, pose_map,
+                          PhotometricFromSynthTruth(r.truth, camera.width, camera.height), eo);
   options.white_albedo = r.truth["white_albedo"].get<double>();
   r.fit = FitAndSelect(data, options);
   return r;
@@ -97,8 +97,8 @@ TEST(Pipeline, DefaultPresetRecoversMaterialAndLamp) {
 // family must win; roughness within 2 deg, ks within 0.03 (the lobe is seen only near the
 // mirror direction of a few views, so the specular part is the least constrained).
 TEST(Pipeline, TsonSampleSelectsTsonAndRecoversIt) {
-  const synth::Scene scene =
-      SmallScene("tson", {{"albedo", 0.5}, {"sigma", DegToRad(20)}, {"ks", 0.3}, {"sigma_s", 0.15}});
+  const synth::Scene scene = SmallScene(
+      "tson", {{"albedo", 0.5}, {"sigma", DegToRad(20)}, {"ks", 0.3}, {"sigma_s", 0.15}});
   JointFitOptions o;
   o.candidates = {"lambert", "oren-nayar", "torrance-sparrow-f1", "tson"};
   const SceneRun r = RenderAndFit(scene, o, 2);
@@ -114,8 +114,8 @@ TEST(Pipeline, TsonSampleSelectsTsonAndRecoversIt) {
 // family must win over the rough-diffuse ones; aperture within 5 deg and coverage within 0.1
 // (aperture and coverage trade off against each other at the angles a board sees).
 TEST(Pipeline, PittedSampleSelectsPittedFamily) {
-  const synth::Scene scene = SmallScene(
-      "pitted-exact", {{"albedo", 0.7}, {"aperture", DegToRad(60)}, {"coverage", 0.8}});
+  const synth::Scene scene =
+      SmallScene("pitted-exact", {{"albedo", 0.7}, {"aperture", DegToRad(60)}, {"coverage", 0.8}});
   JointFitOptions o;
   o.candidates = {"lambert", "oren-nayar", "pitted-exact"};
   // pitted-exact costs ~25 us per evaluation (quadrature over the pit wall): compare and fit
@@ -133,7 +133,8 @@ TEST(Pipeline, PittedSampleSelectsPittedFamily) {
 // sample); its distance must be reported as undetermined, not printed with confidence.
 TEST(Pipeline, FarLampIsReportedUndetermined) {
   synth::Scene scene = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
-  const Eigen::Vector3d dir = (scene.light.position - Eigen::Vector3d(0.155, 0.095, 0)).normalized();
+  const Eigen::Vector3d dir =
+      (scene.light.position - Eigen::Vector3d(0.155, 0.095, 0)).normalized();
   scene.light.position = Eigen::Vector3d(0.155, 0.095, 0) + 50.0 * dir;
   scene.light.intensity = 1e4;  // same irradiance as 0.5 m
   JointFitOptions o;
@@ -169,8 +170,9 @@ TEST(Pipeline, SingleViewpointLeavesRoughnessUndetermined) {
   for (const auto& f : sp.frames) pose_map[f.file] = f.pose.cam_from_board;
   ExtractOptions eo;
   eo.patch = 4;
-  const auto data = ExtractObservations(dir.path(), camera, board, pose_map,
-                                        PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
+  const auto data =
+      ExtractObservations(dir.path(), camera, board, pose_map,
+                          PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
   const JointSelectionResult fit = FitAndSelect(data, o);
   const auto& f = fit.final_fit;
   std::vector<std::string> all = f.material.undetermined;
@@ -206,16 +208,19 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
   for (const auto& f : sp.frames) pose_map[f.file] = f.pose.cam_from_board;
   ExtractOptions eo;
   eo.patch = 4;
-  const auto data = ExtractObservations(dir.path(), camera, board, pose_map,
-                                        PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
+  const auto data =
+      ExtractObservations(dir.path(), camera, board, pose_map,
+                          PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
   JointFitOptions o;
   o.candidates = {"oren-nayar"};
   o.white_albedo = 0.8;
   const JointSelectionResult fit = FitAndSelect(data, o);
   std::string warnings;
   for (const auto& w : fit.final_fit.warnings) warnings += w + "\n";
-  EXPECT_NE(warnings.find(fmt::format("frame_{:04d}.png", n - 1)), std::string::npos) << fit.Report();
-  EXPECT_NE(warnings.find(fmt::format("frame_{:04d}.png", n - 2)), std::string::npos) << fit.Report();
+  EXPECT_NE(warnings.find(fmt::format("frame_{:04d}.png", n - 1)), std::string::npos)
+      << fit.Report();
+  EXPECT_NE(warnings.find(fmt::format("frame_{:04d}.png", n - 2)), std::string::npos)
+      << fit.Report();
   EXPECT_EQ(warnings.find("frame_0000.png"), std::string::npos) << warnings;
 }
 
