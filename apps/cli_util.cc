@@ -3,11 +3,22 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <sstream>
 
 #include "common/error.h"
 #include "reflectance/registry.h"
 
 namespace gonio::cli {
+
+std::vector<std::string> SplitComma(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
 
 double ParseNumber(const std::string& text, const std::string& what) {
   char* end = nullptr;

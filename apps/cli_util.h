@@ -20,6 +20,9 @@ nlohmann::json ParamsToJson(const ModelInfo& info, const std::vector<double>& pa
 // Prints JSON to stdout (pretty, one trailing newline).
 void PrintJson(const nlohmann::json& j);
 
+// "a,b,c" -> {"a", "b", "c"} (empty items dropped).
+std::vector<std::string> SplitComma(const std::string& text);
+
 // Parses a finite double; InputError "what: 'text' is not a number" otherwise.
 double ParseNumber(const std::string& text, const std::string& what);
 

@@ -24,16 +24,6 @@ struct FitTableArgs {
   int threads = 0;
 };
 
-std::vector<std::string> SplitList(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
-
 void RunFitTable(const FitTableArgs& args) {
   const CsvTable csv = CsvTable::Read(args.table);
   BrdfTableOptions topt;
@@ -51,7 +41,7 @@ void RunFitTable(const FitTableArgs& args) {
   const BrdfTable table = LoadBrdfTable(csv, topt);
 
   ModelSelectionOptions opt;
-  if (args.models != "auto") opt.candidates = SplitList(args.models);
+  if (args.models != "auto") opt.candidates = SplitComma(args.models);
   opt.criterion = args.criterion;
   opt.threads = args.threads;
   opt.fit.relative_scale = args.relative;

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "apps/cli_util.h"
 #include "apps/report.h"
 #include "calib/calibrate.h"
 #include "calib/detect.h"
@@ -121,21 +122,16 @@ std::string RunPipeline(const RunOptions& o) {
   // 4. Joint fit with model selection.
   spdlog::info("[3/4] fitting {} observations", data.observations.size());
   JointFitOptions fo;
-  if (o.models != "auto") {
-    std::stringstream ss(o.models);
-    std::string m;
-    while (std::getline(ss, m, ',')) fo.candidates.push_back(m);
-  }
+  if (o.models != "auto") fo.candidates = SplitComma(o.models);
   fo.criterion = o.criterion;
   fo.light_frame = o.light_frame;
   if (o.white_albedo >= 0) fo.white_albedo = o.white_albedo;
   if (!o.light_init.empty()) {
-    std::stringstream ss(o.light_init);
-    std::vector<double> v;
-    std::string x;
-    while (std::getline(ss, x, ',')) v.push_back(std::stod(x));
+    const auto v = SplitComma(o.light_init);
     if (v.size() != 3) throw InputError("--light-init: expected X,Y,Z");
-    fo.light_init = Eigen::Vector3d(v[0], v[1], v[2]);
+    fo.light_init =
+        Eigen::Vector3d(ParseNumber(v[0], "--light-init"), ParseNumber(v[1], "--light-init"),
+                        ParseNumber(v[2], "--light-init"));
   }
   fo.threads = o.threads;
   const JointSelectionResult fit = FitAndSelect(data, fo);

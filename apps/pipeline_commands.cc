@@ -21,16 +21,6 @@ namespace fs = std::filesystem;
 namespace gonio::cli {
 namespace {
 
-std::vector<std::string> SplitComma(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
-
 Eigen::Vector3d ParseVector(const std::string& s, const std::string& what) {
   const auto parts = SplitComma(s);
   if (parts.size() != 3) throw InputError(what + ": expected X,Y,Z");

@@ -39,8 +39,8 @@
 
 #include "common/math.h"
 #include "reflectance/angles.h"
-#include "reflectance/gl_nodes.h"
 #include "reflectance/model.h"
+#include "reflectance/quadrature.h"
 
 namespace gonio {
 namespace vg {
@@ -99,14 +99,14 @@ template <typename T>
 T SlopeNormalization(const T& r) {
   using std::exp;
   using std::sqrt;
-  const auto& gl = GetGlRule<16>();
+  const auto& gl = GaussLegendreRule<16>();
   constexpr double kPanel = 3.0;
   T sum = T(0.0);
   for (int p = 0; p < 3; ++p) {
     for (int k = 0; k < 16; ++k) {
-      const double s = kPanel * (p + gl.x[k]);
+      const double s = kPanel * (p + gl.node[k]);
       const T rs = r * s;
-      sum += T(gl.w[k] * kPanel * std::exp(-0.5 * s * s)) * sqrt(T(1.0) + rs * rs);
+      sum += T(gl.weight[k] * kPanel * std::exp(-0.5 * s * s)) * sqrt(T(1.0) + rs * rs);
     }
   }
   return r * sum;
@@ -233,13 +233,13 @@ Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = Specula
       b2 = tmp;
     }
     const T edges[4] = {T(0.0), b1, b2, T(kTMax)};
-    const auto& gl = GetGlRule<Order>();
+    const auto& gl = GaussLegendreRule<Order>();
     T sum = T(0.0);
     for (int p = 0; p < 3; ++p) {
       const T len = edges[p + 1] - edges[p];
       if (!(len > T(0.0))) continue;
       for (int k = 0; k < Order; ++k) {
-        const T t = edges[p] + len * gl.x[k];
+        const T t = edges[p] + len * gl.node[k];
         const T ta = r * t;
         const T ca = T(1.0) / sqrt(T(1.0) + ta * ta);
         const T sa = ta * ca;
@@ -259,7 +259,7 @@ Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = Specula
         const T phi_int = PhiIntegral(c, lo1, hi1) + PhiIntegral(c, lo2, hi2);
         // eq. 32 prefactor C_d = rho E0 / (2 pi^2 cos theta_r cos theta_a), rho = E0 = 1.
         const T density = t * exp(T(-0.5) * t * t);
-        sum += T(gl.w[k]) * len * density * phi_int / ca;
+        sum += T(gl.weight[k]) * len * density * phi_int / ca;
       }
     }
     out.diffuse = out.shadowing * sum / (T(2.0 * kPi * kPi) * cr * ci);

@@ -38,6 +38,21 @@ synth::Scene SmallScene(const std::string& model, const std::map<std::string, do
   return s;
 }
 
+// Locates the board in a rendered session and extracts its observations, with the
+// renderer's known photometric chain as the calibration.
+ObservationSet LocateAndExtract(const std::filesystem::path& dir, int patch) {
+  const nlohmann::json truth = ReadJsonFile(dir / "truth.json");
+  const CameraModel camera = CameraModel::Read(dir / "camera.cameramodel");
+  const Board board = Board::Read(dir / "board.json");
+  const SessionPoses poses = LocateSession(dir, camera, board, {});
+  std::map<std::string, Rigid3d> pose_map;
+  for (const auto& f : poses.frames) pose_map[f.file] = f.pose.cam_from_board;
+  ExtractOptions eo;
+  eo.patch = patch;
+  return ExtractObservations(dir, camera, board, pose_map,
+                             PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
+}
+
 SceneRun RenderAndFit(const synth::Scene& scene, JointFitOptions options, int patch) {
   testing::TempDir dir;
   synth::RenderBoardSession(scene, dir.path(), 0);
@@ -47,16 +62,7 @@ SceneRun RenderAndFit(const synth::Scene& scene, JointFitOptions options, int pa
   r.light_true = Eigen::Vector3d(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
   const auto& sr = scene.board.sample_region;
   r.sample_centre = Eigen::Vector3d(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0.0);
-  const CameraModel camera = CameraModel::Read(dir.path() / "camera.cameramodel");
-  const Board board = Board::Read(dir.path() / "board.json");
-  const SessionPoses poses = LocateSession(dir.path(), camera, board, {});
-  std::map<std::string, Rigid3d> pose_map;
-  for (const auto& f : poses.frames) pose_map[f.file] = f.pose.cam_from_board;
-  ExtractOptions eo;
-  eo.patch = patch;
-  const ObservationSet data =
-      ExtractObservations(dir.path(), camera, board, pose_map,
-                          PhotometricFromSynthTruth(r.truth, camera.width, camera.height), eo);
+  const ObservationSet data = LocateAndExtract(dir.path(), patch);
   options.white_albedo = r.truth["white_albedo"].get<double>();
   r.fit = FitAndSelect(data, options);
   return r;
@@ -162,17 +168,7 @@ TEST(Pipeline, SingleViewpointLeavesRoughnessUndetermined) {
   testing::TempDir dir;
   // No white reference either: nothing fixes the scale.
   synth::RenderBoardSession(scene, dir.path(), 0);
-  const nlohmann::json truth = ReadJsonFile(dir.path() / "truth.json");
-  const CameraModel camera = CameraModel::Read(dir.path() / "camera.cameramodel");
-  const Board board = Board::Read(dir.path() / "board.json");
-  const SessionPoses sp = LocateSession(dir.path(), camera, board, {});
-  std::map<std::string, Rigid3d> pose_map;
-  for (const auto& f : sp.frames) pose_map[f.file] = f.pose.cam_from_board;
-  ExtractOptions eo;
-  eo.patch = 4;
-  const auto data =
-      ExtractObservations(dir.path(), camera, board, pose_map,
-                          PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
+  const auto data = LocateAndExtract(dir.path(), 4);
   const JointSelectionResult fit = FitAndSelect(data, o);
   const auto& f = fit.final_fit;
   std::vector<std::string> all = f.material.undetermined;
@@ -200,17 +196,7 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
                                dir.path() / fmt::format("frame_{:04d}.png", n - 2 + k),
                                std::filesystem::copy_options::overwrite_existing);
   }
-  const nlohmann::json truth = ReadJsonFile(dir.path() / "truth.json");
-  const CameraModel camera = CameraModel::Read(dir.path() / "camera.cameramodel");
-  const Board board = Board::Read(dir.path() / "board.json");
-  const SessionPoses sp = LocateSession(dir.path(), camera, board, {});
-  std::map<std::string, Rigid3d> pose_map;
-  for (const auto& f : sp.frames) pose_map[f.file] = f.pose.cam_from_board;
-  ExtractOptions eo;
-  eo.patch = 4;
-  const auto data =
-      ExtractObservations(dir.path(), camera, board, pose_map,
-                          PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
+  const auto data = LocateAndExtract(dir.path(), 4);
   JointFitOptions o;
   o.candidates = {"oren-nayar"};
   o.white_albedo = 0.8;
