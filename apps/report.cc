@@ -1,10 +1,13 @@
 #include "apps/report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
 
 #include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "common/io.h"
 #include "common/math.h"
@@ -91,6 +94,46 @@ void PolarPlot(const JointFitResult& f, double theta_i, const std::filesystem::p
   RenderPlot(spec, png);
 }
 
+// Residual image per frame: (model - measured) / measured at every observation's pixel,
+// blue (model too dark) - white - red (model too bright), +-10% full scale, one tile per frame
+// in a montage. Spatial patterns (a gradient across the sample, one bright corner) show what a
+// single number per frame hides: a wrong lamp, a vignetting error, a textured sample.
+void ResidualMontage(const JointFitResult& f, const ObservationSet& data,
+                     const std::filesystem::path& png) {
+  double max_x = 0, max_y = 0;
+  int frames = 0;
+  for (const auto& o : data.observations) {
+    max_x = std::max(max_x, o.px);
+    max_y = std::max(max_y, o.py);
+    frames = std::max(frames, o.frame + 1);
+  }
+  const int scale = 4, cols = std::min(6, std::max(1, frames));
+  const int tw = static_cast<int>(max_x) / scale + 2, th = static_cast<int>(max_y) / scale + 2;
+  const int rows = (frames + cols - 1) / cols;
+  cv::Mat montage(rows * th, cols * tw, CV_8UC3, cv::Scalar(40, 40, 40));
+  for (const auto& o : data.observations) {
+    if (o.white) continue;
+    Angles<double> a;
+    double e = 0;
+    if (!ObservationGeometry(o, f, &a, &e) || !(o.radiance[0] > 0)) continue;
+    const double pred =
+        f.material.Predict(BrdfSample{a.theta_i, a.theta_r, a.phi, 0, 1}) * f.intensity * e;
+    const double rel = std::clamp((pred - o.radiance[0]) / o.radiance[0] / 0.1, -1.0, 1.0);
+    const int x = (o.frame % cols) * tw + static_cast<int>(o.px) / scale;
+    const int y = (o.frame / cols) * th + static_cast<int>(o.py) / scale;
+    const uint8_t fade = static_cast<uint8_t>(255 * (1 - std::abs(rel)));
+    const cv::Vec3b colour = rel > 0 ? cv::Vec3b(fade, fade, 255) : cv::Vec3b(255, fade, fade);
+    cv::rectangle(montage, cv::Rect(x, y, 1, 1), cv::Scalar(colour[0], colour[1], colour[2]),
+                  cv::FILLED);
+  }
+  for (int k = 0; k < frames; ++k) {
+    cv::putText(montage, std::to_string(k), cv::Point((k % cols) * tw + 4, (k / cols) * th + 14),
+                cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1);
+  }
+  WriteAtomically(
+      png, [&](const std::filesystem::path& tmp) { return cv::imwrite(tmp.string(), montage); });
+}
+
 void FramePlot(const JointFitResult& f, const std::filesystem::path& png) {
   PlotSpec spec;
   spec.title = "mean relative residual per frame (a moved lamp or sample shows as an outlier)";
@@ -169,6 +212,7 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   }
   PolarPlot(f, n ? mean_ti / n : 0.5, dir / "polar.png");
   FramePlot(f, dir / "frames.png");
+  ResidualMontage(f, data, dir / "residuals.png");
   GeometrySketch(f, data, board, dir / "geometry.png");
 
   std::ostringstream h;
@@ -208,7 +252,10 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
         c.n_params, c.rel_rms, c.aic, c.bic, c.cv_rms.value_or(NAN), und);
   }
   h << "</table>";
-  for (const char* img : {"brdf_vs_theta_r.png", "polar.png", "frames.png", "geometry.png"}) {
+  h << "<p>Residual image per frame (tile = frame, blue: model darker, red: model brighter than "
+       "measured, full scale +-10%):</p>";
+  for (const char* img :
+       {"residuals.png", "brdf_vs_theta_r.png", "polar.png", "frames.png", "geometry.png"}) {
     h << "<p><img src='" << img << "' style='max-width:100%'></p>";
   }
   h << "</body></html>\n";
