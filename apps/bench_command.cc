@@ -25,7 +25,8 @@ void RunBench(const BenchArgs& args) {
   opt.Check();
   const bench::BenchSizes sizes = bench::SizesFor(opt);
   if (args.stability) {
-    const bench::StabilityReport rep = bench::RunStabilitySweeps(sizes);
+    const bench::StabilityReport rep =
+        bench::RunStabilitySweeps(sizes, {bench::JointFitStabilityHook()});
     bench::WriteStabilityOutputs(args.out, opt, rep);
     nlohmann::json j = rep.ToJson();
     j.erase("cells");

@@ -136,6 +136,10 @@ struct StabilityHook {
   std::function<std::vector<StabilityCell>(const BenchSizes&)> run;
 };
 
+// The joint BRDF + lamp fit over lamp distance -> infinity, few views, heavy noise and
+// unmasked saturation (observations synthesized from the default preset's geometry).
+StabilityHook JointFitStabilityHook();
+
 StabilityReport RunModelStability(const BenchSizes& sizes);
 StabilityReport RunFitStability(const BenchSizes& sizes);
 StabilityReport RunStabilitySweeps(const BenchSizes& sizes,

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <set>
 
+#include <map>
+
 #include <gtest/gtest.h>
 
 #include "bench/bench_lib.h"
@@ -194,6 +196,23 @@ TEST(BenchEvaluation, ErrorsAgainstReferencesAreFiniteAndOrdered) {
   // qualitative one (eq. 30), and the facet quadrature is converged far below both.
   EXPECT_LT(on, onq);
   EXPECT_LT(facet, 0.1 * on);
+}
+
+// The joint fit's sweep: confident where the geometry allows, "undetermined" or "degraded"
+// (never a confident wrong number, never NaN) where it does not.
+TEST(JointFitStability, FarLampAndSingleViewAreFlagged) {
+  const auto cells = bench::JointFitStabilityHook().run(bench::SizesFor({}));
+  std::map<std::string, bench::StabilityCell> by;
+  for (const auto& c : cells) {
+    by[c.axis + "/" + c.value] = c;
+    EXPECT_NE(c.status, "error") << c.axis << " " << c.value << ": " << c.detail;
+  }
+  EXPECT_EQ(by["lamp distance/0.5 m"].status, "valid") << by["lamp distance/0.5 m"].detail;
+  EXPECT_EQ(by["views/24"].status, "valid");
+  EXPECT_EQ(by["lamp distance/50 m"].status, "degraded");
+  EXPECT_NE(by["lamp distance/50 m"].detail.find("light_distance"), std::string::npos);
+  EXPECT_EQ(by["views/1"].status, "degraded");
+  EXPECT_NE(by["views/1"].detail.find("undetermined"), std::string::npos);
 }
 
 }  // namespace
