@@ -46,6 +46,15 @@ inline std::vector<ParamInfo> RoughDiffuseParams() {
           {"sigma", "rad", 0.0, 0.9, 0.35, "std. dev. of facet slope angle (Gaussian, eq. 26)"}};
 }
 
+// Source and viewer both at the horizon: tan(beta) of eq. 27/30 and the slope integrals
+// diverge as beta -> 90 deg (236 1/sr at 89.99 deg backscatter, albedo 0.5). Shared by every
+// model of the family.
+inline const char* HorizonInvalid(const Angles<double>& a) {
+  return BothAtHorizon(a)
+             ? "oren-nayar family: f_r diverges with source and viewer both at the horizon"
+             : nullptr;
+}
+
 // alpha = max(theta_i, theta_r), beta = min(theta_i, theta_r): value branches (reciprocal).
 template <typename T>
 void AlphaBeta(const Angles<T>& a, T* alpha, T* beta) {
@@ -62,12 +71,9 @@ void AlphaBeta(const Angles<T>& a, T* alpha, T* beta) {
 
 struct OrenNayarQualitative {
   static constexpr int kNumParams = 2;
-  // Source and viewer both at the horizon: tan(beta) of eq. 27/30 and the
-  // slope integrals diverge as beta -> 90 deg (236 1/sr at 89.99 deg backscatter, albedo 0.5).
+  // Both directions at the horizon: see oren_nayar_internal::HorizonInvalid.
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a)
-               ? "oren-nayar family: f_r diverges with source and viewer both at the horizon"
-               : nullptr;
+    return oren_nayar_internal::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;
@@ -98,12 +104,9 @@ struct OrenNayarQualitative {
 
 struct OrenNayar {
   static constexpr int kNumParams = 2;
-  // Source and viewer both at the horizon: tan(beta) of eq. 27/30 and the
-  // slope integrals diverge as beta -> 90 deg (236 1/sr at 89.99 deg backscatter, albedo 0.5).
+  // Both directions at the horizon: see oren_nayar_internal::HorizonInvalid.
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a)
-               ? "oren-nayar family: f_r diverges with source and viewer both at the horizon"
-               : nullptr;
+    return oren_nayar_internal::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;

@@ -140,12 +140,9 @@ SingleSlopeRadiance<T> IsotropicSingleSlope(const T& theta_a, const T& tan_alpha
 template <int N>
 struct OrenNayarVCavityN {
   static constexpr int kNumParams = 2;
-  // Source and viewer both at the horizon: tan(beta) of eq. 27/30 and the
-  // slope integrals diverge as beta -> 90 deg (236 1/sr at 89.99 deg backscatter, albedo 0.5).
+  // Both directions at the horizon: see oren_nayar_internal::HorizonInvalid.
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a)
-               ? "oren-nayar family: f_r diverges with source and viewer both at the horizon"
-               : nullptr;
+    return oren_nayar_internal::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;
