@@ -26,9 +26,9 @@ struct Sample {
 };
 
 struct SampledPixel {
-  Eigen::Vector3d ray;  // unprojected, z = 1
-  int vcell;
-  double r2;  // (distance to the principal point / half-diagonal)^2
+  Eigen::Vector3d ray = Eigen::Vector3d::Zero();  // unprojected, z = 1
+  int vcell = 0;
+  double r2 = 0;  // (distance to the principal point / half-diagonal)^2
 };
 
 double HalfDiagonal(const CameraModel& camera) {

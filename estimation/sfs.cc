@@ -232,9 +232,6 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
   const double inv_ref = 1.0 / ref;
   auto U = [&](int x, int y) { return &u->at<double>(y, x); };
   problem.AddParameterBlock(log_k, 1);
-  // f * (second difference of log z) is the change of the surface slope dz/dx per pixel
-  // (dimensionless): the same weight means the same bend at every pyramid level.
-  const double smooth = opt.smoothness * pr.camera.intrinsics[0] / lv.scale;
   // Coarse levels keep only blocks wholly inside the mask, so their boundary lies ~scale
   // full-resolution pixels inside the silhouette where n . v grows like sqrt(distance).
   const double max_cos = std::min(0.95, opt.contour_max_cos * std::sqrt(lv.scale));
