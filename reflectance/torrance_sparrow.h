@@ -149,16 +149,21 @@ T LobeWithoutFresnel(const T& sigma_s, const Angles<T>& a, T* cos_sh) {
   return gaf * p / (T(4) * cti * ctr * cos_a);
 }
 
+// Source and viewer both at the horizon: the 1/(cos theta_i cos theta_r) of the
+// facet-to-surface conversion diverges (7e26 1/sr at 90/90 deg, phi = 180). Shared by both
+// Torrance-Sparrow variants.
+inline const char* HorizonInvalid(const Angles<double>& a) {
+  return BothAtHorizon(a) ? "torrance-sparrow: f_r diverges with source and viewer both at the "
+                            "horizon (1/cos theta_r)"
+                          : nullptr;
+}
+
 }  // namespace torrance_sparrow_internal
 
 struct TorranceSparrow {
   static constexpr int kNumParams = 3;
-  // Source and viewer both at the horizon: the 1/(cos theta_i cos theta_r)
-  // of the facet-to-surface conversion diverges (7e26 1/sr at 90/90 deg, phi = 180).
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a) ? "torrance-sparrow: f_r diverges with source and viewer both at the "
-                              "horizon (1/cos theta_r)"
-                            : nullptr;
+    return torrance_sparrow_internal::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;
@@ -182,12 +187,8 @@ struct TorranceSparrow {
 
 struct TorranceSparrowF1 {
   static constexpr int kNumParams = 2;
-  // Source and viewer both at the horizon: the 1/(cos theta_i cos theta_r)
-  // of the facet-to-surface conversion diverges (7e26 1/sr at 90/90 deg, phi = 180).
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a) ? "torrance-sparrow: f_r diverges with source and viewer both at the "
-                              "horizon (1/cos theta_r)"
-                            : nullptr;
+    return torrance_sparrow_internal::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;

@@ -267,16 +267,19 @@ Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = Specula
   return out;
 }
 
+// Source and viewer both at the horizon: f_r grows without bound as both directions approach
+// the horizon (268 1/sr at 89.99 deg, 7e14 at 90 deg). Shared by both van Ginneken models.
+inline const char* HorizonInvalid(const Angles<double>& a) {
+  return BothAtHorizon(a) ? "van-ginneken: f_r diverges with source and viewer both at the horizon"
+                          : nullptr;
+}
+
 }  // namespace vg
 
 struct VanGinneken {
   static constexpr int kNumParams = 3;
-  // Source and viewer both at the horizon: f_r grows without bound as both
-  // directions approach the horizon (268 1/sr at 89.99 deg, 7e14 at 90 deg).
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a)
-               ? "van-ginneken: f_r diverges with source and viewer both at the horizon"
-               : nullptr;
+    return vg::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;
@@ -300,12 +303,8 @@ struct VanGinneken {
 
 struct VanGinnekenFresnel {
   static constexpr int kNumParams = 4;
-  // Source and viewer both at the horizon: f_r grows without bound as both
-  // directions approach the horizon (268 1/sr at 89.99 deg, 7e14 at 90 deg).
   static const char* Invalid(const double*, const Angles<double>& a) {
-    return BothAtHorizon(a)
-               ? "van-ginneken: f_r diverges with source and viewer both at the horizon"
-               : nullptr;
+    return vg::HorizonInvalid(a);
   }
   static ModelInfo Info() {
     ModelInfo info;
