@@ -84,6 +84,13 @@ void AddSfsCommand(CLI::App& app) {
   cmd->add_option("--max-iterations-finest", args->options.max_iterations_finest,
                   "At full resolution")
       ->capture_default_str();
+  cmd->add_option("--finest-solver", args->options.finest_solver,
+                  "Linear solver at full resolution: auto (cg after a coarser level), "
+                  "cholesky or cg")
+      ->capture_default_str();
+  cmd->add_option("--cg-iterations", args->options.cg_iterations,
+                  "Conjugate-gradient iterations per step of the cg solver")
+      ->capture_default_str();
   cmd->add_option("--threads", args->options.threads, "Threads (0 = all cores)")
       ->capture_default_str();
   cmd->callback([args] { RunSfs(*args); });

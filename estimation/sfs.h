@@ -39,13 +39,18 @@ struct SfsOptions {
   int levels = 0;
   // Weight of the log-depth second differences (per pixel, relative to the photometric
   // residual, which is normalized by the median measured radiance).
-  double smoothness = 0.1;
+  double smoothness = 10;
   // Weight of the occluding-contour residual n . v at mask-boundary pixels.
   double contour_weight = 1.0;
   // Largest n . v tolerated at mask-boundary pixels before the contour residual acts.
   double contour_max_cos = 0.35;
   int max_iterations = 30;         // per coarse level
   int max_iterations_finest = 10;  // at full resolution (starts from the upsampled solution)
+  // Linear solver of the full-resolution level: "cholesky" (sparse direct, exact
+  // Gauss-Newton steps), "cg" (conjugate gradients with a Jacobi preconditioner, inexact
+  // steps), "auto": cg when a coarser level has been solved, else cholesky.
+  std::string finest_solver = "auto";
+  int cg_iterations = 10;          // per step of the "cg" solver
   int threads = 0;                 // <= 0: all cores
   void Check() const;
 };

@@ -265,6 +265,27 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
   }
   write_image("rerender.png", rerender);
 
+  if (truth) {
+    // Angular error per pixel, 0 (black) .. 30 deg (white) and beyond, so where the shape goes
+    // wrong (contour, shadow, a flipped region) is seen at a glance.
+    cv::Mat err8(pr.mask.size(), CV_8U, cv::Scalar(0));
+    for (int y = 0; y < err8.rows; ++y) {
+      for (int x = 0; x < err8.cols; ++x) {
+        if (!pr.mask.at<uint8_t>(y, x)) continue;
+        const cv::Vec3d a = truth->normals.at<cv::Vec3d>(y, x);
+        const cv::Vec3d b = result.normals.at<cv::Vec3d>(y, x);
+        const double na = cv::norm(a), nb = cv::norm(b);
+        if (na < 0.5 || nb < 0.5) continue;
+        const double deg = std::acos(std::clamp(a.dot(b) / (na * nb), -1.0, 1.0)) * 180 / M_PI;
+        err8.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(1 + deg * 254.0 / 30.0);
+      }
+    }
+    cv::Mat colour;
+    cv::applyColorMap(err8, colour, cv::COLORMAP_INFERNO);
+    colour.setTo(cv::Scalar(0, 0, 0), ~pr.mask);
+    write_image("normal_error.png", colour);
+  }
+
   // Cross-sections along the middle row of the object's bounding box (Oren-Nayar fig. 23).
   const cv::Rect box = cv::boundingRect(pr.mask);
   const int row = box.y + box.height / 2;
@@ -348,6 +369,7 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
       {"cross_section_row", row},
       {"files",
        {"depth.tiff", "normals.png", "rerender.png", "cross_section.png", "depth_section.png"}}};
+  if (truth) j["files"].push_back("normal_error.png");
   if (truth) {
     j["mean_normal_error_deg"] = truth->mean_normal_error_deg;
     j["p95_normal_error_deg"] = truth->p95_normal_error_deg;
