@@ -85,8 +85,8 @@ void AddSfsCommand(CLI::App& app) {
                   "At full resolution")
       ->capture_default_str();
   cmd->add_option("--finest-solver", args->options.finest_solver,
-                  "Linear solver at full resolution: auto (cg after a coarser level), "
-                  "cholesky or cg")
+                  "Linear solver at full resolution: cholesky (exact steps) or cg (faster, "
+                  "after a coarser level)")
       ->capture_default_str();
   cmd->add_option("--cg-iterations", args->options.cg_iterations,
                   "Conjugate-gradient iterations per step of the cg solver")

@@ -298,11 +298,9 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
   problem.SetParameterBlockConstant(log_k);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  // The finest level of a pyramid starts from the upsampled coarse solution, so only local
-  // corrections remain; conjugate gradients resolve those in a few inexact steps at a fraction
-  // of a sparse Cholesky factorization (0.1 s vs 0.75 s per step at 83k pixels, docs/sfs.md).
-  const bool finest = lv.scale == 1;
-  if (finest && (opt.finest_solver == "cg" || (opt.finest_solver == "auto" && coarser_solved))) {
+  // Conjugate gradients only from an upsampled coarse solution, where local corrections
+  // remain: 0.1 s vs 0.75 s per step at 83k pixels (docs/sfs.md).
+  if (lv.scale == 1 && opt.finest_solver == "cg" && coarser_solved) {
     so.linear_solver_type = ceres::CGNR;
     so.preconditioner_type = ceres::JACOBI;
     so.max_linear_solver_iterations = opt.cg_iterations;
@@ -340,8 +338,8 @@ void SfsOptions::Check() const {
   if (max_iterations < 0 || max_iterations_finest < 0) {
     throw InputError("sfs: max_iterations must be >= 0");
   }
-  if (finest_solver != "auto" && finest_solver != "cholesky" && finest_solver != "cg") {
-    throw InputError("--finest-solver: '" + finest_solver + "' is not auto, cholesky or cg");
+  if (finest_solver != "cholesky" && finest_solver != "cg") {
+    throw InputError("--finest-solver: '" + finest_solver + "' is not cholesky or cg");
   }
   if (cg_iterations < 1) throw InputError("sfs: cg_iterations must be >= 1");
 }
@@ -481,10 +479,11 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
     const auto level_start = std::chrono::steady_clock::now();
     bool ok = VisitModel(pr.model, [&](auto tag) {
       using M = typename decltype(tag)::type;
-      const int it =
-          SolveLevel<M>(pr, opt, lv, ref, l == 0 ? opt.max_iterations_finest : opt.max_iterations,
-                        result.levels > 0, &u, &log_k)
-              .iterations;
+      const int it = SolveLevel<M>(pr, opt, lv, ref,
+                                   l == 0 && result.levels > 0 ? opt.max_iterations_finest
+                                                               : opt.max_iterations,
+                                   result.levels > 0, &u, &log_k)
+                         .iterations;
       result.iterations += it;
       spdlog::info(
           "sfs level 1/{}: {}x{}, {} iterations, {:.2f} s", lv.scale, lv.w, lv.h, it,

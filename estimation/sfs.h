@@ -44,14 +44,16 @@ struct SfsOptions {
   double contour_weight = 1.0;
   // Largest n . v tolerated at mask-boundary pixels before the contour residual acts.
   double contour_max_cos = 0.35;
-  int max_iterations = 30;         // per coarse level
-  int max_iterations_finest = 10;  // at full resolution (starts from the upsampled solution)
+  int max_iterations = 30;  // per coarse level, and at full resolution without a pyramid
+  // At full resolution after a coarser level (the upsampled solution is within ~1 deg).
+  int max_iterations_finest = 5;
   // Linear solver of the full-resolution level: "cholesky" (sparse direct, exact
-  // Gauss-Newton steps), "cg" (conjugate gradients with a Jacobi preconditioner, inexact
-  // steps), "auto": cg when a coarser level has been solved, else cholesky.
-  std::string finest_solver = "auto";
-  int cg_iterations = 10;          // per step of the "cg" solver
-  int threads = 0;                 // <= 0: all cores
+  // Gauss-Newton steps) or "cg" (conjugate gradients with a Jacobi preconditioner, inexact
+  // steps from the upsampled coarse solution: about 2x faster at 640x480, but it leaves
+  // sub-lattice ripples the smoothness term damps only slowly; gonio bench --sfs charts both).
+  std::string finest_solver = "cholesky";
+  int cg_iterations = 10;  // per step of the "cg" solver
+  int threads = 0;         // <= 0: all cores
   void Check() const;
 };
 
