@@ -2,6 +2,7 @@
 // the reflectance prior, or a Lambertian one for comparison (issue 11, docs/sfs.md).
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -20,6 +21,7 @@ namespace {
 struct SfsArgs {
   std::string init_depth, input, image, camera, light, material, mask, out;
   double distance = 0;
+  bool compare_lambert = false;
   SfsOptions options;
 };
 
@@ -46,7 +48,21 @@ void RunSfs(const SfsArgs& args) {
   const SfsResult result = SolveSfs(input.problem, args.options);
   spdlog::info("{}", result.Report());
   const auto truth = CompareWithTruth(paths.truth_dir, input, result);
-  nlohmann::json j = WriteSfsOutputs(args.out, input, result, truth);
+  std::optional<SfsLambertComparison> comparison;
+  if (args.compare_lambert && args.options.reflectance == "material") {
+    SfsInput lambert_input = input;
+    lambert_input.problem.absolute = false;  // k is the Lambertian albedo, from the image
+    SfsOptions lambert_options = args.options;
+    lambert_options.reflectance = "lambert";
+    comparison.emplace();
+    comparison->lambert = SolveSfs(lambert_input.problem, lambert_options);
+    spdlog::info("{}", comparison->lambert.Report());
+    comparison->truth = CompareWithTruth(paths.truth_dir, lambert_input, comparison->lambert);
+    WriteSfsOutputs(fs::path(args.out) / "lambert", lambert_input, comparison->lambert,
+                    comparison->truth);
+  }
+  nlohmann::json j =
+      WriteSfsOutputs(args.out, input, result, truth, comparison ? &*comparison : nullptr);
   j.erase("provenance");
   j["out"] = args.out;
   PrintJson(j);
@@ -71,6 +87,9 @@ void AddSfsCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--distance", args->distance,
                   "Depth of the brightest object pixel (m); default from absolute radiometry");
+  cmd->add_flag("--compare-lambert", args->compare_lambert,
+                "Also solve with a Lambertian prior (OUT/lambert/) and plot both recovered "
+                "shapes (comparison_depth.png; Oren-Nayar figs. 22-23)");
   cmd->add_option("--init-depth", args->init_depth,
                   "Initial depth map (float TIFF, metres) instead of the mask balloon");
   cmd->add_option("--smoothness", args->options.smoothness, "Log-depth second-difference weight")

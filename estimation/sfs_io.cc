@@ -235,7 +235,8 @@ std::optional<SfsTruthComparison> CompareWithTruth(const fs::path& dir, const Sf
 }
 
 json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult& result,
-                     const std::optional<SfsTruthComparison>& truth) {
+                     const std::optional<SfsTruthComparison>& truth,
+                     const SfsLambertComparison* comparison) {
   EnsureDirectory(out);
   const SfsProblem& pr = input.problem;
   auto write_image = [&](const std::string& name, const cv::Mat& m) {
@@ -293,6 +294,9 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
   PlotSeries rendered{
       "re-rendered (recovered shape, " + result.reflectance + ")", {}, {}, "lines lw 2 dt 2"};
   PlotSeries lambert_truth{"Lambertian on the true shape (best albedo)", {}, {}, "lines lw 1"};
+  PlotSeries material_truth{
+      "material (" + pr.model + ") on the true shape", {}, {}, "lines lw 1 dt 3"};
+  PlotSeries depth_lambert{"recovered with a Lambertian prior", {}, {}, "lines lw 2 dt 4"};
   PlotSeries depth_est{"recovered", {}, {}, "lines lw 2"};
   PlotSeries depth_true{"truth", {}, {}, "lines lw 2 dt 2"};
   std::vector<double> lt_raw;
@@ -304,14 +308,21 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
     rendered.y.push_back(result.rendered.at<double>(row, x));
     depth_est.x.push_back(x);
     depth_est.y.push_back(result.depth.at<double>(row, x) * 1e3);
+    if (comparison) {
+      depth_lambert.x.push_back(x);
+      depth_lambert.y.push_back(comparison->lambert.depth.at<double>(row, x) * 1e3);
+    }
     if (truth) {
       const cv::Vec3d n = truth->normals.at<cv::Vec3d>(row, x);
       const double z = truth->depth.at<double>(row, x);
       if (z > 0) {
         const Eigen::Vector3d ray = pr.camera.Unproject(Eigen::Vector2d(x, row));
         lambert_truth.x.push_back(x);
-        lt_raw.push_back(
-            SfsRadiance(pr, "lambert", 1.0, Eigen::Vector3d(n[0], n[1], n[2]), ray / ray.z() * z));
+        const Eigen::Vector3d normal(n[0], n[1], n[2]), point = ray / ray.z() * z;
+        lt_raw.push_back(SfsRadiance(pr, "lambert", 1.0, normal, point));
+        material_truth.x.push_back(x);
+        material_truth.y.push_back(SfsRadiance(
+            pr, "material", result.reflectance == "material" ? result.scale : 1.0, normal, point));
         lambert_truth.y.push_back(pr.radiance.at<double>(row, x));
         depth_true.x.push_back(x);
         depth_true.y.push_back(z * 1e3);
@@ -332,6 +343,7 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
   bright.xlabel = "image column (px)";
   bright.ylabel = units;
   bright.series = {measured, rendered};
+  if (truth && input.absolute) bright.series.push_back(material_truth);
   if (truth) bright.series.push_back(lambert_truth);
   bright.extra = "set key bottom center";
   RenderPlot(bright, out / "cross_section.png");
@@ -343,6 +355,16 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
   if (truth) dplot.series.push_back(depth_true);
   dplot.extra = "set yrange [*:*] reverse\nset key top center";
   RenderPlot(dplot, out / "depth_section.png");
+  if (comparison) {
+    // Oren-Nayar's point (figs. 22-23) on the recovered shape: under a collocated lamp the rough
+    // object looks flat, and a Lambertian prior turns that flatness into a flatter shape.
+    PlotSpec cplot = dplot;
+    depth_est.label = "recovered with the material prior (" + pr.model + ")";
+    cplot.title = "Depth along row " + std::to_string(row) + ": material vs Lambertian prior";
+    cplot.series = {depth_est, depth_lambert};
+    if (truth) cplot.series.push_back(depth_true);
+    RenderPlot(cplot, out / "comparison_depth.png");
+  }
 
   json j = {
       {"format", "gonio-sfs"},
@@ -370,6 +392,24 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
       {"files",
        {"depth.tiff", "normals.png", "rerender.png", "cross_section.png", "depth_section.png"}}};
   if (truth) j["files"].push_back("normal_error.png");
+  if (comparison) {
+    j["files"].push_back("comparison_depth.png");
+    const SfsResult& lr = comparison->lambert;
+    json c = {{"reflectance", "lambert"},
+              {"outputs", "lambert/"},
+              {"scale_k", lr.scale},
+              {"residual_rms_relative", lr.rms_relative_residual},
+              {"seconds", lr.seconds}};
+    if (comparison->truth) {
+      c["mean_normal_error_deg"] = comparison->truth->mean_normal_error_deg;
+      c["p95_normal_error_deg"] = comparison->truth->p95_normal_error_deg;
+      if (truth && truth->mean_normal_error_deg > 0) {
+        c["mean_error_ratio_lambert_over_material"] =
+            comparison->truth->mean_normal_error_deg / truth->mean_normal_error_deg;
+      }
+    }
+    j["comparison"] = c;
+  }
   if (truth) {
     j["mean_normal_error_deg"] = truth->mean_normal_error_deg;
     j["p95_normal_error_deg"] = truth->p95_normal_error_deg;

@@ -46,10 +46,20 @@ struct SfsTruthComparison {
 std::optional<SfsTruthComparison> CompareWithTruth(const std::filesystem::path& truth_dir,
                                                    const SfsInput& input, const SfsResult& result);
 
-// Writes depth.tiff, normals.png, rerender.png, cross_section.png, depth_section.png and
-// sfs.json into `out`; returns the sfs.json content.
+// The same image solved with a Lambertian prior (gonio sfs --compare-lambert), for the
+// comparison of Oren-Nayar figs. 22-23.
+struct SfsLambertComparison {
+  SfsResult lambert;
+  std::optional<SfsTruthComparison> truth;
+};
+
+// Writes depth.tiff, normals.png, rerender.png, cross_section.png, depth_section.png,
+// normal_error.png (with truth) and sfs.json into `out`; with `comparison` also
+// comparison_depth.png (recovered depth of both priors and truth along the cross-section row)
+// and a "comparison" block in sfs.json. Returns the sfs.json content.
 nlohmann::json WriteSfsOutputs(const std::filesystem::path& out, const SfsInput& input,
                                const SfsResult& result,
-                               const std::optional<SfsTruthComparison>& truth);
+                               const std::optional<SfsTruthComparison>& truth,
+                               const SfsLambertComparison* comparison = nullptr);
 
 }  // namespace gonio

@@ -120,15 +120,24 @@ TEST(SfsTest, NoiseAndWrongSigmaDegradeGracefully) {
 TEST(SfsTest, CliWritesOutputsAndReportsTruthErrors) {
   const fs::path& dir = Rendered("sfs-vase", 0);
   TempDir out;
-  const auto r =
-      RunGonio("sfs --input " + dir.string() + " --levels 1 --out " + out.path().string());
+  const auto r = RunGonio("sfs --input " + dir.string() + " --levels 1 --compare-lambert --out " +
+                          out.path().string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const char* f : {"depth.tiff", "normals.png", "rerender.png", "cross_section.png",
-                        "depth_section.png", "sfs.json"}) {
+                        "depth_section.png", "normal_error.png", "comparison_depth.png", "sfs.json",
+                        "lambert/sfs.json", "lambert/depth.tiff", "lambert/cross_section.png"}) {
     EXPECT_TRUE(fs::exists(out.path() / f)) << f;
   }
   const auto j = ReadJsonFile(out.path() / "sfs.json");
   EXPECT_LE(j.at("mean_normal_error_deg").get<double>(), 3.0);
+  // Oren-Nayar figs. 22-23 through the CLI: the Lambertian prior on the same vase image.
+  const auto& c = j.at("comparison");
+  EXPECT_EQ(c.at("reflectance"), "lambert");
+  EXPECT_GE(c.at("mean_error_ratio_lambert_over_material").get<double>(), 3.0);
+  EXPECT_NEAR(
+      c.at("mean_normal_error_deg").get<double>(),
+      ReadJsonFile(out.path() / "lambert/sfs.json").at("mean_normal_error_deg").get<double>(),
+      1e-9);
   EXPECT_GE(j.at("p95_normal_error_deg").get<double>(),
             j.at("mean_normal_error_deg").get<double>());
   const cv::Mat depth = cv::imread((out.path() / "depth.tiff").string(), cv::IMREAD_UNCHANGED);
