@@ -219,6 +219,59 @@ void Brightest(const Level& lv, int* bx, int* by) {
   }
 }
 
+// With absolute radiometry (k = 1) the object's distance is seen only through 1/d^2 and the
+// lamp direction, a slow mode for the local solver: started 1.5% too close with the lamp 20 deg
+// off axis, 12 coarse iterations leave a 7 deg error that still matches the image to 0.3%.
+// Scaling the surface about the camera keeps every normal, so the distance of the initial
+// shape is chosen by a 1-D search of the photometric error over u + c.
+void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
+  std::vector<Eigen::Vector3d> normals, points;
+  std::vector<double> measured;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      Eigen::Vector3d n;
+      if (!Interior(lv, x, y) || !NormalAt(lv, *u, x, y, &n)) continue;
+      normals.push_back(n);
+      points.push_back(lv.Ray(x, y) * std::exp(u->at<double>(y, x)));
+      measured.push_back(lv.radiance.at<double>(y, x));
+    }
+  }
+  if (measured.empty()) return;
+  auto cost = [&](double c) {
+    double sum = 0;
+    for (size_t i = 0; i < measured.size(); ++i) {
+      const double r =
+          SfsRadiance(pr, "material", 1.0, normals[i], points[i] * std::exp(c)) - measured[i];
+      sum += r * r;
+    }
+    return sum;
+  };
+  // Coarse grid over +-40% in distance, then golden-section refinement around the best node.
+  const double step = 0.02;
+  double best_c = 0, best = cost(0);
+  for (double c = -0.5; c <= 0.35; c += step) {
+    const double e = cost(c);
+    if (e < best) best = e, best_c = c;
+  }
+  double a = best_c - step, b = best_c + step;
+  const double g = (std::sqrt(5.0) - 1) / 2;
+  for (int it = 0; it < 30; ++it) {
+    const double c1 = b - g * (b - a), c2 = a + g * (b - a);
+    if (cost(c1) < cost(c2)) {
+      b = c2;
+    } else {
+      a = c1;
+    }
+  }
+  const double c = 0.5 * (a + b);
+  spdlog::debug("sfs: initial distance scaled by {:.4f} (photometric 1-D search)", std::exp(c));
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (lv.In(x, y)) u->at<double>(y, x) += c;
+    }
+  }
+}
+
 struct LevelSolve {
   int iterations = 0;
 };
@@ -472,6 +525,8 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
         const double pred = SfsRadiance(pr, opt.reflectance, 1.0, -p.normalized(), p);
         const double meas = lv.radiance.at<double>(ay, ax);
         log_k = pred > 0 && meas > 0 ? std::log(meas / pred) : 0.0;
+      } else if (pr.initial_depth.empty()) {
+        FitGlobalDepth(pr, lv, &u);
       }
     } else {
       u = Upsample(prev, u, lv);

@@ -117,6 +117,25 @@ TEST(SfsTest, NoiseAndWrongSigmaDegradeGracefully) {
   }
 }
 
+// With absolute radiometry the object's distance is a slow mode for the local solver; the
+// initial shape's distance comes from a 1-D photometric search, so a start 15% too far (a
+// wrong --distance) still ends at the true shape and depth.
+TEST(SfsTest, WrongStartDistanceIsRecoveredWithAbsoluteRadiometry) {
+  const fs::path& dir = Rendered("sfs-sphere", 20);
+  SfsInputPaths paths;
+  paths.FillFromFolder(dir);
+  SfsInput input = LoadSfsInput(paths, "material");
+  ASSERT_TRUE(input.problem.absolute);
+  input.problem.anchor_depth *= 1.15;
+  SfsOptions options;
+  options.levels = 1;
+  options.max_iterations = 12;
+  const SfsResult result = SolveSfs(input.problem, options);
+  const SfsTruthComparison truth = *CompareWithTruth(dir, input, result);
+  EXPECT_LE(truth.mean_normal_error_deg, 3.0);
+  EXPECT_LE(truth.median_depth_error_rel, 0.01);
+}
+
 TEST(SfsTest, CliWritesOutputsAndReportsTruthErrors) {
   const fs::path& dir = Rendered("sfs-vase", 0);
   TempDir out;
