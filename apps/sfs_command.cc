@@ -92,7 +92,12 @@ void AddSfsCommand(CLI::App& app) {
                 "shapes (comparison_depth.png; Oren-Nayar figs. 22-23)");
   cmd->add_option("--init-depth", args->init_depth,
                   "Initial depth map (float TIFF, metres) instead of the mask balloon");
-  cmd->add_option("--smoothness", args->options.smoothness, "Log-depth second-difference weight")
+  cmd->add_option("--smoothness", args->options.smoothness,
+                  "Log-depth second-difference weight (noise-free; grows with the noise)")
+      ->capture_default_str();
+  cmd->add_option("--noise", args->options.noise_relative,
+                  "Image noise (std / median radiance) for the smoothness weight; < 0: "
+                  "estimated from the image")
       ->capture_default_str();
   cmd->add_option("--contour-weight", args->options.contour_weight, "Occluding-contour weight")
       ->capture_default_str();

@@ -38,8 +38,12 @@ struct SfsOptions {
   // starts lose accuracy to the eroded coarse masks, docs/sfs.md).
   int levels = 0;
   // Weight of the log-depth second differences (per pixel, relative to the photometric
-  // residual, which is normalized by the median measured radiance).
+  // residual, which is normalized by the median measured radiance) for a noise-free image; it
+  // grows with the image noise as smoothness * hypot(1, noise / 0.001) (MAP weighting).
   double smoothness = 10;
+  // Image noise (std / median radiance inside the mask); < 0: estimated from the image
+  // (Immerkaer's Laplacian-difference estimator).
+  double noise_relative = -1;
   // Weight of the occluding-contour residual n . v at mask-boundary pixels.
   double contour_weight = 1.0;
   // Largest n . v tolerated at mask-boundary pixels before the contour residual acts.
@@ -82,6 +86,8 @@ struct SfsResult {
   double scale = 1;  // k (see above)
   double rms_relative_residual = 0;  // over interior pixels, relative to the median radiance
   double median_radiance = 0;
+  double noise_relative = 0;  // image noise (std) / median radiance, estimated or given
+  double smoothness = 0;      // the smoothness weight used (SfsOptions::smoothness, noise)
   int levels = 0;
   int iterations = 0;
   double seconds = 0;

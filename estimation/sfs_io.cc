@@ -384,6 +384,8 @@ json WriteSfsOutputs(const fs::path& out, const SfsInput& input, const SfsResult
       {"anchor_source", input.anchor_source},
       {"residual_rms_relative", result.rms_relative_residual},
       {"median_radiance", result.median_radiance},
+      {"noise_relative", result.noise_relative},
+      {"smoothness_used", result.smoothness},
       {"mask_pixels", result.mask_pixels},
       {"levels", result.levels},
       {"iterations", result.iterations},
