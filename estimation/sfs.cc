@@ -401,7 +401,8 @@ void SfsOptions::Check() const {
   if (!(smoothness >= 0) || !(contour_weight >= 0)) {
     throw InputError("sfs: smoothness and contour weight must be >= 0");
   }
-  if (!(noise_relative < 1)) throw InputError("sfs: noise_relative must be < 1 (< 0: estimate)");
+  if (!(noise_relative < 1))
+    throw InputError("--noise: must be below 1 (std / median radiance; < 0: estimated)");
   if (max_iterations < 0 || max_iterations_finest < 0) {
     throw InputError("sfs: max_iterations must be >= 0");
   }
