@@ -14,7 +14,7 @@ namespace {
 
 struct BenchArgs {
   std::string out;
-  bool quick = false, smoke = false, stability = false;
+  bool quick = false, smoke = false, stability = false, sfs = false;
   int threads = 0;
 };
 
@@ -23,6 +23,25 @@ void RunBench(const BenchArgs& args) {
   opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
   opt.threads = args.threads;
   opt.Check();
+  if (args.sfs) {
+    const bench::SfsBenchReport rep = bench::RunSfsBench(opt);
+    bench::WriteSfsBenchOutputs(args.out, rep);
+    nlohmann::json j = rep.ToJson();
+    // The summary: the default and lambert errors per scene; every row is in sfs_bench.json.
+    nlohmann::json summary;
+    for (const auto& r : rep.rows) {
+      if (r.kind == "speed" && (r.config == "default" || r.config == "lambert") &&
+          r.error.empty()) {
+        summary[r.scene][r.config + "_mean_normal_error_deg"] = r.mean_normal_error_deg;
+        summary[r.scene][r.config + "_seconds"] = r.seconds;
+      }
+    }
+    j.erase("rows");
+    j["scenes"] = summary;
+    j["out"] = args.out;
+    PrintJson(j);
+    return;
+  }
   const bench::BenchSizes sizes = bench::SizesFor(opt);
   if (args.stability) {
     const bench::StabilityReport rep =
@@ -56,11 +75,17 @@ void AddBenchCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "bench",
       "Time every model and fit against its accuracy (bench.json + charts), or run the "
-      "stability sweeps (--stability: stability.json + maps)");
+      "stability sweeps (--stability: stability.json + maps), or shape from shading "
+      "(--sfs: sfs_bench.json + charts)");
   cmd->add_option("--out", args->out, "output folder")->required();
   cmd->add_flag("--quick", args->quick, "smaller batches and grids (under 2 minutes)");
   cmd->add_flag("--smoke", args->smoke, "tiny sizes for CI smoke tests (seconds)");
-  cmd->add_flag("--stability", args->stability, "run the stability sweeps instead of the timings");
+  auto* stability = cmd->add_flag("--stability", args->stability,
+                                  "run the stability sweeps instead of the timings");
+  cmd->add_flag("--sfs", args->sfs,
+                "shape from shading instead: solve time vs normal error of solver configurations "
+                "and robustness curves (sfs_bench.json + charts)")
+      ->excludes(stability);
   cmd->add_option("--threads", args->threads, "threads of the all-thread timings (0 = all)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([args] { RunBench(*args); });

@@ -8,13 +8,18 @@
 // model's first scale parameter (albedo, ks, scale: ParamInfo.is_scale) at the benchmark
 // parameters, so 0.01 means "1% of a Lambertian surface of the same albedo".
 //
+// `gonio bench --sfs` (RunSfsBench): solve time against normal error of shape from shading over
+// solver configurations, and its error against image noise and a wrong roughness prior.
+//
 // Hooks for the joint BRDF + lamp fit (owned by the pipeline): FitBenchCase and StabilityHook
 // let callers add more fitting cases (e.g. lamp distance -> infinity) without changing this file.
 #pragma once
 
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -145,6 +150,61 @@ StabilityReport RunFitStability(const BenchSizes& sizes);
 StabilityReport RunStabilitySweeps(const BenchSizes& sizes,
                                    const std::vector<StabilityHook>& hooks = {});
 
+// ----- shape from shading (gonio bench --sfs) ---------------------------------------------------
+
+// One solver configuration of the speed-vs-accuracy runs.
+struct SfsBenchConfig {
+  std::string name;  // "default", "lambert", "L2 cg x10" (levels, finest solver, iterations)
+  std::string reflectance = "material";
+  int levels = 0;  // 0: SfsOptions default (auto)
+  std::string finest_solver = "auto";
+  int max_iterations_finest = 0;  // 0: SfsOptions default
+};
+
+// What a size runs (docs/bench.md, "--sfs").
+struct SfsBenchPlan {
+  int width = 640, height = 480;  // camera of the sfs presets, scaled (focal length with it)
+  // (preset, lamp off-axis angle in degrees) pairs of the speed-vs-accuracy runs.
+  std::vector<std::pair<std::string, double>> scenes;
+  // The first entry is the default SfsOptions, the second lambert at the defaults; the rest are
+  // explicit configurations (skipped on a scene when they equal what "default" resolved to).
+  std::vector<SfsBenchConfig> configs;
+  std::vector<std::pair<std::string, double>> robustness_scenes;
+  std::vector<double> noise_fractions;    // Gaussian sigma / mean masked radiance
+  std::vector<double> sigma_offsets_deg;  // added to the material's roughness sigma
+  unsigned noise_seed = 7;                // one noise pattern, scaled per level
+};
+SfsBenchPlan SfsPlanFor(const BenchOptions& options);
+
+struct SfsBenchRow {
+  std::string kind;    // "speed", "noise" or "sigma"
+  std::string scene;   // "sphere 0deg", "vase 20deg" (lamp off-axis angle)
+  std::string config;  // SfsBenchConfig::name
+  std::string reflectance;
+  double noise_fraction = 0, sigma_offset_deg = 0;
+  double seconds = 0;  // SolveSfs wall time
+  double mean_normal_error_deg = 0, p95_normal_error_deg = 0;
+  double rms_relative_residual = 0;
+  int levels = 0, iterations = 0;
+  size_t mask_pixels = 0;
+  std::string error;  // exception text of a failed render, solve or comparison
+};
+
+struct SfsBenchReport {
+  std::string size;
+  int width = 0, height = 0;
+  std::vector<SfsBenchRow> rows;
+  double seconds_total = 0;
+  // Per scene: the configurations on the Pareto front of (seconds, mean normal error), material
+  // prior only, ordered by time.
+  std::map<std::string, std::vector<std::string>> pareto;
+  nlohmann::json ToJson() const;
+};
+
+// Renders the plan's scenes into a temporary folder and solves them; failures become rows with
+// `error` set.
+SfsBenchReport RunSfsBench(const BenchOptions& options);
+
 // ----- outputs --------------------------------------------------------------------------------
 
 // bench.json + eval_pareto.{png,svg} + fit_pareto.{png,svg} in `dir`.
@@ -154,5 +214,8 @@ void WriteBenchOutputs(const std::filesystem::path& dir, const BenchOptions& opt
 // stability.json + stability_models.{png,svg} + stability_fits.{png,svg} in `dir`.
 void WriteStabilityOutputs(const std::filesystem::path& dir, const BenchOptions& options,
                            const StabilityReport& report);
+// sfs_bench.json + sfs_pareto.{png,svg} + sfs_robustness_noise.{png,svg} +
+// sfs_robustness_sigma.{png,svg} in `dir`.
+void WriteSfsBenchOutputs(const std::filesystem::path& dir, const SfsBenchReport& report);
 
 }  // namespace gonio::bench

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <thread>
 
+#include "bench/bench_internal.h"
 #include "bench/bench_lib.h"
 #include "common/error.h"
 #include "common/io.h"
@@ -15,7 +16,6 @@
 namespace fs = std::filesystem;
 
 namespace gonio::bench {
-namespace {
 
 std::string Quoted(const std::string& s) {
   std::string q = "\"";
@@ -31,13 +31,12 @@ void RenderBoth(const PlotSpec& spec, const fs::path& stem) {
   RenderPlot(spec, fs::path(stem).replace_extension(".svg"));
 }
 
-// Time (log) against error (log): one point per entry, labelled, grouped into series by
-// `group`, with the Pareto front as a dashed line. Entries with error <= 0 cannot sit on a log
-// axis; they are listed in the subtitle instead.
 void ParetoChart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
                  const std::vector<std::string>& labels, const std::vector<std::string>& group,
                  const std::vector<double>& cost, const std::vector<double>& err,
-                 const fs::path& stem, const std::string& style = "points pt 7 ps 1.2") {
+                 const fs::path& stem, const std::string& style,
+                 const std::vector<std::string>& front_key,
+                 const std::map<std::string, std::string>& group_style) {
   PlotSpec spec;
   spec.title = title;
   spec.xlabel = xlabel;
@@ -45,8 +44,8 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   spec.log_x = spec.log_y = true;
   spec.width = 1200;
   spec.height = 800;
-  std::vector<double> c, e;
-  std::vector<size_t> map;
+  // Points of one front key: their costs, errors (the front is computed per key).
+  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> fronts;
   std::string left_out;
   std::map<std::string, PlotSeries> series;
   std::ostringstream extra;
@@ -58,27 +57,32 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
     }
     PlotSeries& s = series[group[k]];
     s.label = group[k];
-    s.style = style;
+    const auto gs = group_style.find(group[k]);
+    s.style = gs == group_style.end() ? style : gs->second;
     s.x.push_back(cost[k]);
     s.y.push_back(err[k]);
-    c.push_back(cost[k]);
-    e.push_back(err[k]);
-    map.push_back(k);
+    const std::string key = front_key.empty() ? "" : front_key[k];
+    if (front_key.empty() || !key.empty()) {
+      fronts[key].first.push_back(cost[k]);
+      fronts[key].second.push_back(err[k]);
+    }
     extra << "set label " << Quoted(labels[k]) << " at " << cost[k] << "," << err[k]
           << " offset 0.6,0.4 font ',8' noenhanced\n";
   }
-  PlotSeries front;
-  front.label = "Pareto front";
-  front.style = "lines lw 2 dt 2 lc rgb '#444444'";
-  for (size_t k : ParetoFront(c, e)) {
-    front.x.push_back(c[k]);
-    front.y.push_back(e[k]);
-  }
   for (auto& [name, s] : series) spec.series.push_back(s);
-  if (!front.x.empty()) spec.series.push_back(front);
+  for (const auto& [key, ce] : fronts) {
+    PlotSeries front;
+    front.label = key.empty() ? "Pareto front" : "Pareto front: " + key;
+    front.style = "lines lw 2 dt 2 lc rgb '#444444'";
+    for (size_t k : ParetoFront(ce.first, ce.second)) {
+      front.x.push_back(ce.first[k]);
+      front.y.push_back(ce.second[k]);
+    }
+    if (!front.x.empty()) spec.series.push_back(front);
+  }
   if (!left_out.empty()) {
     extra << "set bmargin 6\nset label "
-          << Quoted("not shown (error 0 or no reference): " + left_out)
+          << Quoted("not shown (error 0, no reference or failed): " + left_out)
           << " at screen 0.01, screen 0.02 font ',8' noenhanced\n";
   }
   spec.extra = extra.str();
@@ -89,6 +93,8 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   }
   RenderBoth(spec, stem);
 }
+
+namespace {
 
 // Tic labels are gnuplot format strings: a literal % must be doubled.
 std::string TicLabel(const std::string& s) {

@@ -1,0 +1,483 @@
+// gonio bench --sfs: time against normal error of shape from shading (estimation/sfs.h) over a
+// small set of solver configurations, and its robustness to image noise and to a wrong
+// roughness in the material prior (issue 11: "degrade gracefully (report the curve)").
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+#include <opencv2/core.hpp>
+
+#include "bench/bench_internal.h"
+#include "bench/bench_lib.h"
+#include "common/error.h"
+#include "common/io.h"
+#include "common/log.h"
+#include "common/math.h"
+#include "common/plot.h"
+#include "data_synth/scene.h"
+#include "data_synth/sfs_renderer.h"
+#include "estimation/sfs.h"
+#include "estimation/sfs_io.h"
+#include "reflectance/registry.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio::bench {
+namespace {
+
+std::string SceneName(const std::pair<std::string, double>& scene) {
+  std::ostringstream s;
+  s << scene.first << " " << scene.second << "deg";
+  return s.str();
+}
+
+// Short point label of a scene on the Pareto chart: S0, S20, V0, V20.
+std::string SceneTag(const std::string& scene) {
+  std::string tag(1, static_cast<char>(std::toupper(scene[0])));
+  const size_t space = scene.find(' ');
+  if (space != std::string::npos) tag += scene.substr(space + 1, scene.find("deg") - space - 1);
+  return tag;
+}
+
+SfsBenchConfig Explicit(int levels, const std::string& solver, int iterations) {
+  std::ostringstream name;
+  name << "L" << levels << " " << solver << " x" << iterations;
+  return {name.str(), "material", levels, solver, iterations};
+}
+
+// A folder removed with everything in it when the bench ends (also on exceptions).
+class ScratchDir {
+ public:
+  ScratchDir() {
+    std::random_device rd;
+    path_ = fs::temp_directory_path() / ("gonio_sfs_bench_" + std::to_string(rd()));
+    fs::create_directories(path_);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+fs::path RenderScene(const std::pair<std::string, double>& scene, const SfsBenchPlan& plan,
+                     const fs::path& root) {
+  synth::PresetOptions preset;
+  preset.sfs_light_offaxis_deg = scene.second;
+  synth::Scene s = synth::PresetScene("sfs-" + scene.first, preset);
+  // Scale the camera: the object keeps its angular size, so it covers the same image fraction.
+  const double f = static_cast<double>(plan.width) / s.camera.width;
+  s.camera.intrinsics = {s.camera.intrinsics[0] * f, s.camera.intrinsics[1] * f,
+                         (plan.width - 1) / 2.0, (plan.height - 1) / 2.0};
+  s.camera.width = plan.width;
+  s.camera.height = plan.height;
+  const fs::path dir = root / (scene.first + "_" + std::to_string(static_cast<int>(scene.second)));
+  const synth::SfsRenderResult r = synth::RenderSfsScene(s, dir);
+  spdlog::info("sfs bench: rendered {} at {}x{} ({})", SceneName(scene), plan.width, plan.height,
+               r.Report());
+  return dir;
+}
+
+// One scene's input folder with the inputs loaded once per reflectance.
+struct LoadedScene {
+  std::string name;
+  fs::path dir;
+  SfsInput material, lambert;
+};
+
+SfsOptions OptionsFor(const SfsBenchConfig& c, int threads) {
+  SfsOptions o;
+  o.reflectance = c.reflectance;
+  if (c.levels > 0) o.levels = c.levels;
+  o.finest_solver = c.finest_solver;
+  if (c.max_iterations_finest > 0) o.max_iterations_finest = c.max_iterations_finest;
+  o.threads = threads;
+  return o;
+}
+
+// Solves `input` and compares with the truth in `dir`; any failure becomes the row's error.
+SfsBenchRow SolveRow(const std::string& kind, const LoadedScene& scene, const SfsInput& input,
+                     const SfsBenchConfig& config, int threads) {
+  SfsBenchRow row;
+  row.kind = kind;
+  row.scene = scene.name;
+  row.config = config.name;
+  row.reflectance = config.reflectance;
+  try {
+    const SfsOptions options = OptionsFor(config, threads);
+    options.Check();
+    const SfsResult r = SolveSfs(input.problem, options);
+    const auto truth = CompareWithTruth(scene.dir, input, r);
+    if (!truth) throw InputError(scene.dir.string() + " has no truth (depth.tiff, normals.tiff)");
+    row.seconds = r.seconds;
+    row.mean_normal_error_deg = truth->mean_normal_error_deg;
+    row.p95_normal_error_deg = truth->p95_normal_error_deg;
+    row.rms_relative_residual = r.rms_relative_residual;
+    row.levels = r.levels;
+    row.iterations = r.iterations;
+    row.mask_pixels = r.mask_pixels;
+    for (double v : {row.seconds, row.mean_normal_error_deg, row.p95_normal_error_deg,
+                     row.rms_relative_residual}) {
+      if (!std::isfinite(v)) throw NumericalError("non-finite time, error or residual");
+    }
+    spdlog::info("sfs bench: {} {} {}: {:.2f} s, normal error mean {:.2f} / p95 {:.2f} deg", kind,
+                 scene.name, config.name, row.seconds, row.mean_normal_error_deg,
+                 row.p95_normal_error_deg);
+  } catch (const std::exception& e) {
+    row.error = e.what();
+    spdlog::warn("sfs bench: {} {} {} failed: {}", kind, scene.name, config.name, row.error);
+  }
+  return row;
+}
+
+// `in` with Gaussian noise of standard deviation fraction * (mean masked radiance): the same
+// seeded pattern scaled per level, so the curve is not blurred by the draw.
+SfsInput WithNoise(const SfsInput& in, double fraction, unsigned seed) {
+  SfsInput out = in;
+  out.problem.radiance = in.problem.radiance.clone();
+  const double s = fraction * cv::mean(in.problem.radiance, in.problem.mask)[0];
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int y = 0; y < out.problem.radiance.rows; ++y) {
+    for (int x = 0; x < out.problem.radiance.cols; ++x) {
+      out.problem.radiance.at<double>(y, x) += s * noise(rng);
+    }
+  }
+  return out;
+}
+
+// `in` with the material's roughness parameter "sigma" moved by `offset_deg`.
+SfsInput WithSigmaOffset(const SfsInput& in, double offset_deg) {
+  SfsInput out = in;
+  const ModelInfo& info = FindModel(in.problem.model);
+  for (int k = 0; k < info.num_params(); ++k) {
+    if (info.params[k].name == "sigma") {
+      out.problem.params[k] += DegToRad(offset_deg);
+      return out;
+    }
+  }
+  throw InputError("sfs bench: material model '" + in.problem.model +
+                   "' has no roughness parameter 'sigma'");
+}
+
+}  // namespace
+
+SfsBenchPlan SfsPlanFor(const BenchOptions& options) {
+  options.Check();
+  SfsBenchPlan p;
+  const SfsBenchConfig default_config{"default", "material", 0, "auto", 0};
+  const SfsBenchConfig lambert{"lambert", "lambert", 0, "auto", 0};
+  p.noise_fractions = {0, 0.005, 0.01, 0.02, 0.05};
+  p.sigma_offsets_deg = {-10, -5, 0, 5, 10};
+  const std::vector<std::pair<std::string, double>> all = {
+      {"sphere", 0}, {"sphere", 20}, {"vase", 0}, {"vase", 20}};
+  if (options.size == "smoke") {
+    p.width = 160;
+    p.height = 120;
+    p.scenes = {{"sphere", 0}};
+    p.robustness_scenes = {{"sphere", 0}};
+    p.configs = {default_config, lambert, Explicit(1, "cholesky", 10), Explicit(1, "cg", 10),
+                 Explicit(2, "cg", 10)};
+  } else if (options.size == "quick") {
+    p.width = 320;
+    p.height = 240;
+    p.scenes = all;
+    p.robustness_scenes = {{"sphere", 0}, {"sphere", 20}};
+    p.configs = {default_config,
+                 lambert,
+                 Explicit(1, "cholesky", 5),
+                 Explicit(1, "cholesky", 10),
+                 Explicit(1, "cholesky", 20),
+                 Explicit(1, "cg", 10),
+                 Explicit(2, "cholesky", 10),
+                 Explicit(2, "cg", 5),
+                 Explicit(2, "cg", 10),
+                 Explicit(2, "cg", 20),
+                 Explicit(3, "cg", 10)};
+  } else {
+    p.scenes = all;
+    p.robustness_scenes = {{"sphere", 0}, {"sphere", 20}};
+    p.configs = {default_config,
+                 lambert,
+                 Explicit(1, "cholesky", 10),
+                 Explicit(1, "cg", 20),
+                 Explicit(2, "cholesky", 10),
+                 Explicit(2, "cg", 5),
+                 Explicit(2, "cg", 10),
+                 Explicit(2, "cg", 20),
+                 Explicit(3, "cg", 10),
+                 Explicit(3, "cg", 20)};
+  }
+  return p;
+}
+
+SfsBenchReport RunSfsBench(const BenchOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const SfsBenchPlan plan = SfsPlanFor(options);
+  const int threads = options.threads;
+  SfsBenchReport report;
+  report.size = options.size;
+  report.width = plan.width;
+  report.height = plan.height;
+  const SfsBenchConfig& default_config = plan.configs.at(0);
+  const SfsBenchConfig& lambert_config = plan.configs.at(1);
+
+  std::vector<std::pair<std::string, double>> scenes = plan.scenes;
+  for (const auto& s : plan.robustness_scenes) {
+    if (std::find(scenes.begin(), scenes.end(), s) == scenes.end()) scenes.push_back(s);
+  }
+  size_t total = 0;
+  for (const auto& s : scenes) {
+    const bool speed = std::find(plan.scenes.begin(), plan.scenes.end(), s) != plan.scenes.end();
+    const bool robust = std::find(plan.robustness_scenes.begin(), plan.robustness_scenes.end(),
+                                  s) != plan.robustness_scenes.end();
+    total += speed ? plan.configs.size() : 2;
+    if (robust) total += plan.noise_fractions.size() + plan.sigma_offsets_deg.size() - 2;
+  }
+  Progress progress("sfs bench solves", total, 10.0);
+
+  ScratchDir scratch;
+  for (const auto& s : scenes) {
+    LoadedScene scene;
+    scene.name = SceneName(s);
+    const bool speed = std::find(plan.scenes.begin(), plan.scenes.end(), s) != plan.scenes.end();
+    const bool robust = std::find(plan.robustness_scenes.begin(), plan.robustness_scenes.end(),
+                                  s) != plan.robustness_scenes.end();
+    try {
+      scene.dir = RenderScene(s, plan, scratch.path());
+      SfsInputPaths paths;
+      paths.FillFromFolder(scene.dir);
+      scene.material = LoadSfsInput(paths, "material");
+      scene.lambert = LoadSfsInput(paths, "lambert");
+    } catch (const std::exception& e) {
+      SfsBenchRow row;
+      row.kind = "render";
+      row.scene = scene.name;
+      row.config = "render";
+      row.error = e.what();
+      spdlog::warn("sfs bench: {} could not be rendered or loaded: {}", scene.name, row.error);
+      report.rows.push_back(row);
+      continue;
+    }
+
+    // The default and lambert run on every scene (robustness references); the explicit
+    // configurations only on the speed scenes, skipping the one "default" resolved to.
+    const SfsBenchRow def = SolveRow("speed", scene, scene.material, default_config, threads);
+    progress.Step();
+    const SfsBenchRow lam = SolveRow("speed", scene, scene.lambert, lambert_config, threads);
+    progress.Step();
+    if (speed) {
+      report.rows.push_back(def);
+      report.rows.push_back(lam);
+      const SfsOptions defaults;
+      const std::string resolved_solver = defaults.finest_solver != "auto" ? defaults.finest_solver
+                                          : def.levels > 1                 ? "cg"
+                                                                           : "cholesky";
+      for (size_t k = 2; k < plan.configs.size(); ++k) {
+        const SfsBenchConfig& c = plan.configs[k];
+        if (def.error.empty() && c.levels == def.levels && c.finest_solver == resolved_solver &&
+            c.max_iterations_finest == defaults.max_iterations_finest) {
+          spdlog::info("sfs bench: {} {} is what default resolved to; not run twice", scene.name,
+                       c.name);
+          progress.Step();
+          continue;
+        }
+        report.rows.push_back(SolveRow("speed", scene, scene.material, c, threads));
+        progress.Step();
+      }
+    }
+    if (!robust) continue;
+    for (const double fraction : plan.noise_fractions) {
+      SfsBenchRow row = def;
+      if (fraction > 0) {
+        row = SolveRow("noise", scene, WithNoise(scene.material, fraction, plan.noise_seed),
+                       default_config, threads);
+        progress.Step();
+      }
+      row.kind = "noise";
+      row.noise_fraction = fraction;
+      report.rows.push_back(row);
+    }
+    for (const double offset : plan.sigma_offsets_deg) {
+      SfsBenchRow row = def;
+      if (offset != 0) {
+        try {
+          row = SolveRow("sigma", scene, WithSigmaOffset(scene.material, offset), default_config,
+                         threads);
+        } catch (const std::exception& e) {
+          row = SfsBenchRow{};
+          row.scene = scene.name;
+          row.reflectance = "material";
+          row.config = default_config.name;
+          row.error = e.what();
+        }
+        progress.Step();
+      }
+      row.kind = "sigma";
+      row.sigma_offset_deg = offset;
+      report.rows.push_back(row);
+    }
+    // Lambert's error on the clean image: the horizontal reference of both curves.
+    SfsBenchRow ref = lam;
+    ref.kind = "reference";
+    report.rows.push_back(ref);
+  }
+  progress.Done();
+
+  std::map<std::string, std::vector<size_t>> by_scene;
+  for (size_t k = 0; k < report.rows.size(); ++k) {
+    const SfsBenchRow& r = report.rows[k];
+    if (r.kind == "speed" && r.reflectance == "material" && r.error.empty()) {
+      by_scene[r.scene].push_back(k);
+    }
+  }
+  for (const auto& [scene, idx] : by_scene) {
+    std::vector<double> cost, err;
+    for (size_t k : idx) {
+      cost.push_back(report.rows[k].seconds);
+      err.push_back(report.rows[k].mean_normal_error_deg);
+    }
+    for (size_t k : ParetoFront(cost, err))
+      report.pareto[scene].push_back(report.rows[idx[k]].config);
+  }
+  report.seconds_total =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+nlohmann::json SfsBenchReport::ToJson() const {
+  nlohmann::json rj = nlohmann::json::array();
+  size_t failed = 0;
+  for (const auto& r : rows) {
+    nlohmann::json j = {
+        {"kind", r.kind}, {"scene", r.scene}, {"config", r.config}, {"reflectance", r.reflectance}};
+    if (r.kind == "noise") j["noise_fraction"] = r.noise_fraction;
+    if (r.kind == "sigma") j["sigma_offset_deg"] = r.sigma_offset_deg;
+    if (r.error.empty()) {
+      j["seconds"] = r.seconds;
+      j["mean_normal_error_deg"] = r.mean_normal_error_deg;
+      j["p95_normal_error_deg"] = r.p95_normal_error_deg;
+      j["rms_relative_residual"] = r.rms_relative_residual;
+      j["levels"] = r.levels;
+      j["iterations"] = r.iterations;
+      j["mask_pixels"] = r.mask_pixels;
+    } else {
+      j["error"] = r.error;
+      ++failed;
+    }
+    rj.push_back(j);
+  }
+  return {{"size", size},
+          {"image", std::to_string(width) + "x" + std::to_string(height)},
+          {"seconds_total", seconds_total},
+          {"failed", failed},
+          {"pareto", pareto},
+          {"rows", rj}};
+}
+
+void WriteSfsBenchOutputs(const fs::path& dir, const SfsBenchReport& report) {
+  EnsureDirectory(dir);
+  nlohmann::json j = report.ToJson();
+  j["settings"] = {
+      {"scenes",
+       "gonio synth presets sfs-sphere / sfs-vase (oren-nayar sigma 30 deg, albedo "
+       "0.8), lamp collocated or turned N deg off axis about the object; camera "
+       "scaled to the image size"},
+      {"config",
+       "Lx solver xN: SfsOptions levels x, finest_solver, max_iterations_finest N; "
+       "default: SfsOptions defaults; lambert: reflectance lambert at the defaults"},
+      {"seconds", "SolveSfs wall time (SfsResult::seconds), one run"},
+      {"errors", "normal error inside the mask against the rendered truth (CompareWithTruth)"},
+      {"noise", "Gaussian, sigma = fraction x mean masked radiance, one seeded pattern scaled"},
+      {"sigma", "offset added to the material's roughness sigma (truth 30 deg)"}};
+
+  // Speed against accuracy: one point set per configuration, one Pareto front per scene
+  // (material prior only), lambert drawn apart as the reference.
+  std::vector<std::string> labels, groups, fronts;
+  std::vector<double> cost, err;
+  for (const auto& r : report.rows) {
+    if (r.kind != "speed") continue;
+    labels.push_back(SceneTag(r.scene) + (r.error.empty() ? "" : " " + r.config + " (failed)"));
+    groups.push_back(r.config);
+    fronts.push_back(r.reflectance == "material" ? r.scene : "");
+    cost.push_back(r.error.empty() ? r.seconds : 0.0);
+    err.push_back(r.error.empty() ? r.mean_normal_error_deg : 0.0);
+  }
+  ParetoChart("Shape from shading " + j["image"].get<std::string>() +
+                  ": solve time vs mean normal error (S/V = sphere/vase, number = lamp "
+                  "off-axis deg)",
+              "SolveSfs time [s] (log)", "mean normal error [deg] (log)", labels, groups, cost, err,
+              dir / "sfs_pareto", "points pt 7 ps 1.4", fronts,
+              {{"lambert", "points pt 5 ps 1.8 lc rgb '#000000'"},
+               {"default", "points pt 9 ps 2.2 lc rgb '#d62728'"}});
+
+  // Robustness: the material prior's error against the perturbation, lambert on the clean image
+  // as a horizontal line of the same colour.
+  const std::vector<std::string> colours = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
+  for (const std::string kind : {"noise", "sigma"}) {
+    PlotSpec spec;
+    spec.title = kind == "noise" ? "Shape from shading: mean normal error vs Gaussian image noise"
+                                 : "Shape from shading: mean normal error vs error of the "
+                                   "material's roughness sigma (truth 30 deg)";
+    spec.xlabel = kind == "noise" ? "noise sigma [% of the mean masked radiance]"
+                                  : "sigma offset in the material prior [deg]";
+    spec.ylabel = "mean normal error [deg] (log)";
+    spec.log_y = true;
+    spec.width = 1000;
+    spec.height = 650;
+    std::vector<std::string> scenes;
+    for (const auto& r : report.rows) {
+      if (r.kind == kind && std::find(scenes.begin(), scenes.end(), r.scene) == scenes.end()) {
+        scenes.push_back(r.scene);
+      }
+    }
+    double x_min = 0, x_max = 0;
+    for (const auto& r : report.rows) {
+      if (r.kind != kind) continue;
+      const double x = kind == "noise" ? 100 * r.noise_fraction : r.sigma_offset_deg;
+      x_min = std::min(x_min, x);
+      x_max = std::max(x_max, x);
+    }
+    for (size_t si = 0; si < scenes.size(); ++si) {
+      const std::string colour = colours[si % colours.size()];
+      PlotSeries curve;
+      curve.label = scenes[si] + ": material prior";
+      curve.style = "linespoints pt 7 ps 1.3 lw 2 lc rgb '" + colour + "'";
+      for (const auto& r : report.rows) {
+        if (r.kind != kind || r.scene != scenes[si] || !r.error.empty() ||
+            !(r.mean_normal_error_deg > 0)) {
+          continue;
+        }
+        curve.x.push_back(kind == "noise" ? 100 * r.noise_fraction : r.sigma_offset_deg);
+        curve.y.push_back(r.mean_normal_error_deg);
+      }
+      if (!curve.x.empty()) spec.series.push_back(curve);
+      for (const auto& r : report.rows) {
+        if (r.kind == "reference" && r.scene == scenes[si] && r.error.empty() &&
+            r.mean_normal_error_deg > 0) {
+          spec.series.push_back({scenes[si] + ": lambert, clean image",
+                                 {x_min, x_max},
+                                 {r.mean_normal_error_deg, r.mean_normal_error_deg},
+                                 "lines lw 2 dt 2 lc rgb '" + colour + "'"});
+        }
+      }
+    }
+    if (spec.series.empty()) {
+      spec.log_y = false;
+      spec.series.push_back({"(no successful solves)", {0.0}, {0.0}, "points pt 0"});
+    }
+    spec.extra = "set key inside bottom right opaque box\n";
+    RenderBoth(spec, dir / ("sfs_robustness_" + kind));
+  }
+  WriteJsonAtomically(dir / "sfs_bench.json", j);
+}
+
+}  // namespace gonio::bench
