@@ -70,10 +70,12 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
           << " offset 0.6,0.4 font ',8' noenhanced\n";
   }
   for (auto& [name, s] : series) spec.series.push_back(s);
+  int dash = 2;  // one dash pattern per front
   for (const auto& [key, ce] : fronts) {
     PlotSeries front;
     front.label = key.empty() ? "Pareto front" : "Pareto front: " + key;
-    front.style = "lines lw 2 dt 2 lc rgb '#444444'";
+    front.style = "lines lw 2 dt " + std::to_string(dash) + " lc rgb '#444444'";
+    dash = dash % 5 + 2;
     for (size_t k : ParetoFront(ce.first, ce.second)) {
       front.x.push_back(ce.first[k]);
       front.y.push_back(ce.second[k]);
