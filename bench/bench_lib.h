@@ -204,6 +204,8 @@ struct SfsBenchReport {
 // Renders the plan's scenes into a temporary folder and solves them; failures become rows with
 // `error` set.
 SfsBenchReport RunSfsBench(const BenchOptions& options);
+// The same with an explicit plan (configs[0] the default, configs[1] the lambert reference).
+SfsBenchReport RunSfsBench(const BenchOptions& options, const SfsBenchPlan& plan);
 
 // ----- outputs --------------------------------------------------------------------------------
 

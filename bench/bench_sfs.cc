@@ -220,8 +220,17 @@ SfsBenchPlan SfsPlanFor(const BenchOptions& options) {
 }
 
 SfsBenchReport RunSfsBench(const BenchOptions& options) {
+  return RunSfsBench(options, SfsPlanFor(options));
+}
+
+SfsBenchReport RunSfsBench(const BenchOptions& options, const SfsBenchPlan& plan) {
+  options.Check();
+  if (plan.configs.size() < 2 || plan.width < 16 || plan.height < 16) {
+    throw InputError(
+        "sfs bench plan: needs the default and lambert configurations and an image "
+        "of at least 16x16 pixels");
+  }
   const auto start = std::chrono::steady_clock::now();
-  const SfsBenchPlan plan = SfsPlanFor(options);
   const int threads = options.threads;
   SfsBenchReport report;
   report.size = options.size;
