@@ -152,13 +152,15 @@ StabilityReport RunStabilitySweeps(const BenchSizes& sizes,
 
 // ----- shape from shading (gonio bench --sfs) ---------------------------------------------------
 
-// One solver configuration of the speed-vs-accuracy runs.
+// One solver configuration of the speed-vs-accuracy runs: "Lx solver xN" is x pyramid levels,
+// `finest_solver` at full resolution and N iterations there (SfsOptions::max_iterations_finest
+// after a coarser level; max_iterations with one level, which is what SolveSfs uses then).
 struct SfsBenchConfig {
-  std::string name;  // "default", "lambert", "L2 cg x10" (levels, finest solver, iterations)
+  std::string name;  // "default", "lambert", "L2 cg x10"
   std::string reflectance = "material";
-  int levels = 0;  // 0: SfsOptions default (auto)
-  std::string finest_solver = "auto";
-  int max_iterations_finest = 0;  // 0: SfsOptions default
+  int levels = 0;             // 0: SfsOptions default (auto)
+  std::string finest_solver;  // empty: SfsOptions default
+  int iterations = 0;         // full-resolution iterations; 0: SfsOptions default
 };
 
 // What a size runs (docs/bench.md, "--sfs").
@@ -167,7 +169,7 @@ struct SfsBenchPlan {
   // (preset, lamp off-axis angle in degrees) pairs of the speed-vs-accuracy runs.
   std::vector<std::pair<std::string, double>> scenes;
   // The first entry is the default SfsOptions, the second lambert at the defaults; the rest are
-  // explicit configurations (skipped on a scene when they equal what "default" resolved to).
+  // explicit configurations (one of them may equal what "default" resolves to: a repeat).
   std::vector<SfsBenchConfig> configs;
   std::vector<std::pair<std::string, double>> robustness_scenes;
   std::vector<double> noise_fractions;    // Gaussian sigma / mean masked radiance
@@ -185,6 +187,8 @@ struct SfsBenchRow {
   double seconds = 0;  // SolveSfs wall time
   double mean_normal_error_deg = 0, p95_normal_error_deg = 0;
   double rms_relative_residual = 0;
+  double noise_relative = 0;  // image noise / median radiance the solve estimated (or was given)
+  double smoothness = 0;      // the smoothness weight it used (grows with the noise)
   int levels = 0, iterations = 0;
   size_t mask_pixels = 0;
   std::string error;  // exception text of a failed render, solve or comparison
