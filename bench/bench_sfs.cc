@@ -201,13 +201,11 @@ SfsBenchPlan SfsPlanFor(const BenchOptions& options) {
     p.configs = {default_config,
                  lambert,
                  Explicit(1, "cholesky", 10),
-                 Explicit(1, "cholesky", 20),
                  Explicit(2, "cholesky", 2),
                  Explicit(2, "cholesky", 5),
                  Explicit(2, "cholesky", 10),
                  Explicit(2, "cg", 5),
                  Explicit(2, "cg", 10),
-                 Explicit(2, "cg", 20),
                  Explicit(3, "cholesky", 5),
                  Explicit(3, "cg", 10)};
   } else {
