@@ -419,13 +419,24 @@ void WriteSfsBenchOutputs(const fs::path& dir, const SfsBenchReport& report) {
     cost.push_back(r.error.empty() ? r.seconds : 0.0);
     err.push_back(r.error.empty() ? r.mean_normal_error_deg : 0.0);
   }
+  // More configurations than gnuplot's 8 default colours: colour and point type per config
+  // (red triangles and black squares stay reserved for default and lambert).
+  std::map<std::string, std::string> styles = {{"lambert", "points pt 5 ps 1.8 lc rgb '#000000'"},
+                                               {"default", "points pt 9 ps 2.2 lc rgb '#d62728'"}};
+  const std::vector<std::string> palette = {"#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b",
+                                            "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+  const std::vector<int> point_types = {7, 13, 11, 5, 9};
+  for (const std::string& g : groups) {
+    if (styles.count(g)) continue;
+    const size_t k = styles.size() - 2;
+    styles[g] = "points pt " + std::to_string(point_types[k % point_types.size()]) +
+                " ps 1.4 lc rgb '" + palette[k % palette.size()] + "'";
+  }
   ParetoChart("Shape from shading " + j["image"].get<std::string>() +
                   ": solve time vs mean normal error (S/V = sphere/vase, number = lamp "
                   "off-axis deg)",
               "SolveSfs time [s] (log)", "mean normal error [deg] (log)", labels, groups, cost, err,
-              dir / "sfs_pareto", "points pt 7 ps 1.4", fronts,
-              {{"lambert", "points pt 5 ps 1.8 lc rgb '#000000'"},
-               {"default", "points pt 9 ps 2.2 lc rgb '#d62728'"}});
+              dir / "sfs_pareto", "points pt 7 ps 1.4", fronts, styles);
 
   // Robustness: the material prior's error against the perturbation, lambert on the clean image
   // as a horizontal line of the same colour.
