@@ -256,7 +256,13 @@ SfsBenchReport RunSfsBench(const BenchOptions& options, const SfsBenchPlan& plan
     const bool robust = std::find(plan.robustness_scenes.begin(), plan.robustness_scenes.end(),
                                   s) != plan.robustness_scenes.end();
     total += speed ? plan.configs.size() : 2;
-    if (robust) total += plan.noise_fractions.size() + plan.sigma_offsets_deg.size() - 2;
+    if (robust) {
+      // The unperturbed points reuse the default's solve.
+      total += std::count_if(plan.noise_fractions.begin(), plan.noise_fractions.end(),
+                             [](double f) { return f != 0; }) +
+               std::count_if(plan.sigma_offsets_deg.begin(), plan.sigma_offsets_deg.end(),
+                             [](double d) { return d != 0; });
+    }
   }
   Progress progress("sfs bench solves", total, 10.0);
 
