@@ -249,15 +249,22 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
     }
   }
   if (measured.empty()) return;
-  auto cost = [&](double c) {
-    double sum = 0;
-    for (size_t i = 0; i < measured.size(); ++i) {
-      const double r =
-          SfsRadiance(pr, "material", 1.0, normals[i], points[i] * std::exp(c)) - measured[i];
-      sum += r * r;
-    }
-    return sum;
-  };
+  std::function<double(double)> cost;
+  VisitModel(pr.model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    cost = [&](double c) {
+      double sum = 0;
+      for (size_t i = 0; i < measured.size(); ++i) {
+        const double pred =
+            Radiance<M, double>(pr.params.data(), false, 1.0, normals[i], points[i] * std::exp(c),
+                                pr.lamp_in_camera, pr.lamp_intensity);
+        const double r = (std::isfinite(pred) ? pred : 0.0) - measured[i];
+        sum += r * r;
+      }
+      return sum;
+    };
+  });
+  if (!cost) return;
   // Coarse grid over +-40% in distance, then golden-section refinement around the best node.
   const double step = 0.02;
   double best_c = 0, best = cost(0);
@@ -267,12 +274,14 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
   }
   double a = best_c - step, b = best_c + step;
   const double g = (std::sqrt(5.0) - 1) / 2;
+  double c1 = b - g * (b - a), c2 = a + g * (b - a), e1 = cost(c1), e2 = cost(c2);
   for (int it = 0; it < 30; ++it) {
-    const double c1 = b - g * (b - a), c2 = a + g * (b - a);
-    if (cost(c1) < cost(c2)) {
-      b = c2;
+    if (e1 < e2) {
+      b = c2, c2 = c1, e2 = e1;
+      c1 = b - g * (b - a), e1 = cost(c1);
     } else {
-      a = c1;
+      a = c1, c1 = c2, e1 = e2;
+      c2 = a + g * (b - a), e2 = cost(c2);
     }
   }
   const double c = 0.5 * (a + b);
