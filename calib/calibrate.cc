@@ -370,9 +370,10 @@ CalibrationResult Calibrate(const Board& board, const std::vector<BoardObservati
                            : EstimateFocalFromViews(board, used, width, height);
   spdlog::info("calibrate: {} views, {} corners, {} with {} (focal seed {:.1f} px)",
                result.num_views, result.num_points, options.lens_model, options.solver, focal);
-  // OpenCV's solve: the alternative solver's answer, and mrcal's seed (mrcal's own seeding
-  // in mrcal-calibrate-cameras 2.2 feeds the (-1, -1) placeholders of missing lattice points
-  // to solvePnP, which wrecks the seed of AprilTag grids: docs/calibration.md).
+  // OpenCV's solve is the alternative solver's answer and also mrcal's seed: the seeding of
+  // mrcal-calibrate-cameras 2.2 passes missing lattice points, stored at pixel (-1, -1), to
+  // solvePnP as if detected, so AprilTag grids (89% missing) get a wrong seed
+  // (docs/calibration.md).
   const CvSolve cv_solve = RunOpenCv(board, used, width, height, focal, options);
   if (options.solver == "mrcal") {
     SolveMrcal(board, used, width, height, cv_solve, options, &result);
