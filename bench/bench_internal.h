@@ -26,8 +26,6 @@ std::vector<double> BenchParams(const ModelInfo& info);
 
 // ----- charts (bench_output.cc) -----
 
-// `s` as a gnuplot double-quoted string.
-std::string Quoted(const std::string& s);
 // `spec` to stem.png and stem.svg.
 void RenderBoth(const PlotSpec& spec, const std::filesystem::path& stem);
 // Cost (log) against error (log): one point per entry, labelled, grouped into series by

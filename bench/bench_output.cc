@@ -17,15 +17,6 @@ namespace fs = std::filesystem;
 
 namespace gonio::bench {
 
-std::string Quoted(const std::string& s) {
-  std::string q = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') q += '\\';
-    q += c;
-  }
-  return q + "\"";
-}
-
 void RenderBoth(const PlotSpec& spec, const fs::path& stem) {
   RenderPlot(spec, fs::path(stem).replace_extension(".png"));
   RenderPlot(spec, fs::path(stem).replace_extension(".svg"));
@@ -66,7 +57,7 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
       fronts[key].first.push_back(cost[k]);
       fronts[key].second.push_back(err[k]);
     }
-    extra << "set label " << Quoted(labels[k]) << " at " << cost[k] << "," << err[k]
+    extra << "set label " << GnuplotQuote(labels[k]) << " at " << cost[k] << "," << err[k]
           << " offset 0.6,0.4 font ',8' noenhanced\n";
   }
   for (auto& [name, s] : series) spec.series.push_back(s);
@@ -84,7 +75,7 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   }
   if (!left_out.empty()) {
     extra << "set bmargin 6\nset label "
-          << Quoted("not shown (error 0, no reference or failed): " + left_out)
+          << GnuplotQuote("not shown (error 0, no reference or failed): " + left_out)
           << " at screen 0.01, screen 0.02 font ',8' noenhanced\n";
   }
   spec.extra = extra.str();
@@ -105,7 +96,7 @@ std::string TicLabel(const std::string& s) {
     out += c;
     if (c == '%') out += '%';
   }
-  return Quoted(out);
+  return GnuplotQuote(out);
 }
 
 // A status map: rows x columns of filled squares coloured valid / degraded / error.

@@ -10,9 +10,8 @@
 namespace fs = std::filesystem;
 
 namespace gonio {
-namespace {
 
-std::string Quote(const std::string& s) {
+std::string GnuplotQuote(const std::string& s) {
   std::string q = "\"";
   for (char c : s) {
     if (c == '"' || c == '\\') q += '\\';
@@ -20,8 +19,6 @@ std::string Quote(const std::string& s) {
   }
   return q + "\"";
 }
-
-}  // namespace
 
 void RenderPlot(const PlotSpec& spec, const fs::path& out) {
   const std::string ext = out.extension().string();
@@ -48,10 +45,10 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     }
     std::ostringstream gp;
     gp << "set terminal " << terminal << "\n";
-    gp << "set output " << Quote(tmp.string()) << "\n";
-    gp << "set title " << Quote(spec.title) << " noenhanced\n";
-    gp << "set xlabel " << Quote(spec.xlabel) << " noenhanced\n";
-    gp << "set ylabel " << Quote(spec.ylabel) << " noenhanced\n";
+    gp << "set output " << GnuplotQuote(tmp.string()) << "\n";
+    gp << "set title " << GnuplotQuote(spec.title) << " noenhanced\n";
+    gp << "set xlabel " << GnuplotQuote(spec.xlabel) << " noenhanced\n";
+    gp << "set ylabel " << GnuplotQuote(spec.ylabel) << " noenhanced\n";
     gp << "set grid\nset key outside right top noenhanced\n";
     if (spec.log_x) gp << "set logscale x\n";
     if (spec.log_y) gp << "set logscale y\n";
@@ -60,16 +57,16 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     if (!spec.series.empty()) gp << "plot ";
     for (size_t k = 0; k < spec.series.size(); ++k) {
       if (k) gp << ", \\\n     ";
-      gp << Quote(data.string()) << " index " << k << " using 1:2 with " << spec.series[k].style
-         << " title " << Quote(spec.series[k].label);
+      gp << GnuplotQuote(data.string()) << " index " << k << " using 1:2 with " << spec.series[k].style
+         << " title " << GnuplotQuote(spec.series[k].label);
     }
     gp << "\n";
     {
       std::ofstream s(script);
       s << gp.str();
     }
-    const std::string cmd = "gnuplot " + Quote(script.string()) + " 2>" +
-                            Quote(fs::path(tmp).replace_extension(".log").string());
+    const std::string cmd = "gnuplot " + GnuplotQuote(script.string()) + " 2>" +
+                            GnuplotQuote(fs::path(tmp).replace_extension(".log").string());
     const int rc = std::system(cmd.c_str());
     std::error_code ec;
     fs::remove(data, ec);

@@ -25,6 +25,10 @@ struct PlotSpec {
   std::string extra;
 };
 
+// A gnuplot string literal: s in double quotes with '"' and '\\' escaped. Every plot script
+// (here, the report, the benchmarks) quotes titles and file names through this one function.
+std::string GnuplotQuote(const std::string& s);
+
 // Renders to `out` (.png or .svg by extension), atomically. InputError when gnuplot is
 // missing or fails, naming the output file.
 void RenderPlot(const PlotSpec& spec, const std::filesystem::path& out);
