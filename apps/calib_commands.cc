@@ -97,6 +97,10 @@ void RunDetect(const DetectArgs& a) {
   if (!a.family.empty()) args.detector.family = a.family;
   args.detector.Check();
   if (!a.corners_vnl.empty() && !board) throw InputError("--corners-vnl needs --board");
+  std::vector<std::string> inputs = a.images;
+  inputs.push_back(a.board);
+  if (!a.corners_vnl.empty()) CheckOutputIsNotInput(a.corners_vnl, inputs);
+  if (!a.json_out.empty()) CheckOutputIsNotInput(a.json_out, inputs);
   nlohmann::json result;
   std::vector<BoardObservation> observations;
   for (const auto& image : a.images) {
@@ -141,11 +145,14 @@ void RunCalibrate(const CalibrateArgs& a) {
   const Board board = Board::Read(a.board);
   std::vector<BoardObservation> views;
   int width = 0, height = 0;
+  CheckOutputIsNotInput(a.out, {a.board, a.corners});
+  if (!a.report_json.empty()) CheckOutputIsNotInput(a.report_json, {a.board, a.corners, a.out});
   if (!a.images.empty()) {
     std::vector<std::string> files;
     for (const auto& pattern : a.images) {
       for (auto& f : ExpandGlob(pattern)) files.push_back(f);
     }
+    CheckOutputIsNotInput(a.out, files);
     Progress progress("detect", files.size());
     for (const auto& f : files) {
       const cv::Mat grey = ReadGreyImage(f);
@@ -198,6 +205,8 @@ struct LocateArgs {
 
 void RunLocate(const LocateArgs& a) {
   a.options.Check();
+  CheckOutputIsNotInput(a.out,
+                        {(fs::path(a.session) / "session.json").string(), a.camera, a.board});
   const CameraModel camera = CameraModel::Read(a.camera);
   std::string board_path = a.board;
   if (board_path.empty()) {

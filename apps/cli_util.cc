@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 
@@ -18,15 +19,6 @@ std::vector<std::string> SplitComma(const std::string& text) {
     if (!item.empty()) out.push_back(item);
   }
   return out;
-}
-
-double ParseNumber(const std::string& text, const std::string& what) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v)) {
-    throw InputError(what + ": '" + text + "' is not a finite number");
-  }
-  return v;
 }
 
 std::vector<double> ParseModelParams(const ModelInfo& info, const std::vector<std::string>& kv) {
@@ -65,5 +57,17 @@ nlohmann::json ParamsToJson(const ModelInfo& info, const std::vector<double>& pa
 }
 
 void PrintJson(const nlohmann::json& j) { std::cout << j.dump(2) << std::endl; }
+
+void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {
+  namespace fs = std::filesystem;
+  for (const auto& in : inputs) {
+    if (in.empty()) continue;
+    std::error_code ec;
+    const bool same = fs::exists(out, ec) && fs::exists(in, ec) && fs::equivalent(out, in, ec);
+    if (same || fs::weakly_canonical(out, ec) == fs::weakly_canonical(in, ec)) {
+      throw InputError("--out: " + out + " is also an input; choose another output file");
+    }
+  }
+}
 
 }  // namespace gonio::cli

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/parse.h"
 #include "reflectance/model.h"
 
 namespace gonio::cli {
@@ -23,7 +24,11 @@ void PrintJson(const nlohmann::json& j);
 // "a,b,c" -> {"a", "b", "c"} (empty items dropped).
 std::vector<std::string> SplitComma(const std::string& text);
 
-// Parses a finite double; InputError "what: 'text' is not a number" otherwise.
-double ParseNumber(const std::string& text, const std::string& what);
+using gonio::ParseNumber;   // common/parse.h
+using gonio::ParseVector3;  // common/parse.h
+
+// InputError naming `out` when it is one of `inputs` (the same file by path or inode): a
+// command must never replace what it reads.
+void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs);
 
 }  // namespace gonio::cli

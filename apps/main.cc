@@ -2,16 +2,26 @@
 // Exit codes: 0 success, 2 bad input (one line naming the file or parameter), 3 a numerical
 // method could not give a valid result, 1 anything else.
 #include <algorithm>
+#include <csignal>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
 
 #include "apps/commands.h"
 #include "common/error.h"
+#include "common/io.h"
 #include "common/log.h"
 #include "common/provenance.h"
 
 namespace {
+
+// SIGINT/SIGTERM: remove the outputs being written (common/io.h), then die of the signal as
+// the shell expects.
+extern "C" void OnTerminate(int sig) {
+  gonio::RemoveTemporaries();
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
 
 std::string OneLine(std::string s) {
   std::replace(s.begin(), s.end(), '\n', ' ');
@@ -22,6 +32,8 @@ std::string OneLine(std::string s) {
 
 int main(int argc, char** argv) {
   gonio::SetCommandLine(argc, argv);
+  std::signal(SIGINT, OnTerminate);
+  std::signal(SIGTERM, OnTerminate);
   CLI::App app{"gonio: turn a camera into a gonioreflectometer"};
   app.require_subcommand(1);
   app.set_version_flag("--version", gonio::Version());

@@ -9,60 +9,81 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
-#include "apps/pipeline.h"
 #include "calib/vignette.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "estimation/extract.h"
 #include "estimation/joint_fit.h"
+#include "pipeline/demo.h"
+#include "pipeline/run.h"
 
 namespace fs = std::filesystem;
 
 namespace gonio::cli {
 namespace {
 
-Eigen::Vector3d ParseVector(const std::string& s, const std::string& what) {
-  const auto parts = SplitComma(s);
-  if (parts.size() != 3) throw InputError(what + ": expected X,Y,Z");
-  return {ParseNumber(parts[0], what), ParseNumber(parts[1], what), ParseNumber(parts[2], what)};
-}
-
 struct ExtractArgs {
   std::string session, camera, photometric, poses, board, out;
   int patch = 1;
   int threads = 0;
+  bool assume_linear = false;
 };
 
 void RunExtract(const ExtractArgs& a) {
+  CheckOutputIsNotInput(a.out, {a.camera, a.photometric, a.poses, a.board});
   ExtractOptions o;
   o.patch = a.patch;
   o.threads = a.threads;
+  const Session session = ReadSession(a.session);
   const Board board =
       Board::Read(a.board.empty() ? (fs::path(a.session) / "board.json").string() : a.board);
   std::map<std::string, Rigid3d> poses;
   for (const auto& [file, pose] : ReadPoses(a.poses)) poses[file] = pose;
+  RunInputs in;  // the photometric calibration found the way `gonio run` finds it
+  const PhotometricCalibration photometric =
+      LoadPhotometricFor(session, a.photometric, a.assume_linear, &in);
   const ObservationSet set =
-      ExtractObservations(a.session, CameraModel::Read(a.camera), board, poses,
-                          LoadPhotometric(a.photometric, a.session), o);
+      ExtractObservations(a.session, CameraModel::Read(a.camera), board, poses, photometric, o);
   WriteObservations(a.out, set);
   std::cout << fmt::format("{} observations -> {}\n", set.observations.size(), a.out);
 }
 
+// The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
 struct FitArgs {
-  std::string observations, models = "auto", criterion = "bic", light_frame = "board";
-  std::string light_init, out, robust = "huber";
-  double white_albedo = -1;
+  std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
+  std::string robust = "huber", white_albedo;
   bool grey = false;
   int threads = 0;
 };
 
-JointFitOptions FitOptionsFrom(const FitArgs& a) {
+void AddFitArgs(CLI::App* cmd, FitArgs* a) {
+  cmd->add_option("--models", a->models, "auto, or a comma-separated list")->capture_default_str();
+  cmd->add_option("--criterion", a->criterion, "bic, aic or cv")->capture_default_str();
+  cmd->add_option("--light-frame", a->light_frame, "board (camera moves) or camera (board moves)")
+      ->capture_default_str();
+  cmd->add_option("--light-init", a->light_init, "X,Y,Z start in the light frame, metres");
+  cmd->add_option("--white-albedo", a->white_albedo, "Known albedo of the white reference");
+  cmd->add_flag("--grey", a->grey, "One albedo for all channels");
+  cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
+  cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
+}
+
+JointFitOptions ToJointFitOptions(const FitArgs& a) {
   JointFitOptions o;
   if (a.models != "auto") o.candidates = SplitComma(a.models);
+  if (a.models != "auto" && o.candidates.empty()) {
+    throw InputError("--models: empty list (give auto or comma-separated model names)");
+  }
   o.criterion = a.criterion;
   o.light_frame = a.light_frame;
-  if (!a.light_init.empty()) o.light_init = ParseVector(a.light_init, "--light-init");
-  if (a.white_albedo >= 0) o.white_albedo = a.white_albedo;
+  if (!a.light_init.empty()) o.light_init = ParseVector3(a.light_init, "--light-init");
+  if (!a.white_albedo.empty()) {
+    const double w = ParseNumber(a.white_albedo, "--white-albedo");
+    if (!(w > 0 && w <= 1)) {
+      throw InputError("--white-albedo: " + a.white_albedo + " is not an albedo in (0, 1]");
+    }
+    o.white_albedo = w;
+  }
   o.per_channel = !a.grey;
   o.robust_loss = a.robust;
   o.threads = a.threads;
@@ -70,16 +91,49 @@ JointFitOptions FitOptionsFrom(const FitArgs& a) {
   return o;
 }
 
-void RunFit(const FitArgs& a) {
-  const JointFitOptions o = FitOptionsFrom(a);
+void RunFit(const FitArgs& a, const std::string& observations, const std::string& out) {
+  const JointFitOptions o = ToJointFitOptions(a);
+  const std::vector<std::string> files = SplitComma(observations);
+  CheckOutputIsNotInput(out, files);
   std::vector<ObservationSet> sets;
-  for (const auto& f : SplitComma(a.observations)) sets.push_back(ReadObservations(f));
+  for (const auto& f : files) sets.push_back(ReadObservations(f));
   const ObservationSet data = MergeObservations(sets);
   const JointSelectionResult r = FitAndSelect(data, o);
   nlohmann::json j = r.ToJson();
-  j["observations"] = a.observations;
-  WriteJsonAtomically(a.out, j);
+  j["observations"] = observations;
+  WriteJsonAtomically(out, j);
   std::cout << r.Report();
+}
+
+struct RunArgs {
+  std::string session, out, camera, photometric;
+  int patch = 4;
+  bool assume_linear = false;
+  FitArgs fit;
+};
+
+void RunRun(const RunArgs& a) {
+  RunOptions o;
+  o.fit = ToJointFitOptions(a.fit);
+  o.extract.patch = a.patch;
+  o.extract.threads = a.fit.threads;
+  o.Check();
+  const RunInputs in = LoadRunInputs(a.session, a.camera, a.photometric, a.assume_linear);
+  CheckRunOutput(a.out, in);
+  RunResult r = Run(in, o);
+  WriteRunOutputs(r, in, a.out);
+  std::cout << r.Report();
+}
+
+void RunDemoCommand(const std::string& out, const std::string& models, int threads) {
+  DemoOptions o;
+  if (models != "auto") o.models = SplitComma(models);
+  o.threads = threads;
+  const DemoResult d = RunDemo(out, o);
+  std::cout << d.run.Report();
+  std::cout << "\nrecovered vs true ("
+            << (std::filesystem::path(out) / "result" / "fit.json").string() << "):\n"
+            << d.Report();
 }
 
 }  // namespace
@@ -90,7 +144,9 @@ void AddPipelineCommands(CLI::App& app) {
   extract->add_option("--session", ea->session, "Session folder")->required();
   extract->add_option("--camera", ea->camera, "camera.cameramodel")->required();
   extract->add_option("--photometric", ea->photometric,
-                      "photometric.json (default: SESSION/photometric.json, else a linear camera)");
+                      "photometric.json (default: SESSION/photometric.json)");
+  extract->add_flag("--assume-linear", ea->assume_linear,
+                    "Without a photometric calibration, accept a linear camera (recorded)");
   extract->add_option("--poses", ea->poses, "poses.json from gonio locate")->required();
   extract->add_option("--board", ea->board, "Board file (default: SESSION/board.json)");
   extract->add_option("--patch", ea->patch, "Square patches of N x N pixels")
@@ -100,47 +156,36 @@ void AddPipelineCommands(CLI::App& app) {
   extract->callback([ea] { RunExtract(*ea); });
 
   auto fa = std::make_shared<FitArgs>();
+  auto fit_io = std::make_shared<std::pair<std::string, std::string>>();
   auto* fit = app.add_subcommand("fit", "Joint BRDF + lamp fit with model selection");
-  fit->add_option("--observations", fa->observations,
-                  "observations.csv (comma-separated to combine)")
+  fit->add_option("--observations", fit_io->first, "observations.csv (comma-separated to combine)")
       ->required();
-  fit->add_option("--models", fa->models, "auto, or a comma-separated list")->capture_default_str();
-  fit->add_option("--criterion", fa->criterion, "bic, aic or cv")->capture_default_str();
-  fit->add_option("--light-frame", fa->light_frame, "board (camera moves) or camera (board moves)")
-      ->capture_default_str();
-  fit->add_option("--light-init", fa->light_init, "X,Y,Z start in the light frame, metres");
-  fit->add_option("--white-albedo", fa->white_albedo, "Known albedo of the white reference");
-  fit->add_flag("--grey", fa->grey, "One albedo for all channels");
-  fit->add_option("--robust", fa->robust, "none, huber or cauchy")->capture_default_str();
-  fit->add_option("--threads", fa->threads, "Threads (0 = all cores)");
-  fit->add_option("--out", fa->out, "fit.json")->required();
-  fit->callback([fa] { RunFit(*fa); });
+  AddFitArgs(fit, fa.get());
+  fit->add_option("--out", fit_io->second, "fit.json")->required();
+  fit->callback([fa, fit_io] { RunFit(*fa, fit_io->first, fit_io->second); });
 
-  auto ra = std::make_shared<RunOptions>();
+  auto ra = std::make_shared<RunArgs>();
   auto* run = app.add_subcommand("run", "The whole chain: locate, extract, fit, report");
   run->add_option("--session", ra->session, "Session folder")->required();
-  run->add_option("--out", ra->out, "Output folder")->required();
+  run->add_option("--out", ra->out, "Output folder (written as a whole)")->required();
   run->add_option("--camera", ra->camera,
                   "camera.cameramodel (default: SESSION's, else calibrate)");
   run->add_option("--photometric", ra->photometric,
-                  "photometric.json (default: SESSION's, else linear)");
-  run->add_option("--white-albedo", ra->white_albedo, "Known albedo of the white reference");
-  run->add_option("--models", ra->models, "auto, or a comma-separated list")->capture_default_str();
-  run->add_option("--criterion", ra->criterion, "bic, aic or cv")->capture_default_str();
-  run->add_option("--light-frame", ra->light_frame, "board or camera")->capture_default_str();
-  run->add_option("--light-init", ra->light_init, "X,Y,Z start, metres");
+                  "photometric.json (default: SESSION's; else see --assume-linear)");
+  run->add_flag("--assume-linear", ra->assume_linear,
+                "Without a photometric calibration, accept a linear camera (recorded in fit.json)");
   run->add_option("--patch", ra->patch, "Extraction patch size")->capture_default_str();
-  run->add_option("--threads", ra->threads, "Threads (0 = all cores)");
-  run->callback([ra] { RunPipeline(*ra); });
+  AddFitArgs(run, &ra->fit);
+  run->callback([ra] { RunRun(*ra); });
 
-  auto da = std::make_shared<DemoOptions>();
+  auto da = std::make_shared<std::tuple<std::string, std::string, int>>("demo-out", "auto", 0);
   auto* demo =
       app.add_subcommand("demo", "Render the default synthetic session and recover its material");
-  demo->add_option("--out", da->out, "Output folder")->capture_default_str();
-  demo->add_option("--models", da->models, "auto, or a comma-separated list")
+  demo->add_option("--out", std::get<0>(*da), "Output folder")->capture_default_str();
+  demo->add_option("--models", std::get<1>(*da), "auto, or a comma-separated list")
       ->capture_default_str();
-  demo->add_option("--threads", da->threads, "Threads (0 = all cores)");
-  demo->callback([da] { RunDemo(*da); });
+  demo->add_option("--threads", std::get<2>(*da), "Threads (0 = all cores)");
+  demo->callback([da] { RunDemoCommand(std::get<0>(*da), std::get<1>(*da), std::get<2>(*da)); });
 }
 
 }  // namespace gonio::cli

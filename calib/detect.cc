@@ -67,10 +67,22 @@ cv::Mat ReadGreyImage(const std::filesystem::path& path) {
   if (!std::filesystem::is_regular_file(path)) {
     throw InputError(path.string() + ": no such image file");
   }
-  cv::Mat img = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
   if (img.empty()) throw InputError(path.string() + ": not a readable image");
-  if (img.depth() != CV_8U) img.convertTo(img, CV_8U, 1.0 / 256.0);
-  return img;
+  return GreyForDetection(img);
+}
+
+cv::Mat GreyForDetection(const cv::Mat& decoded) {
+  cv::Mat grey;
+  if (decoded.channels() == 3) {
+    cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
+  } else if (decoded.channels() == 4) {
+    cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    grey = decoded;
+  }
+  if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U, 1.0 / 256.0);
+  return grey;
 }
 
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options) {

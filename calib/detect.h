@@ -39,8 +39,13 @@ struct TagDetection {
   int hamming = 0;
 };
 
-// Reads an image as 8-bit grey; InputError naming the file when it cannot be read.
+// Reads an image as 8-bit grey (GreyForDetection of the decoded file); InputError naming the
+// file when it cannot be read.
 cv::Mat ReadGreyImage(const std::filesystem::path& path);
+
+// The 8-bit grey image the detectors take, from a frame as decoded (cv::IMREAD_UNCHANGED:
+// grey or BGR(A), 8 or 16 bit). 16-bit values are divided by 256.
+cv::Mat GreyForDetection(const cv::Mat& decoded);
 
 // Every tag of options.family in an 8-bit grey image, sorted by id.
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options);

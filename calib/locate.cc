@@ -12,6 +12,7 @@
 #include "common/io.h"
 #include "common/log.h"
 #include "common/math.h"
+#include "common/session.h"
 
 namespace fs = std::filesystem;
 
@@ -204,39 +205,41 @@ nlohmann::json SessionPoses::ToJson() const {
   return j;
 }
 
+SessionPoses LocateObservations(const CameraModel& camera, const Board& board,
+                                const std::vector<BoardObservation>& observations,
+                                const PoseOptions& options) {
+  options.Check();
+  SessionPoses out;
+  for (const auto& obs : observations) {
+    try {
+      out.frames.push_back({obs.image, EstimateBoardPose(camera, board, obs, options)});
+    } catch (const InputError& e) {
+      out.skipped.push_back({obs.image, e.what()});
+    } catch (const NumericalError& e) {
+      out.skipped.push_back({obs.image, e.what()});
+    }
+  }
+  return out;
+}
+
 SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camera,
                            const Board& board, const PoseOptions& options) {
   options.Check();
-  const fs::path session_file = session_dir / "session.json";
-  const nlohmann::json session = ReadJsonFile(session_file);
-  if (!session.contains("frames") || !session["frames"].is_array()) {
-    throw InputError(session_file.string() + ": missing 'frames' list");
-  }
-  SessionPoses out;
-  Progress progress("locate", session["frames"].size());
-  for (const auto& frame : session["frames"]) {
-    if (!frame.is_object() || !frame.contains("file") || !frame["file"].is_string()) {
-      throw InputError(session_file.string() + ": every frame needs a 'file'");
-    }
-    const std::string file = frame["file"];
-    const cv::Mat grey = ReadGreyImage(session_dir / file);
+  const Session session = ReadSession(session_dir);
+  std::vector<BoardObservation> observations;
+  Progress progress("locate", session.frames.size());
+  for (size_t i = 0; i < session.frames.size(); ++i) {
+    const cv::Mat grey = ReadGreyImage(session.FramePath(i));
     if (grey.cols != camera.width || grey.rows != camera.height) {
       throw InputError(fmt::format("{}: image is {}x{}, the camera model is {}x{}",
-                                   (session_dir / file).string(), grey.cols, grey.rows,
+                                   session.FramePath(i).string(), grey.cols, grey.rows,
                                    camera.width, camera.height));
     }
-    const BoardObservation obs = DetectBoard(grey, board, options.detector, file);
-    try {
-      out.frames.push_back({file, EstimateBoardPose(camera, board, obs, options)});
-    } catch (const InputError& e) {
-      out.skipped.push_back({file, e.what()});
-    } catch (const NumericalError& e) {
-      out.skipped.push_back({file, e.what()});
-    }
+    observations.push_back(DetectBoard(grey, board, options.detector, session.frames[i].file));
     progress.Step();
   }
   progress.Done();
-  return out;
+  return LocateObservations(camera, board, observations, options);
 }
 
 }  // namespace gonio

@@ -62,6 +62,12 @@ struct SessionPoses {
   nlohmann::json ToJson() const;  // poses.json (docs/formats.md)
 };
 
+// The pose of every observation (one per frame, in frame order), as detected once by the
+// caller: frames whose observation cannot give a pose are listed in `skipped` with the reason.
+SessionPoses LocateObservations(const CameraModel& camera, const Board& board,
+                                const std::vector<BoardObservation>& observations,
+                                const PoseOptions& options);
+
 // Every frame of a session folder (docs/formats.md). InputError on a missing or malformed
 // session.json, an unreadable frame, or frames whose size differs from the camera model's.
 SessionPoses LocateSession(const std::filesystem::path& session_dir, const CameraModel& camera,

@@ -1,7 +1,10 @@
 #include "common/io.h"
 
 #include <unistd.h>
+#include <atomic>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <sstream>
 #include <system_error>
 
@@ -18,9 +21,12 @@ void WriteAtomically(const fs::path& path,
   if (!fs::is_directory(dir)) {
     throw InputError(path.string() + ": output folder " + dir.string() + " does not exist");
   }
-  // Same extension so format-by-extension writers keep working; pid keeps parallel runs apart.
-  const fs::path tmp_path = dir / ("." + path.stem().string() + ".partial-" +
-                                   std::to_string(::getpid()) + path.extension().string());
+  // Same extension so format-by-extension writers keep working; pid and a counter keep
+  // parallel writers apart; a short name so a long (but legal) output name still works.
+  static std::atomic<unsigned> counter{0};
+  const fs::path tmp_path = dir / (".gonio-" + std::to_string(::getpid()) + "-" +
+                                   std::to_string(counter++) + path.extension().string());
+  const TemporaryGuard guard(tmp_path);
   bool ok = false;
   try {
     ok = write(tmp_path);
@@ -73,7 +79,45 @@ nlohmann::json ReadJsonFile(const fs::path& path) {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path.string() + ": not valid JSON (byte " + std::to_string(e.byte) + ")");
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. a number beyond double's range (1e999): bad input, not an internal error.
+    throw InputError(path.string() + ": unusable JSON (" + e.what() + ")");
   }
+}
+
+namespace {
+
+// Paths being written right now, removed by RemoveTemporaries() on SIGINT/SIGTERM.
+std::mutex& TemporariesMutex() {
+  static std::mutex m;
+  return m;
+}
+std::set<std::string>& Temporaries() {
+  static std::set<std::string> paths;
+  return paths;
+}
+
+}  // namespace
+
+TemporaryGuard::TemporaryGuard(fs::path path) : path_(std::move(path)) {
+  std::lock_guard<std::mutex> lock(TemporariesMutex());
+  Temporaries().insert(path_.string());
+}
+
+TemporaryGuard::~TemporaryGuard() {
+  std::lock_guard<std::mutex> lock(TemporariesMutex());
+  Temporaries().erase(path_.string());
+}
+
+void RemoveTemporaries() {
+  // try_lock: the signal may have arrived while a guard held the lock; then leave the files
+  // rather than deadlock in the handler.
+  if (!TemporariesMutex().try_lock()) return;
+  for (const auto& p : Temporaries()) {
+    std::error_code ec;
+    fs::remove_all(p, ec);
+  }
+  TemporariesMutex().unlock();
 }
 
 void EnsureDirectory(const fs::path& dir) {

@@ -27,6 +27,22 @@ nlohmann::json ReadJsonFile(const std::filesystem::path& path);
 
 std::string ReadTextFile(const std::filesystem::path& path);
 
+// Marks a temporary file or folder for removal by RemoveTemporaries() while it exists: the
+// outputs being written when the user interrupts a run are removed, not left half-written.
+class TemporaryGuard {
+ public:
+  explicit TemporaryGuard(std::filesystem::path path);
+  ~TemporaryGuard();
+  TemporaryGuard(const TemporaryGuard&) = delete;
+  TemporaryGuard& operator=(const TemporaryGuard&) = delete;
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Removes every guarded temporary (called by the CLI's SIGINT/SIGTERM handler before it exits).
+void RemoveTemporaries();
+
 // Creates a folder (and parents); InputError naming it when that is impossible.
 void EnsureDirectory(const std::filesystem::path& dir);
 

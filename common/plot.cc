@@ -57,8 +57,8 @@ void RenderPlot(const PlotSpec& spec, const fs::path& out) {
     if (!spec.series.empty()) gp << "plot ";
     for (size_t k = 0; k < spec.series.size(); ++k) {
       if (k) gp << ", \\\n     ";
-      gp << GnuplotQuote(data.string()) << " index " << k << " using 1:2 with " << spec.series[k].style
-         << " title " << GnuplotQuote(spec.series[k].label);
+      gp << GnuplotQuote(data.string()) << " index " << k << " using 1:2 with "
+         << spec.series[k].style << " title " << GnuplotQuote(spec.series[k].label);
     }
     gp << "\n";
     {

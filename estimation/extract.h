@@ -10,7 +10,12 @@
 #include "calib/photometric.h"
 #include "common/camera_model.h"
 #include "common/geometry.h"
+#include "common/session.h"
 #include "estimation/observations.h"
+
+namespace cv {
+class Mat;
+}
 
 namespace gonio {
 
@@ -21,6 +26,36 @@ struct ExtractOptions {
   bool white_reference = true;  // also extract the board's white region
   int threads = 0;
   void Check() const;
+};
+
+// Extraction one decoded frame at a time, so the caller decides how frames are read (the
+// pipeline decodes each frame once and hands it here; docs/pipeline.md). Usage: construct with
+// the session's frames, AddFrame for every frame with a pose (any order, one thread), then
+// Finish. Frames never added count as frames without a pose.
+class ObservationExtractor {
+ public:
+  ObservationExtractor(const std::vector<SessionFrame>& frames, const CameraModel& camera,
+                       const Board& board, const PhotometricCalibration& photometric,
+                       const ExtractOptions& options);
+  // raw: the frame as decoded from its file (cv::IMREAD_UNCHANGED); `what` names it in errors.
+  // InputError when its size differs from the camera model's.
+  void AddFrame(size_t frame_index, const cv::Mat& raw, const Rigid3d& cam_from_board,
+                const std::string& what);
+  // InputError naming `what` (the session) when no frame was added or no sample pixel is usable.
+  ObservationSet Finish(const std::string& what);
+
+ private:
+  const std::vector<SessionFrame>& frames_;
+  const CameraModel& camera_;
+  const Board& board_;
+  const PhotometricCalibration& photometric_;
+  ExtractOptions options_;
+  // Sample region first, then the white reference (second: true).
+  std::vector<std::pair<const std::vector<Eigen::Vector2d>*, bool>> regions_;
+  std::vector<std::vector<Eigen::Vector2d>> tags_;  // tag squares grown by one module
+  ObservationSet set_;
+  std::vector<bool> added_;
+  size_t saturated_ = 0, dark_ = 0, tag_ = 0;
 };
 
 // poses: frame file -> cam_from_board (poses.json via calib/vignette.h ReadPoses).

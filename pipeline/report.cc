@@ -1,4 +1,4 @@
-#include "apps/report.h"
+#include "pipeline/report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,7 @@
 #include "common/plot.h"
 #include "reflectance/registry.h"
 
-namespace gonio::cli {
+namespace gonio {
 namespace {
 
 std::string Escape(const std::string& s) {
@@ -196,7 +196,7 @@ void GeometrySketch(const JointFitResult& f, const ObservationSet& data, const B
 }  // namespace
 
 void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
-                 const std::filesystem::path& dir) {
+                 const std::vector<std::string>& notes, const std::filesystem::path& dir) {
   EnsureDirectory(dir);
   const JointFitResult& f = fit.final_fit;
   BrdfPlot(f, data, dir / "brdf_vs_theta_r.png");
@@ -221,6 +221,9 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
        "collapse}td,th{border:1px solid #ccc;padding:3px "
        "8px;text-align:right}</style></head><body>";
   h << "<h1>gonio: " << Escape(f.material.model) << "</h1>";
+  for (const auto& a : notes) {
+    h << "<p style='color:#b00;border:2px solid #b00;padding:6px'>" << Escape(a) << "</p>";
+  }
   h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
   h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th></tr>";
   for (size_t k = 0; k < f.material.params.size(); ++k) {
@@ -262,4 +265,4 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   WriteTextAtomically(dir / "index.html", h.str());
 }
 
-}  // namespace gonio::cli
+}  // namespace gonio

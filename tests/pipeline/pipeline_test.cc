@@ -1,57 +1,40 @@
-// End-to-end: data_synth sessions (noise on) through locate, extract and the joint fit.
+// End-to-end: data_synth sessions (noise on) through the pipeline library (pipeline/run.h), the
+// same Run() that `gonio run` and `gonio demo` call.
 // Tolerances are stated per test; each is justified by the noise of the render and the
 // measured figures recorded in docs/pipeline.md.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/locate.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
-#include "estimation/extract.h"
-#include "estimation/joint_fit.h"
 #include "estimation/synth_photometric.h"
+#include "pipeline/run.h"
+#include "tests/pipeline/pipeline_test_util.h"
 #include "tests/test_util.h"
 
 namespace gonio {
 namespace {
 
 struct SceneRun {
+  RunResult run;
   JointSelectionResult fit;
   nlohmann::json truth;
   Eigen::Vector3d light_true;
   Eigen::Vector3d sample_centre;
 };
 
-// Smaller images and fewer views than the default preset keep the suite fast; the camera
-// intrinsics are scaled with the image.
-synth::Scene SmallScene(const std::string& model, const std::map<std::string, double>& params) {
-  synth::Scene s = synth::PresetScene("default");
-  s.material.model = model;
-  s.material.params = params;
-  s.camera.width = 640;
-  s.camera.height = 480;
-  s.camera.intrinsics = {550, 550, 319.5, 239.5, -0.12, 0.05, 0.0005, -0.0003, -0.01, 0, 0, 0};
-  s.views.per_ring = 3;
-  return s;
-}
-
-// Locates the board in a rendered session and extracts its observations, with the
-// renderer's known photometric chain as the calibration.
-ObservationSet LocateAndExtract(const std::filesystem::path& dir, int patch) {
-  const nlohmann::json truth = ReadJsonFile(dir / "truth.json");
-  const CameraModel camera = CameraModel::Read(dir / "camera.cameramodel");
-  const Board board = Board::Read(dir / "board.json");
-  const SessionPoses poses = LocateSession(dir, camera, board, {});
-  std::map<std::string, Rigid3d> pose_map;
-  for (const auto& f : poses.frames) pose_map[f.file] = f.pose.cam_from_board;
-  ExtractOptions eo;
-  eo.patch = patch;
-  return ExtractObservations(dir, camera, board, pose_map,
-                             PhotometricFromSynthTruth(truth, camera.width, camera.height), eo);
+// The library chain on a rendered session folder.
+RunResult RunSession(const std::filesystem::path& dir, const JointFitOptions& fit, int patch) {
+  WriteTruePhotometric(dir);
+  const RunInputs in = LoadRunInputs(dir, "", "");
+  RunOptions o;
+  o.fit = fit;
+  o.extract.patch = patch;
+  return gonio::Run(in, o);
 }
 
 SceneRun RenderAndFit(const synth::Scene& scene, JointFitOptions options, int patch) {
@@ -63,9 +46,9 @@ SceneRun RenderAndFit(const synth::Scene& scene, JointFitOptions options, int pa
   r.light_true = Eigen::Vector3d(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
   const auto& sr = scene.board.sample_region;
   r.sample_centre = Eigen::Vector3d(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0.0);
-  const ObservationSet data = LocateAndExtract(dir.path(), patch);
   options.white_albedo = r.truth["white_albedo"].get<double>();
-  r.fit = FitAndSelect(data, options);
+  r.run = RunSession(dir.path(), options, patch);
+  r.fit = r.run.fit;
   return r;
 }
 
@@ -98,6 +81,10 @@ TEST(Pipeline, DefaultPresetRecoversMaterialAndLamp) {
   EXPECT_LT((f.light_position - r.light_true).norm(), 0.005 * distance);
   EXPECT_TRUE(f.material.undetermined.empty());
   EXPECT_TRUE(f.warnings.empty()) << r.fit.Report();
+  // Good data: the checks do not fire, and each of the 24 frames was decoded once.
+  EXPECT_TRUE(r.run.checks.Measured()) << r.run.Report();
+  EXPECT_TRUE(r.run.checks.inconsistent_frames.empty()) << r.run.Report();
+  EXPECT_EQ(r.run.frames_decoded, 24u);
 }
 
 // A glossy sample: tson (albedo 0.5, sigma 20 deg, ks 0.3, sigma_s 0.15 rad). The generating
@@ -169,12 +156,9 @@ TEST(Pipeline, SingleViewpointLeavesRoughnessUndetermined) {
   testing::TempDir dir;
   // No white reference either: nothing fixes the scale.
   synth::RenderBoardSession(scene, dir.path(), 0);
-  const auto data = LocateAndExtract(dir.path(), 4);
-  const JointSelectionResult fit = FitAndSelect(data, o);
-  const auto& f = fit.final_fit;
-  std::vector<std::string> all = f.material.undetermined;
-  all.insert(all.end(), f.undetermined_light.begin(), f.undetermined_light.end());
-  EXPECT_FALSE(all.empty()) << fit.Report();
+  const JointSelectionResult fit = RunSession(dir.path(), o, 4).fit;
+  const auto& und = fit.final_fit.material.undetermined;
+  EXPECT_NE(std::find(und.begin(), und.end(), "sigma"), und.end()) << fit.Report();
 }
 
 TEST(Pipeline, MovedLampIsNamedPerFrame) {
@@ -197,11 +181,10 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
                                dir.path() / fmt::format("frame_{:04d}.png", n - 2 + k),
                                std::filesystem::copy_options::overwrite_existing);
   }
-  const auto data = LocateAndExtract(dir.path(), 4);
   JointFitOptions o;
   o.candidates = {"oren-nayar"};
   o.white_albedo = 0.8;
-  const JointSelectionResult fit = FitAndSelect(data, o);
+  const JointSelectionResult fit = RunSession(dir.path(), o, 4).fit;
   std::string warnings;
   for (const auto& w : fit.final_fit.warnings) warnings += w + "\n";
   EXPECT_NE(warnings.find(fmt::format("frame_{:04d}.png", n - 1)), std::string::npos)
@@ -209,6 +192,122 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
   EXPECT_NE(warnings.find(fmt::format("frame_{:04d}.png", n - 2)), std::string::npos)
       << fit.Report();
   EXPECT_EQ(warnings.find("frame_0000.png"), std::string::npos) << warnings;
+}
+
+// Half the frames from another scene (the lamp moved halfway through): the common fit lands
+// between the two halves, so both disagree with it; no single material may be reported.
+TEST(Pipeline, HalfTheFramesFromAnotherSceneIsRefused) {
+  synth::Scene a = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
+  testing::TempDir dir, moved;
+  synth::RenderBoardSession(a, dir.path(), 0);
+  synth::Scene b = a;
+  b.light.position += Eigen::Vector3d(0.12, 0.0, 0.05);
+  synth::RenderBoardSession(b, moved.path(), 0);
+  const size_t n = a.CamFromBoardPoses().size();
+  for (size_t k = n / 2; k < n; ++k) {
+    const std::string f = fmt::format("frame_{:04d}.png", k);
+    std::filesystem::copy_file(moved.path() / f, dir.path() / f,
+                               std::filesystem::copy_options::overwrite_existing);
+  }
+  JointFitOptions o;
+  o.candidates = {"oren-nayar"};
+  o.white_albedo = 0.8;
+  try {
+    const RunResult r = RunSession(dir.path(), o, 4);
+    ADD_FAILURE() << "no refusal:\n" << r.Report();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("do not hold one scene"), std::string::npos) << e.what();
+  }
+}
+
+// A glossy sample fitted with a purely diffuse candidate set: the residuals are far above the
+// noise model, so the result must say that no candidate explains the data and not present the
+// parameters as measured.
+TEST(Pipeline, MaterialOutsideTheCandidatesIsNotAMeasurement) {
+  synth::Scene scene = SmallScene(
+      "tson", {{"albedo", 0.5}, {"sigma", DegToRad(20)}, {"ks", 0.3}, {"sigma_s", 0.15}});
+  scene.views.per_ring = 2;
+  testing::TempDir dir;
+  synth::RenderBoardSession(scene, dir.path(), 0);
+  JointFitOptions o;
+  o.candidates = {"lambert", "oren-nayar"};
+  o.white_albedo = 0.8;
+  const RunResult r = RunSession(dir.path(), o, 4);
+  EXPECT_FALSE(r.checks.explains_data) << r.Report();
+  EXPECT_FALSE(r.checks.Measured());
+  EXPECT_GT(r.checks.rms_sigma, 3.0);
+  EXPECT_NE(r.Report().find("no candidate explains these data"), std::string::npos);
+  EXPECT_FALSE(r.ToJson()["checks"]["measured"].get<bool>());
+}
+
+// One pass over the data: every frame is decoded once and its board detected once, whether the
+// camera model is given or calibrated from the same detections; a cache budget of 0 decodes
+// the located frames a second time for extraction (so the counter does count).
+TEST(Pipeline, EachFrameIsDecodedAndDetectedOnce) {
+  const synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  testing::TempDir dir;
+  synth::RenderBoardSession(scene, dir.path(), 0);
+  WriteTruePhotometric(dir.path());
+  JointFitOptions fit;
+  fit.candidates = {"lambert"};
+  fit.white_albedo = 0.8;
+  RunInputs in = LoadRunInputs(dir.path(), "", "");
+  const size_t n = in.session.frames.size();
+  RunOptions o;
+  o.fit = fit;
+  const RunResult given = gonio::Run(in, o);
+  EXPECT_EQ(given.frames_decoded, n);
+  EXPECT_EQ(given.boards_detected, n);
+  EXPECT_FALSE(given.calibration.has_value());
+
+  o.frame_cache_mb = 0;
+  const RunResult uncached = gonio::Run(in, o);
+  EXPECT_EQ(uncached.frames_decoded, n + uncached.poses.frames.size());
+  EXPECT_EQ(uncached.observations.observations.size(), given.observations.observations.size());
+
+  std::filesystem::remove(dir.path() / "camera.cameramodel");
+  in = LoadRunInputs(dir.path(), "", "");
+  ASSERT_FALSE(in.camera.has_value());
+  o.frame_cache_mb = 2048;
+  const RunResult calibrated = gonio::Run(in, o);
+  EXPECT_TRUE(calibrated.calibration.has_value());
+  EXPECT_EQ(calibrated.frames_decoded, n);
+  EXPECT_EQ(calibrated.boards_detected, n);
+}
+
+// Outputs as a whole: a second run replaces the first run's folder; the session folder, or a
+// folder that holds something else, is refused before any work; nothing temporary is left.
+TEST(Pipeline, OutputFolderIsCheckedAndReplacedAsAWhole) {
+  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  scene.views.per_ring = 1;
+  testing::TempDir dir;
+  const auto session = dir.path() / "session", out = dir.path() / "out";
+  synth::RenderBoardSession(scene, session, 0);
+  WriteTruePhotometric(session);
+  const RunInputs in = LoadRunInputs(session, "", "");
+  EXPECT_THROW(CheckRunOutput(session, in), InputError);
+  EXPECT_THROW(CheckRunOutput(session / "out", in), InputError);
+  EXPECT_THROW(CheckRunOutput(dir.path(), in), InputError);  // holds the session
+  std::filesystem::create_directories(dir.path() / "other");
+  WriteTextAtomically(dir.path() / "other" / "notes.txt", "mine\n");
+  EXPECT_THROW(CheckRunOutput(dir.path() / "other", in), InputError);
+
+  RunOptions o;
+  o.fit.candidates = {"lambert"};
+  o.fit.white_albedo = 0.8;
+  const RunResult r = gonio::Run(in, o);
+  CheckRunOutput(out, in);
+  WriteRunOutputs(r, in, out);
+  WriteTextAtomically(out / "stale.txt", "from an older run\n");
+  CheckRunOutput(out, in);  // a previous run: allowed, replaced
+  WriteRunOutputs(r, in, out);
+  EXPECT_FALSE(std::filesystem::exists(out / "stale.txt"));
+  for (const char* f : {"fit.json", "poses.json", "observations.csv", "report/index.html"}) {
+    EXPECT_TRUE(std::filesystem::exists(out / f)) << f;
+  }
+  for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(e.path().filename().string().rfind(".gonio-", 0), std::string::npos) << e.path();
+  }
 }
 
 // Bad sessions through the CLI: a clear one-line error, exit 2, no fit.json.

@@ -1,0 +1,207 @@
+#include "pipeline/checks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "common/error.h"
+#include "reflectance/registry.h"
+
+namespace gonio {
+
+void CheckBitDepths(int session_bit_depth, const ResponseResult& response,
+                    const std::string& session_what, const std::string& photometric_what) {
+  if (session_bit_depth > 0 && session_bit_depth != response.bit_depth) {
+    throw InputError(fmt::format(
+        "{}: calibrated for {}-bit values, but {} says the frames are {}-bit; calibrate this "
+        "camera mode or correct session.json's bit_depth",
+        photometric_what, response.bit_depth, session_what, session_bit_depth));
+  }
+}
+
+void CheckFrameValues(const cv::Mat& raw, const std::string& what, int session_bit_depth,
+                      const ResponseResult& response) {
+  const int stated = session_bit_depth > 0 ? session_bit_depth : response.bit_depth;
+  int container = 0;
+  if (raw.depth() == CV_8U) container = 8;
+  if (raw.depth() == CV_16U) container = 16;
+  if (container == 0) {
+    throw InputError(what + ": pixel type is neither 8- nor 16-bit unsigned integer");
+  }
+  if (raw.channels() != response.channels) {
+    throw InputError(fmt::format("{}: {} channel(s), the photometric calibration has {}", what,
+                                 raw.channels(), response.channels));
+  }
+  if (container < stated) {
+    throw InputError(
+        fmt::format("{}: an {}-bit image in a {}-bit session (another camera mode "
+                    "or a converted copy?)",
+                    what, container, stated));
+  }
+  double max_value = 0;
+  cv::minMaxLoc(raw.reshape(1), nullptr, &max_value);
+  const double limit = std::ldexp(1.0, stated) - 1;
+  if (max_value > limit) {
+    throw InputError(fmt::format(
+        "{}: values up to {} exceed the {}-bit range (0..{}) of the session; {}-bit data "
+        "aligned to the top of a {}-bit file? (see docs/formats.md, bit_depth)",
+        what, max_value, stated, limit, stated, container));
+  }
+}
+
+void FitChecksOptions::Check() const {
+  if (!(frame_floor_multiple > 0)) throw InputError("frame_floor_multiple must be > 0");
+  if (!(max_inconsistent_fraction > 0 && max_inconsistent_fraction <= 1)) {
+    throw InputError("max_inconsistent_fraction must be in (0, 1]");
+  }
+  if (!(max_rms_sigma > 0)) throw InputError("max_rms_sigma must be > 0");
+  if (!(bound_fraction >= 0 && bound_fraction < 0.5)) {
+    throw InputError("bound_fraction must be in [0, 0.5)");
+  }
+}
+
+namespace {
+
+std::vector<std::string> ParametersAtBounds(const BrdfFitResult& m, double fraction) {
+  std::vector<std::string> out;
+  const ModelInfo& info = FindModel(m.model);
+  for (size_t k = 0; k < m.params.size() && k < info.params.size(); ++k) {
+    const ParamInfo& p = info.params[k];
+    const double tol = fraction * (p.max - p.min);
+    if (m.params[k] <= p.min + tol) {
+      out.push_back(fmt::format("{} (lower bound {:g} {})", p.name, p.min, p.unit));
+    } else if (m.params[k] >= p.max - tol) {
+      out.push_back(fmt::format("{} (upper bound {:g} {})", p.name, p.max, p.unit));
+    }
+  }
+  return out;
+}
+
+double RmsSigma(const JointFitResult& f) {
+  double sum_sq = 0;
+  size_t n = 0;
+  for (const auto& fr : f.frames) {
+    sum_sq += fr.rms_sigma * fr.rms_sigma * fr.n;
+    n += fr.n;
+  }
+  return n ? std::sqrt(sum_sq / n) : 0;
+}
+
+// The selected model fitted to the frames with mean relative residual below (part 0) or above
+// (part 1) `threshold`; true when both parts are explained on their own.
+bool BothPartsExplained(const JointSelectionResult& fit, const ObservationSet& data,
+                        const JointFitOptions& fit_options, double threshold,
+                        double max_rms_sigma) {
+  std::set<int> upper;
+  for (const auto& fr : fit.final_fit.frames) {
+    if (fr.mean_relative > threshold) upper.insert(fr.frame);
+  }
+  JointFitOptions o = fit_options;
+  o.candidates = {fit.final_fit.material.model};
+  o.light_init = std::nullopt;
+  for (int part = 0; part < 2; ++part) {
+    ObservationSet subset = data;
+    subset.observations.clear();
+    for (const auto& obs : data.observations) {
+      if ((upper.count(obs.frame) > 0) == (part == 1)) subset.observations.push_back(obs);
+    }
+    try {
+      const JointSelectionResult r = FitAndSelect(subset, o);
+      const double rms = RmsSigma(r.final_fit);
+      spdlog::info("split test: part {} ({} observations): rms residual {:.2f} sigma", part,
+                   subset.observations.size(), rms);
+      if (rms > max_rms_sigma) return false;
+    } catch (const std::exception& e) {
+      spdlog::info("split test: part {} could not be fitted: {}", part, e.what());
+      return false;
+    }
+  }
+  return true;
+}
+
+// The largest gap between sorted per-frame mean relative residuals splits the frames in two.
+double SplitThreshold(const JointFitResult& f) {
+  std::vector<double> m;
+  for (const auto& fr : f.frames) m.push_back(fr.mean_relative);
+  std::sort(m.begin(), m.end());
+  double best_gap = -1, threshold = 0;
+  for (size_t k = 1; k < m.size(); ++k) {
+    if (m[k] - m[k - 1] > best_gap) {
+      best_gap = m[k] - m[k - 1];
+      threshold = 0.5 * (m[k] + m[k - 1]);
+    }
+  }
+  return threshold;
+}
+
+}  // namespace
+
+FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
+                   const JointFitOptions& fit_options, const std::string& session_what,
+                   const FitChecksOptions& o) {
+  o.Check();
+  FitChecks c;
+  const JointFitResult& f = fit.final_fit;
+  const double limit = o.frame_floor_multiple * fit_options.relative_noise_floor;
+  std::string listed;
+  for (const auto& fr : f.frames) {
+    if (std::abs(fr.mean_relative) > limit) {
+      c.inconsistent_frames.push_back(
+          fmt::format("{} ({:+.1f}%)", fr.file, 100 * fr.mean_relative));
+      listed += (listed.empty() ? "" : ", ") + c.inconsistent_frames.back();
+    }
+  }
+  c.rms_sigma = RmsSigma(f);
+  c.explains_data = c.rms_sigma <= o.max_rms_sigma;
+  c.at_bounds = ParametersAtBounds(f.material, o.bound_fraction);
+  if (f.frames.size() >= 4 &&
+      c.inconsistent_frames.size() > o.max_inconsistent_fraction * f.frames.size() &&
+      !c.explains_data &&
+      BothPartsExplained(fit, data, fit_options, SplitThreshold(f), o.max_rms_sigma)) {
+    throw InputError(fmt::format(
+        "{}: the frames do not hold one scene: {} of {} frames differ from the best common fit "
+        "by more than {:.0f}% ({}), and the two groups are each explained on their own; a moved "
+        "lamp or sample, or frames of another session? Split the session or remove those frames",
+        session_what, c.inconsistent_frames.size(), f.frames.size(), 100 * limit, listed));
+  }
+  return c;
+}
+
+std::vector<std::string> FitChecks::Messages() const {
+  std::vector<std::string> m;
+  if (!explains_data) {
+    m.push_back(fmt::format(
+        "no candidate explains these data: the selected model's residuals are {:.1f} times "
+        "what pixel noise and the calibration floor explain; the parameters are the best of "
+        "the candidates, not a measurement (a material outside the candidate set, or a "
+        "calibration error?)",
+        rms_sigma));
+  }
+  for (const auto& b : at_bounds) {
+    m.push_back("parameter " + b +
+                " sits on its bound: the data ask for a value the model cannot give; it is a "
+                "limit, not a measurement");
+  }
+  if (!inconsistent_frames.empty()) {
+    std::string list;
+    for (const auto& s : inconsistent_frames) list += (list.empty() ? "" : ", ") + s;
+    m.push_back(
+        "frames that disagree with the fitted scene (moved lamp or sample, wrong "
+        "exposure?): " +
+        list);
+  }
+  return m;
+}
+
+nlohmann::json FitChecks::ToJson() const {
+  return {{"rms_residual_over_sigma", rms_sigma},
+          {"explains_data", explains_data},
+          {"parameters_at_bounds", at_bounds},
+          {"inconsistent_frames", inconsistent_frames},
+          {"measured", Measured()}};
+}
+
+}  // namespace gonio

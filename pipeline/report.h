@@ -1,0 +1,19 @@
+// The report a person reads: OUT/report/index.html with PNG plots.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "calib/board.h"
+#include "estimation/joint_fit.h"
+#include "estimation/observations.h"
+
+namespace gonio {
+
+// `notes` (what the run had to assume, e.g. a linear camera, and why the parameters may not be
+// a measurement) head the page in red.
+void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
+                 const std::vector<std::string>& notes, const std::filesystem::path& dir);
+
+}  // namespace gonio

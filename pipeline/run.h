@@ -1,0 +1,109 @@
+// The whole chain behind `gonio run` and `gonio demo`, as a library (docs/pipeline.md):
+//
+//   LoadRunInputs   session.json, board, camera model, photometric calibration: read once
+//   Run             detect (each frame decoded once) -> camera (given or calibrated from the
+//                   same detections) -> board poses -> observations -> joint fit + selection
+//   WriteRunOutputs poses.json, observations.csv, fit.json, camera.cameramodel, report/ into a
+//                   temporary folder renamed as a whole, so a failed run leaves nothing
+//
+// The CLI (apps/) only parses options into RunOptions, calls these three and prints; the tests
+// call the same functions.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/board.h"
+#include "calib/calibrate.h"
+#include "calib/locate.h"
+#include "calib/photometric.h"
+#include "common/camera_model.h"
+#include "common/session.h"
+#include "estimation/extract.h"
+#include "estimation/joint_fit.h"
+#include "estimation/observations.h"
+#include "pipeline/checks.h"
+
+namespace gonio {
+
+// Everything the chain starts from, read and checked before any work starts.
+struct RunInputs {
+  Session session;
+  Board board;
+  std::optional<CameraModel> camera;  // none: calibrated from the session's own frames
+  PhotometricCalibration photometric;
+  // Where each came from ("--camera FILE", "SESSION/camera.cameramodel", ...), for the report.
+  std::string camera_source, photometric_source;
+  // What the chain had to assume (e.g. a linear camera when no photometric calibration was
+  // found): written into fit.json and at the top of the report.
+  std::vector<std::string> assumptions;
+};
+
+// `path`, else SESSION/photometric.json. With neither: InputError saying how to make one, unless
+// assume_linear, when a linear camera at the session's bit depth is used and that assumption is
+// appended to `in->assumptions` (radiometry is never assumed silently). The calibration's bit
+// depth must match the session's.
+PhotometricCalibration LoadPhotometricFor(const Session& session, const std::string& path,
+                                          bool assume_linear, RunInputs* in);
+
+// camera_path / photometric_path empty: SESSION/camera.cameramodel (else calibrate) and
+// SESSION/photometric.json (else see LoadPhotometricFor). InputError naming the file on
+// anything unreadable or inconsistent.
+RunInputs LoadRunInputs(const std::filesystem::path& session_dir, const std::string& camera_path,
+                        const std::string& photometric_path, bool assume_linear = false);
+
+struct RunOptions {
+  PoseOptions pose;
+  CalibrationOptions calibration;
+  ExtractOptions extract;
+  JointFitOptions fit;
+  // Decoded frames kept between detection and extraction, so each is decoded once. A session
+  // larger than this decodes the frames that did not fit again (counted in RunResult).
+  size_t frame_cache_mb = 2048;
+  FitChecksOptions checks;
+  RunOptions() { extract.patch = 4; }
+  void Check() const;  // InputError naming the option
+};
+
+struct RunTimings {
+  double detect_s = 0, calibrate_s = 0, locate_s = 0, extract_s = 0, fit_s = 0, report_s = 0;
+  nlohmann::json ToJson() const;
+};
+
+struct RunResult {
+  CameraModel camera;
+  std::optional<CalibrationResult> calibration;  // when calibrated from the session
+  SessionPoses poses;
+  ObservationSet observations;
+  JointSelectionResult fit;
+  FitChecks checks;                      // goodness of fit, bounds, per-frame consistency
+  std::vector<std::string> assumptions;  // from RunInputs
+  std::vector<std::string> warnings;     // frames skipped, fit warnings
+  RunTimings timings;
+  size_t frames_decoded = 0;   // image decodes over the whole run
+  size_t boards_detected = 0;  // board detections over the whole run
+
+  std::string Report() const;     // the fit's report plus warnings and timings
+  nlohmann::json ToJson() const;  // fit.json (docs/formats.md)
+};
+
+// The chain on loaded inputs. InputError when a frame's values do not match the session's bit
+// depth, the board is found in no frame, no sample pixel is usable, or the frames do not hold
+// one scene (pipeline/checks.h); NumericalError when no candidate model can be fitted.
+RunResult Run(const RunInputs& inputs, const RunOptions& options);
+
+// InputError (exit 2) before any work starts when `out` cannot be a run's output folder: it is
+// an input (the session folder or inside it), an existing file, or a non-empty folder that
+// does not hold a previous run's fit.json (which a new run replaces as a whole).
+void CheckRunOutput(const std::filesystem::path& out, const RunInputs& inputs);
+
+// Writes every output into a temporary sibling of `out` and renames it to `out` (replacing a
+// previous run's folder), so `out` is either the old run or the new one, never a mix.
+void WriteRunOutputs(const RunResult& result, const RunInputs& inputs,
+                     const std::filesystem::path& out);
+
+}  // namespace gonio
