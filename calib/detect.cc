@@ -1,6 +1,7 @@
 #include "calib/detect.h"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -23,6 +24,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "common/stats.h"
 
 namespace gonio {
 namespace {
@@ -63,16 +65,16 @@ void AprilTagOptions::Check() const {
   if (max_hamming < 0 || max_hamming > 2) throw InputError("--max-hamming must be 0, 1 or 2");
 }
 
-cv::Mat ReadGreyImage(const std::filesystem::path& path) {
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth) {
   if (!std::filesystem::is_regular_file(path)) {
     throw InputError(path.string() + ": no such image file");
   }
   const cv::Mat img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
   if (img.empty()) throw InputError(path.string() + ": not a readable image");
-  return GreyForDetection(img);
+  return GreyForDetection(img, bit_depth);
 }
 
-cv::Mat GreyForDetection(const cv::Mat& decoded) {
+cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth) {
   cv::Mat grey;
   if (decoded.channels() == 3) {
     cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
@@ -81,8 +83,18 @@ cv::Mat GreyForDetection(const cv::Mat& decoded) {
   } else {
     grey = decoded;
   }
-  if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U, 1.0 / 256.0);
-  return grey;
+  if (grey.depth() == CV_8U) return grey;
+  const double full = std::ldexp(1.0, bit_depth > 0 && bit_depth <= 16 ? bit_depth : 16) - 1;
+  // The bright level from a sparse grid of pixels (every 4th row and column) is enough.
+  std::vector<double> values;
+  for (int y = 0; y < grey.rows; y += 4) {
+    const uint16_t* row = grey.ptr<uint16_t>(y);
+    for (int x = 0; x < grey.cols; x += 4) values.push_back(row[x]);
+  }
+  const double bright = std::clamp(Percentile(values, 0.995), full / 64.0, full);
+  cv::Mat out;
+  grey.convertTo(out, CV_8U, 255.0 / bright);
+  return out;
 }
 
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options) {

@@ -41,11 +41,15 @@ struct TagDetection {
 
 // Reads an image as 8-bit grey (GreyForDetection of the decoded file); InputError naming the
 // file when it cannot be read.
-cv::Mat ReadGreyImage(const std::filesystem::path& path);
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0);
 
 // The 8-bit grey image the detectors take, from a frame as decoded (cv::IMREAD_UNCHANGED:
-// grey or BGR(A), 8 or 16 bit). 16-bit values are divided by 256.
-cv::Mat GreyForDetection(const cv::Mat& decoded);
+// grey or BGR(A), 8 or 16 bit). 16-bit frames are scaled by their own bright level (the
+// 99.5th percentile of the values), not by 1/256: a 12-bit camera's frames in 16-bit files, or
+// a short exposure of a sweep, would otherwise reach libapriltag with a few grey levels. The
+// gain is at most 64 over the stated range (bit_depth, 0: 16), so a black frame stays black.
+// Only geometry is read from this image; radiometry always uses the decoded values.
+cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth = 0);
 
 // Every tag of options.family in an 8-bit grey image, sorted by id.
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options);

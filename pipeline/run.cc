@@ -85,8 +85,8 @@ std::vector<BoardObservation> DetectBoards(const RunInputs& in, const RunOptions
                                    in.session.FramePath(i).string(), raw.cols, raw.rows,
                                    in.camera->width, in.camera->height));
     }
-    detections.push_back(
-        DetectBoard(GreyForDetection(raw), in.board, o.pose.detector, in.session.frames[i].file));
+    detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth), in.board,
+                                     o.pose.detector, in.session.frames[i].file));
     detections.back().width = raw.cols;
     detections.back().height = raw.rows;
     cache->Keep(i, raw);

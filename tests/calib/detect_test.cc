@@ -135,3 +135,36 @@ TEST(CornersVnl, RoundTripThroughMrcalLattice) {
 
 }  // namespace
 }  // namespace gonio
+
+namespace gonio {
+namespace {
+
+// A 12-bit camera's frame in a 16-bit file, exposed to 1/8 of its range (a short exposure of a
+// sweep): the real tag photo's values mapped to 0..511. Divided by 256 it would reach
+// libapriltag with two grey levels and no tag; scaled by its own bright level every id is found.
+TEST(GreyForDetection, DarkTwelveBitFrameKeepsEveryTag) {
+  const cv::Mat eight = ReadGreyImage(testing::SharedData() / "apriltag/test_36h11.jpg");
+  cv::Mat twelve;
+  eight.convertTo(twelve, CV_16U, 511.0 / 255.0);
+  AprilTagOptions opt;
+  opt.decimate = 4.0;
+  opt.threads = 2;
+  const auto reference = DetectAprilTags(eight, opt);
+  ASSERT_EQ(reference.size(), 80u);
+  const cv::Mat grey = GreyForDetection(twelve, 12);
+  double max_value = 0;
+  cv::minMaxLoc(grey, nullptr, &max_value);
+  EXPECT_GE(max_value, 250);
+  EXPECT_EQ(DetectAprilTags(grey, opt).size(), reference.size());
+  // The old mapping (value / 256) for comparison: the tags are lost.
+  cv::Mat divided;
+  twelve.convertTo(divided, CV_8U, 1.0 / 256.0);
+  EXPECT_LT(DetectAprilTags(divided, opt).size(), 10u);
+  // A black frame stays black (the gain is bounded), not stretched noise.
+  const cv::Mat black(100, 100, CV_16U, cv::Scalar(3));
+  cv::minMaxLoc(GreyForDetection(black, 12), nullptr, &max_value);
+  EXPECT_LE(max_value, 12);
+}
+
+}  // namespace
+}  // namespace gonio
