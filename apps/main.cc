@@ -5,6 +5,7 @@
 #include <csignal>
 #include <iostream>
 
+#include <glog/logging.h>
 #include <CLI/CLI.hpp>
 
 #include "apps/commands.h"
@@ -40,7 +41,12 @@ int main(int argc, char** argv) {
   int verbosity = 1;
   app.add_option("-v,--verbosity", verbosity, "0 = warnings, 1 = info, 2 = debug")
       ->check(CLI::Range(0, 2));
-  app.parse_complete_callback([&] { gonio::InitLogging(verbosity); });
+  app.parse_complete_callback([&] {
+    gonio::InitLogging(verbosity);
+    // Ceres reports through glog; its dumps (e.g. a residual block that failed to evaluate,
+    // with every parameter) are for the debug log, not the user's one-line error.
+    FLAGS_minloglevel = verbosity >= 2 ? google::GLOG_INFO : google::GLOG_FATAL;
+  });
 
   gonio::cli::AddBrdfCommand(app);
   gonio::cli::AddPipelineCommands(app);

@@ -85,6 +85,22 @@ PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path&
     if (p.vignette.empty() || p.vignette.type() != CV_32F) {
       throw InputError(file.string() + ": not a 32-bit float single-channel TIFF");
     }
+    // V(x) divides the radiance: zeros, negatives, NaN or Inf would give Inf/NaN radiance.
+    double lo = 0, hi = 0;
+    if (!cv::checkRange(p.vignette)) {
+      throw InputError(file.string() + ": the vignetting map holds NaN or Inf");
+    }
+    cv::minMaxLoc(p.vignette, &lo, &hi);
+    if (!(lo > 0)) {
+      throw InputError(file.string() + ": the vignetting map holds values <= 0 (min " +
+                       std::to_string(lo) + "); V(x) must be positive everywhere");
+    }
+  }
+  if (!(p.read_noise_dn >= 0) || !std::isfinite(p.read_noise_dn)) {
+    throw InputError(path.string() + ": read_noise_dn must be a finite number >= 0");
+  }
+  if (p.electrons_per_dn && !(*p.electrons_per_dn > 0 && std::isfinite(*p.electrons_per_dn))) {
+    throw InputError(path.string() + ": electrons_per_dn must be a finite number > 0");
   }
   return p;
 }

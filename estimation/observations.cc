@@ -1,5 +1,6 @@
 #include "estimation/observations.h"
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -23,6 +24,16 @@ void WriteObservations(const std::filesystem::path& path, const ObservationSet& 
   for (int c = 0; c < set.channels; ++c) out += fmt::format(",var{}", c);
   out += "\n";
   for (const auto& o : set.observations) {
+    // No NaN or Inf reaches a file: extraction refuses them, so one here is a defect.
+    bool finite = o.p_in_board.allFinite() && o.camera_in_board.allFinite();
+    for (double v : o.radiance) finite = finite && std::isfinite(v);
+    for (double v : o.variance) finite = finite && std::isfinite(v);
+    if (!finite) {
+      throw NumericalError(
+          fmt::format("{}: observation of frame {} at ({:.1f}, {:.1f}) is not "
+                      "finite; nothing written",
+                      path.string(), o.frame, o.px, o.py));
+    }
     out += fmt::format(
         "{},{:.2f},{:.2f},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.9g},{:.9g},{:.9g},{},{}",
         o.frame, o.px, o.py, o.p_in_board.x(), o.p_in_board.y(), o.p_in_board.z(),

@@ -2,10 +2,13 @@
 // answer or a damaged input, run through the CLI as a user would. Each case asserts the exit
 // code, one message line naming the file or option, no output left behind, and the input
 // unchanged.
+#include <cmath>
+
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calib/photometric.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
@@ -113,6 +116,29 @@ TEST_F(BadInputCli, EightBitFrameInTwelveBitSessionIsRefused) {
   cv::Mat shifted = raw * 16;
   ASSERT_TRUE(cv::imwrite(frame.string(), shifted));
   ExpectOneLineError(testing::RunGonio(Run(s, out)), "frame_0001.png", "exceed the 12-bit range");
+}
+
+// 4. A vignetting map with zeros or NaN: refused on read, naming the map, by every command that
+// applies it; no Inf/NaN radiance, no observations.csv.
+TEST_F(BadInputCli, BadVignettingMapIsRefusedOnRead) {
+  testing::TempDir work;
+  const fs::path s = CopySession(work.path() / "s");
+  PhotometricCalibration p = PhotometricCalibration::Read(s / "photometric.json");
+  ASSERT_FALSE(p.vignette.empty());
+  const fs::path out = work.path() / "out";
+  for (const float bad : {0.0f, std::nanf("")}) {
+    p.vignette.at<float>(p.vignette.rows / 2, p.vignette.cols / 2) = bad;
+    p.Write(s / "photometric.json");
+    ExpectOneLineError(testing::RunGonio(Run(s, out)), "vignette", "vignetting map");
+    ExpectNothingLeft(out);
+    ExpectOneLineError(testing::RunGonio(fmt::format(
+                           "photometric apply --image {} --photometric {} --exposure "
+                           "0.01 --out {}",
+                           (s / "frame_0000.png").string(), (s / "photometric.json").string(),
+                           (work.path() / "radiance.tiff").string())),
+                       "vignette", "vignetting map");
+    EXPECT_FALSE(fs::exists(work.path() / "radiance.tiff"));
+  }
 }
 
 // Bad option values: each refused with the option named.
