@@ -357,6 +357,13 @@ BoardLayout PlanBoard(const BoardPrintOptions& o) {
                                  o.id_offset, last_id, PrintFamilyName(o.family), geo.ncodes - 1));
   }
   PlaceRegions(o, quiet, &l);
+  // The board must serve `gonio calibrate` too: mrcal needs a common lattice of tag_size and
+  // pitch (Board::ToMrcalGrid), which an arbitrary --pitch may lack.
+  try {
+    Board::FromJson(l.BoardJson(), "board.json").ToMrcalGrid();
+  } catch (const InputError& e) {
+    throw InputError(std::string("--pitch/--tag-size: ") + e.what());
+  }
   const double grid_w = (l.columns - 1) * l.pitch + l.tag_size;
   const double grid_h = (l.rows - 1) * l.pitch + l.tag_size;
   l.origin_on_page = {o.margin_mm + 0.5 * (avail_w - grid_w),

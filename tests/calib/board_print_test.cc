@@ -263,6 +263,7 @@ TEST(BoardPrintCli, BadInputExitsTwoWithOneLineAndWritesNothing) {
       {"--paper a4 --family tag99h1", "--family"},
       {"--paper a4 --tag-size 30 --columns 9", "--columns"},
       {"--paper a4 --tag-size 30 --pitch 31", "--pitch"},
+      {"--paper a4 --tag-size 30 --pitch 37.51", "--pitch"},  // no lattice mrcal can use
       {"--paper a4 --id-offset 580", "--id-offset"},
       {"--paper b5", "--paper"},
       {"--paper a4 --tag-size -3", "--tag-size"},
