@@ -1,6 +1,7 @@
 // gonio capture: list cameras, take exposure brackets from a V4L2 or libcamera camera, or
 // import photos or a video, into a session folder (docs/formats.md, docs/capture.md).
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -12,9 +13,11 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
+#include "calib/photometric.h"
 #include "capture/bracket.h"
 #include "capture/file_sources.h"
 #include "capture/libcamera_source.h"
+#include "capture/raw_file.h"
 #include "capture/session_writer.h"
 #include "capture/v4l2_source.h"
 #include "common/error.h"
@@ -148,6 +151,39 @@ void RunFromCamera(const CaptureArgs& args) {
   Summarize(writer);
 }
 
+// What a photo says about its exposure: LibRaw's metadata for RAW files, EXIF otherwise.
+ExifExposure PhotoExposure(const fs::path& image) {
+  if (!IsRawFile(image)) return ReadExif(image);
+  const RawMetadata raw = ReadRawMetadata(image);
+  ExifExposure e;
+  e.exposure_s = raw.exposure_s;
+  e.iso = raw.iso;
+  e.time_s = raw.time_s;
+  e.model = raw.make.empty() ? raw.model : raw.make + " " + raw.model;
+  return e;
+}
+
+// RAW frames are linear and use the whole 16-bit range, so they need no response curve; a
+// folder mixing them with JPEGs (tone-mapped) would need one for some frames and not others.
+bool AllRaw(const std::vector<fs::path>& files, const fs::path& dir) {
+  const auto raws = std::count_if(files.begin(), files.end(), IsRawFile);
+  if (raws != 0 && raws != static_cast<long>(files.size())) {
+    throw InputError(dir.string() +
+                     ": mixes RAW files with other photos; import them as separate sessions");
+  }
+  return raws > 0;
+}
+
+// The photometric calibration of a RAW session: linear, black level 0 (already subtracted),
+// saturated at 65535. Read noise: one raw DN plus the raw quantization, in the 16-bit units
+// the frames were scaled to (the sensor's true read noise is not in the file).
+void WriteRawPhotometric(const fs::path& first_raw, const fs::path& session_dir) {
+  const RawMetadata m = ReadRawMetadata(first_raw);
+  PhotometricCalibration p = PhotometricCalibration::Linear(16, 3, 0.0);
+  p.read_noise_dn = 65535.0 / (m.white_level - m.black_level) * std::sqrt(1.0 + 1.0 / 12.0);
+  p.Write(session_dir / "photometric.json");
+}
+
 void RunFromFolder(const CaptureArgs& args) {
   if (args.exposures_from.empty()) {
     throw InputError("--from-folder needs --exposures-from EXIF or --exposures-from LIST.txt");
@@ -159,10 +195,12 @@ void RunFromFolder(const CaptureArgs& args) {
   std::string model;
   if (args.exposures_from == "EXIF" || args.exposures_from == "exif") {
     const auto images = ListImages(dir);
-    if (images.empty()) throw InputError(dir.string() + ": holds no .jpg, .png or .tif images");
+    if (images.empty()) {
+      throw InputError(dir.string() + ": holds no .jpg, .png, .tif or RAW (.dng .cr2 .nef .arw)");
+    }
     std::vector<ExifExposure> exif;
     for (const auto& image : images) {
-      exif.push_back(ReadExif(image));
+      exif.push_back(PhotoExposure(image));
       if (!exif.back().exposure_s) {
         throw InputError(image.string() +
                          ": has no EXIF ExposureTime (give --exposures-from LIST.txt)");
@@ -186,11 +224,16 @@ void RunFromFolder(const CaptureArgs& args) {
     for (const auto& e : ReadExposureList(list, dir))
       frames.push_back({e.file, e.exposure_s, 1.0, 0.0});
   }
-  const std::string id =
-      "folder:" + (model.empty() ? fs::absolute(dir).filename().string() : model);
+  std::vector<fs::path> files;
+  for (const auto& f : frames) files.push_back(f.file);
+  const bool raw = AllRaw(files, dir);
+  const std::string id = std::string(raw ? "raw:" : "folder:") +
+                         (model.empty() ? fs::absolute(dir).filename().string() : model);
   FolderSource source(id, gain_unit, frames);
   SessionWriter writer(args.out, source.Id(), source.GainUnit(), args.board);
+  if (raw) writer.SetBitDepth(16);
   CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size, frames.size());
+  if (raw) WriteRawPhotometric(files.front(), args.out);
   Summarize(writer);
 }
 

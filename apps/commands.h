@@ -14,6 +14,7 @@ void AddBrdfTextonCommand(CLI::App& brdf);
 void AddCaptureCommand(CLI::App& app);
 void AddMicrosimCommand(CLI::App& app);
 void AddCalibCommands(CLI::App& app);  // detect, calibrate, locate
+void AddBoardCommand(CLI::App& app);   // printable AprilTag board
 void AddSynthCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);  // speed vs accuracy, stability sweeps
 

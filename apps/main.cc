@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddCaptureCommand(app);
   gonio::cli::AddMicrosimCommand(app);
   gonio::cli::AddCalibCommands(app);
+  gonio::cli::AddBoardCommand(app);
   gonio::cli::AddSynthCommand(app);
   gonio::cli::AddBenchCommand(app);
   gonio::cli::AddSfsCommand(app);

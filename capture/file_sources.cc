@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "capture/bracket.h"
+#include "capture/raw_file.h"
 #include "common/error.h"
 #include "common/session.h"
 
@@ -134,7 +135,8 @@ std::vector<fs::path> ListImages(const fs::path& dir) {
   for (const auto& entry : fs::directory_iterator(dir)) {
     if (!entry.is_regular_file()) continue;
     const std::string ext = Lower(entry.path().extension().string());
-    if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff") {
+    if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff" ||
+        IsRawFile(entry.path())) {
       out.push_back(entry.path());
     }
   }
@@ -153,7 +155,8 @@ std::optional<CapturedFrame> FolderSource::Grab() {
   if (next_ >= frames_.size()) return std::nullopt;
   const FolderFrame& f = frames_[next_++];
   CapturedFrame frame;
-  frame.image = cv::imread(f.file.string(), cv::IMREAD_UNCHANGED);
+  frame.image =
+      IsRawFile(f.file) ? ReadRaw(f.file).bgr : cv::imread(f.file.string(), cv::IMREAD_UNCHANGED);
   if (frame.image.empty()) throw InputError(f.file.string() + ": not a readable image");
   if (frame.image.depth() != CV_8U && frame.image.depth() != CV_16U) {
     throw InputError(f.file.string() + ": only 8- and 16-bit images are supported");

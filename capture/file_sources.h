@@ -35,7 +35,8 @@ struct ListedExposure {
 std::vector<ListedExposure> ReadExposureList(const std::filesystem::path& list,
                                              const std::filesystem::path& image_dir);
 
-// Image files in a folder (.jpg .jpeg .png .tif .tiff, any case), sorted by name.
+// Image files in a folder (.jpg .jpeg .png .tif .tiff, and RAW .dng .cr2 .nef .arw, any case),
+// sorted by name.
 std::vector<std::filesystem::path> ListImages(const std::filesystem::path& dir);
 
 struct FolderFrame {
@@ -46,7 +47,8 @@ struct FolderFrame {
 };
 
 // Photos read in order, each with its known exposure. Images load unchanged (8 or 16 bits,
-// grey or colour, no EXIF rotation: the sensor's own pixel grid, as calibration needs).
+// grey or colour, no EXIF rotation: the sensor's own pixel grid, as calibration needs); RAW
+// files as linear 16-bit half-size BGR (capture/raw_file.h).
 class FolderSource : public FrameSource {
  public:
   FolderSource(std::string id, std::string gain_unit, std::vector<FolderFrame> frames);

@@ -11,7 +11,7 @@
 namespace gonio::capture {
 
 struct CapturedFrame {
-  cv::Mat image;             // CV_8UC1, CV_16UC1 or CV_8UC3 (BGR)
+  cv::Mat image;             // CV_8UC1, CV_16UC1, CV_8UC3 or CV_16UC3 (BGR)
   double exposure_s = 0.0;   // as the device reports it for this frame (not as requested)
   double gain = 1.0;         // unit: FrameSource::GainUnit()
   double timestamp_s = 0.0;  // device clock (monotonic), seconds; only differences matter

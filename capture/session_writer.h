@@ -28,6 +28,8 @@ class SessionWriter {
   SessionWriter(std::filesystem::path dir, std::string camera_id, std::string gain_unit,
                 const std::filesystem::path& board = {});
 
+  // Significant bits of the frames (Session::bit_depth); call before the first Add.
+  void SetBitDepth(int bits) { session_.bit_depth = bits; }
   void Add(const cv::Mat& image, double exposure_s, double gain, double timestamp_s, int bracket);
   const Session& session() const { return session_; }
   const std::filesystem::path& dir() const { return dir_; }
