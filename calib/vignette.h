@@ -6,12 +6,13 @@
 // with C the board's "albedo" (reflectance times the irradiance pattern of a light fixed to the
 // board; view-independent for matte paper), on a texture grid over the board. First the radial
 // polynomial V = 1 + v1 r^2 + v2 r^4 + v3 r^6 (r = distance to the principal point /
-// half-diagonal, as data_synth renders it) is fitted by variable projection (C closed form,
-// Levenberg-Marquardt over v); then, for the "map" model, the paper's alternating least squares
-// (eq. 5, each step closed form) on a vignette grid over the image refines it locally. Tags
-// (black ink) and a margin around them, and the sample region, are left out; so are saturated
-// and dark pixels. Where the board covers too little of the image the radial polynomial is the
-// answer (order limited by the radius the data reach). V is 1 at the principal point.
+// half-diagonal, common/vignetting.h) is fitted jointly with C by Ceres (the Schur complement
+// eliminates C, so each step solves for v only, as variable projection does); then, for the
+// "map" model, the paper's alternating least squares (eq. 5, each step closed form) on a
+// vignette grid over the image refines it locally. Tags (black ink) and a margin around them,
+// and the sample region, are left out; so are saturated and dark pixels. Where the board covers
+// too little of the image the radial polynomial is the answer (order limited by the radius the
+// data reach). V is 1 at the principal point.
 // docs/photometric.md has the measurements behind these choices.
 #pragma once
 
