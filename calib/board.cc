@@ -73,75 +73,9 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
   b.source_.erase("provenance");
   const std::string type = j["type"];
   if (type == "chessboard") {
-    b.type_ = Type::kChessboard;
-    CheckKeys(
-        j, {"type", "inner_corners", "square_size", "sample_region", "white_region", "provenance"},
-        what);
-    if (!j.contains("inner_corners") || !j["inner_corners"].is_array() ||
-        j["inner_corners"].size() != 2) {
-      throw InputError(what + ": 'inner_corners' must be [columns, rows]");
-    }
-    b.inner_columns_ = PositiveInt(j["inner_corners"][0], what, "inner_corners");
-    b.inner_rows_ = PositiveInt(j["inner_corners"][1], what, "inner_corners");
-    if (b.inner_columns_ < 2 || b.inner_rows_ < 2) {
-      throw InputError(what + ": 'inner_corners' must be at least [2, 2]");
-    }
-    b.square_size_ = PositiveNumber(j, "square_size", what);
-    for (int r = 0; r < b.inner_rows_; ++r) {
-      for (int c = 0; c < b.inner_columns_; ++c) {
-        b.points_.emplace_back(c * b.square_size_, r * b.square_size_, 0.0);
-      }
-    }
+    b.ReadChessboard(j, what);
   } else if (type == "apriltag-grid") {
-    b.type_ = Type::kAprilTagGrid;
-    CheckKeys(j,
-              {"type", "family", "tag_size", "pitch", "columns", "rows", "ids", "sample_region",
-               "white_region", "provenance"},
-              what);
-    if (!j.contains("family") || !j["family"].is_string()) {
-      throw InputError(what + ": missing key 'family' (e.g. \"tag36h11\")");
-    }
-    b.family_ = j["family"];
-    if (!kFamilies.count(b.family_)) {
-      throw InputError(what + ": unknown tag family '" + b.family_ + "'");
-    }
-    b.tag_size_ = PositiveNumber(j, "tag_size", what);
-    b.pitch_ = PositiveNumber(j, "pitch", what);
-    if (b.pitch_ < b.tag_size_) {
-      throw InputError(what + ": 'pitch' must be at least 'tag_size' (tags would overlap)");
-    }
-    if (!j.contains("columns") || !j.contains("rows")) {
-      throw InputError(what + ": missing key 'columns' or 'rows'");
-    }
-    b.columns_ = PositiveInt(j["columns"], what, "columns");
-    b.rows_ = PositiveInt(j["rows"], what, "rows");
-    if (!j.contains("ids") || !j["ids"].is_array()) {
-      throw InputError(what + ": missing key 'ids' (tag ids, row-major)");
-    }
-    std::set<int> seen;
-    for (const auto& id : j["ids"]) {
-      // -1 marks a grid position without a tag (a ring of tags around the sample).
-      if (!id.is_number_integer() || id.get<long long>() < -1) {
-        throw InputError(what + ": 'ids' must hold non-negative integers (or -1 for no tag)");
-      }
-      if (id.get<int>() >= 0 && !seen.insert(id.get<int>()).second) {
-        throw InputError(what + ": tag id " + std::to_string(id.get<int>()) + " appears twice");
-      }
-      b.ids_.push_back(id.get<int>());
-    }
-    if (static_cast<int>(b.ids_.size()) != b.columns_ * b.rows_) {
-      throw InputError(fmt::format("{}: 'ids' has {} entries, columns x rows = {}", what,
-                                   b.ids_.size(), b.columns_ * b.rows_));
-    }
-    const double s = b.tag_size_;
-    for (int k = 0; k < b.columns_ * b.rows_; ++k) {
-      const double x = (k % b.columns_) * b.pitch_, y = (k / b.columns_) * b.pitch_;
-      // libapriltag's order: bottom-left, bottom-right, top-right, top-left (board.h).
-      b.points_.emplace_back(x, y + s, 0.0);
-      b.points_.emplace_back(x + s, y + s, 0.0);
-      b.points_.emplace_back(x + s, y, 0.0);
-      b.points_.emplace_back(x, y, 0.0);
-    }
+    b.ReadAprilTagGrid(j, what);
   } else {
     throw InputError(what + ": unknown board type '" + type +
                      "' (\"chessboard\" or \"apriltag-grid\")");
@@ -149,6 +83,84 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
   b.sample_region_ = Polygon(j, "sample_region", what);
   b.white_region_ = Polygon(j, "white_region", what);
   return b;
+}
+
+void Board::ReadChessboard(const nlohmann::json& j, const std::string& what) {
+  type_ = Type::kChessboard;
+  CheckKeys(j,
+            {"type", "inner_corners", "square_size", "sample_region", "white_region", "provenance"},
+            what);
+  if (!j.contains("inner_corners") || !j["inner_corners"].is_array() ||
+      j["inner_corners"].size() != 2) {
+    throw InputError(what + ": 'inner_corners' must be [columns, rows]");
+  }
+  inner_columns_ = PositiveInt(j["inner_corners"][0], what, "inner_corners");
+  inner_rows_ = PositiveInt(j["inner_corners"][1], what, "inner_corners");
+  if (inner_columns_ < 2 || inner_rows_ < 2) {
+    throw InputError(what + ": 'inner_corners' must be at least [2, 2]");
+  }
+  square_size_ = PositiveNumber(j, "square_size", what);
+  for (int r = 0; r < inner_rows_; ++r) {
+    for (int c = 0; c < inner_columns_; ++c) {
+      points_.emplace_back(c * square_size_, r * square_size_, 0.0);
+    }
+  }
+}
+
+void Board::ReadAprilTagGrid(const nlohmann::json& j, const std::string& what) {
+  type_ = Type::kAprilTagGrid;
+  CheckKeys(j,
+            {"type", "family", "tag_size", "pitch", "columns", "rows", "ids", "sample_region",
+             "white_region", "provenance"},
+            what);
+  if (!j.contains("family") || !j["family"].is_string()) {
+    throw InputError(what + ": missing key 'family' (e.g. \"tag36h11\")");
+  }
+  family_ = j["family"];
+  if (!kFamilies.count(family_)) {
+    throw InputError(what + ": unknown tag family '" + family_ + "'");
+  }
+  tag_size_ = PositiveNumber(j, "tag_size", what);
+  pitch_ = PositiveNumber(j, "pitch", what);
+  if (pitch_ < tag_size_) {
+    throw InputError(what + ": 'pitch' must be at least 'tag_size' (tags would overlap)");
+  }
+  if (!j.contains("columns") || !j.contains("rows")) {
+    throw InputError(what + ": missing key 'columns' or 'rows'");
+  }
+  columns_ = PositiveInt(j["columns"], what, "columns");
+  rows_ = PositiveInt(j["rows"], what, "rows");
+  ReadTagIds(j, what);
+  const double s = tag_size_;
+  for (int k = 0; k < columns_ * rows_; ++k) {
+    const double x = (k % columns_) * pitch_, y = (k / columns_) * pitch_;
+    // libapriltag's order: bottom-left, bottom-right, top-right, top-left (board.h).
+    points_.emplace_back(x, y + s, 0.0);
+    points_.emplace_back(x + s, y + s, 0.0);
+    points_.emplace_back(x + s, y, 0.0);
+    points_.emplace_back(x, y, 0.0);
+  }
+}
+
+void Board::ReadTagIds(const nlohmann::json& j, const std::string& what) {
+  if (!j.contains("ids") || !j["ids"].is_array()) {
+    throw InputError(what + ": missing key 'ids' (tag ids, row-major)");
+  }
+  std::set<int> seen;
+  for (const auto& id : j["ids"]) {
+    // -1 marks a grid position without a tag (a ring of tags around the sample).
+    if (!id.is_number_integer() || id.get<long long>() < -1) {
+      throw InputError(what + ": 'ids' must hold non-negative integers (or -1 for no tag)");
+    }
+    if (id.get<int>() >= 0 && !seen.insert(id.get<int>()).second) {
+      throw InputError(what + ": tag id " + std::to_string(id.get<int>()) + " appears twice");
+    }
+    ids_.push_back(id.get<int>());
+  }
+  if (static_cast<int>(ids_.size()) != columns_ * rows_) {
+    throw InputError(fmt::format("{}: 'ids' has {} entries, columns x rows = {}", what, ids_.size(),
+                                 columns_ * rows_));
+  }
 }
 
 nlohmann::json Board::ToJson() const { return source_; }

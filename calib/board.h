@@ -72,6 +72,12 @@ class Board {
   MrcalGrid ToMrcalGrid() const;
 
  private:
+  // The type-specific parts of FromJson.
+  void ReadChessboard(const nlohmann::json& j, const std::string& what);
+  void ReadAprilTagGrid(const nlohmann::json& j, const std::string& what);
+  // Tag ids, row-major, -1 = no tag; InputError for a bad or repeated id.
+  void ReadTagIds(const nlohmann::json& j, const std::string& what);
+
   Type type_ = Type::kChessboard;
   int inner_columns_ = 0, inner_rows_ = 0;
   double square_size_ = 0;
