@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <memory>
 #include <mutex>
 #include <numeric>
@@ -35,26 +34,6 @@ struct SampledPixel {
   int vcell = 0;
   double r2 = 0;  // (distance to the principal point / half-diagonal)^2
 };
-
-// Signed distance from (x, y) to a polygon's boundary, positive inside (even-odd rule); -inf
-// when there is no polygon.
-double PolygonDistance(const std::vector<Eigen::Vector2d>& poly, double x, double y) {
-  if (poly.size() < 3) return -std::numeric_limits<double>::infinity();
-  const Eigen::Vector2d q(x, y);
-  bool inside = false;
-  double d2 = std::numeric_limits<double>::infinity();
-  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
-    const Eigen::Vector2d& a = poly[j];
-    const Eigen::Vector2d& b = poly[i];
-    if ((b.y() > y) != (a.y() > y) && x < (a.x() - b.x()) * (y - b.y()) / (a.y() - b.y()) + b.x()) {
-      inside = !inside;
-    }
-    const Eigen::Vector2d ab = b - a;
-    const double t = std::clamp((q - a).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
-    d2 = std::min(d2, (a + t * ab - q).squaredNorm());
-  }
-  return inside ? std::sqrt(d2) : -std::sqrt(d2);
-}
 
 // Weighted least squares of the radial polynomial a0 + a1 r^2 + a2 r^4 + a3 r^6 to the samples,
 // with the board texture C held fixed: rows C * [1, r^2, r^4, r^6], targets I.
@@ -514,60 +493,6 @@ int CountDistinctPoses(const std::vector<VignetteFrame>& frames) {
 }
 
 }  // namespace
-
-PaperRegion PaperRegion::FromBoard(const Board& board) {
-  PaperRegion r;
-  r.sample_region = board.sample_region();
-  r.white_region = board.white_region();
-  if (board.is_chessboard() || board.columns() == 0 || board.rows() == 0) return r;
-  r.has_grid = true;
-  const double p = board.pitch(), s = board.tag_size();
-  r.grid_box = {0, 0, (board.columns() - 1) * p + s, (board.rows() - 1) * p + s};
-  for (int k = 0; k < board.columns() * board.rows(); ++k) {
-    if (board.ids()[k] < 0) continue;
-    const double x = (k % board.columns()) * p, y = (k / board.columns()) * p;
-    r.tags.push_back({x, y, x + s, y + s});
-  }
-  return r;
-}
-
-PaperRegion PaperRegion::Read(const std::filesystem::path& path) {
-  const nlohmann::json j = ReadJsonFile(path);
-  const bool flat = j.value("type", "") == "apriltag-grid" &&
-                    (j.value("columns", 1) == 0 || j.value("rows", 1) == 0);
-  if (!flat) return FromBoard(Board::Read(path));
-  PaperRegion r;
-  auto polygon = [&](const char* key) {
-    std::vector<Eigen::Vector2d> out;
-    if (!j.contains(key)) return out;
-    try {
-      for (const auto& p : j[key]) out.emplace_back(p.at(0).get<double>(), p.at(1).get<double>());
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(path.string() + ": malformed '" + key + "': " + e.what());
-    }
-    return out;
-  };
-  r.sample_region = polygon("sample_region");
-  r.white_region = polygon("white_region");
-  if (r.white_region.size() < 3) {
-    throw InputError(path.string() + ": a board without tags needs a 'white_region' polygon");
-  }
-  r.uniform = true;
-  return r;
-}
-
-bool PaperRegion::IsPaper(double x, double y, double margin) const {
-  const bool in_grid =
-      has_grid && x >= grid_box[0] && y >= grid_box[1] && x <= grid_box[2] && y <= grid_box[3];
-  if (!in_grid && !(PolygonDistance(white_region, x, y) > 0)) return false;
-  if (PolygonDistance(sample_region, x, y) > -margin) return false;
-  for (const auto& t : tags) {
-    if (x >= t[0] - margin && x <= t[2] + margin && y >= t[1] - margin && y <= t[3] + margin) {
-      return false;
-    }
-  }
-  return true;
-}
 
 void VignetteOptions::Check() const {
   if (model != "map" && model != "radial") {
