@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include <fmt/format.h>
@@ -57,6 +58,26 @@ void CheckKeys(const nlohmann::json& j, const std::set<std::string>& allowed,
   }
 }
 
+// Signed distance from (x, y) to a polygon's boundary, positive inside (even-odd rule); -inf
+// when there is no polygon.
+double PolygonDistance(const std::vector<Eigen::Vector2d>& poly, double x, double y) {
+  if (poly.size() < 3) return -std::numeric_limits<double>::infinity();
+  const Eigen::Vector2d q(x, y);
+  bool inside = false;
+  double d2 = std::numeric_limits<double>::infinity();
+  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const Eigen::Vector2d& a = poly[j];
+    const Eigen::Vector2d& b = poly[i];
+    if ((b.y() > y) != (a.y() > y) && x < (a.x() - b.x()) * (y - b.y()) / (a.y() - b.y()) + b.x()) {
+      inside = !inside;
+    }
+    const Eigen::Vector2d ab = b - a;
+    const double t = std::clamp((q - a).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
+    d2 = std::min(d2, (a + t * ab - q).squaredNorm());
+  }
+  return inside ? std::sqrt(d2) : -std::sqrt(d2);
+}
+
 }  // namespace
 
 Board Board::Read(const std::filesystem::path& path) {
@@ -73,75 +94,9 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
   b.source_.erase("provenance");
   const std::string type = j["type"];
   if (type == "chessboard") {
-    b.type_ = Type::kChessboard;
-    CheckKeys(
-        j, {"type", "inner_corners", "square_size", "sample_region", "white_region", "provenance"},
-        what);
-    if (!j.contains("inner_corners") || !j["inner_corners"].is_array() ||
-        j["inner_corners"].size() != 2) {
-      throw InputError(what + ": 'inner_corners' must be [columns, rows]");
-    }
-    b.inner_columns_ = PositiveInt(j["inner_corners"][0], what, "inner_corners");
-    b.inner_rows_ = PositiveInt(j["inner_corners"][1], what, "inner_corners");
-    if (b.inner_columns_ < 2 || b.inner_rows_ < 2) {
-      throw InputError(what + ": 'inner_corners' must be at least [2, 2]");
-    }
-    b.square_size_ = PositiveNumber(j, "square_size", what);
-    for (int r = 0; r < b.inner_rows_; ++r) {
-      for (int c = 0; c < b.inner_columns_; ++c) {
-        b.points_.emplace_back(c * b.square_size_, r * b.square_size_, 0.0);
-      }
-    }
+    b.ReadChessboard(j, what);
   } else if (type == "apriltag-grid") {
-    b.type_ = Type::kAprilTagGrid;
-    CheckKeys(j,
-              {"type", "family", "tag_size", "pitch", "columns", "rows", "ids", "sample_region",
-               "white_region", "provenance"},
-              what);
-    if (!j.contains("family") || !j["family"].is_string()) {
-      throw InputError(what + ": missing key 'family' (e.g. \"tag36h11\")");
-    }
-    b.family_ = j["family"];
-    if (!kFamilies.count(b.family_)) {
-      throw InputError(what + ": unknown tag family '" + b.family_ + "'");
-    }
-    b.tag_size_ = PositiveNumber(j, "tag_size", what);
-    b.pitch_ = PositiveNumber(j, "pitch", what);
-    if (b.pitch_ < b.tag_size_) {
-      throw InputError(what + ": 'pitch' must be at least 'tag_size' (tags would overlap)");
-    }
-    if (!j.contains("columns") || !j.contains("rows")) {
-      throw InputError(what + ": missing key 'columns' or 'rows'");
-    }
-    b.columns_ = PositiveInt(j["columns"], what, "columns");
-    b.rows_ = PositiveInt(j["rows"], what, "rows");
-    if (!j.contains("ids") || !j["ids"].is_array()) {
-      throw InputError(what + ": missing key 'ids' (tag ids, row-major)");
-    }
-    std::set<int> seen;
-    for (const auto& id : j["ids"]) {
-      // -1 marks a grid position without a tag (a ring of tags around the sample).
-      if (!id.is_number_integer() || id.get<long long>() < -1) {
-        throw InputError(what + ": 'ids' must hold non-negative integers (or -1 for no tag)");
-      }
-      if (id.get<int>() >= 0 && !seen.insert(id.get<int>()).second) {
-        throw InputError(what + ": tag id " + std::to_string(id.get<int>()) + " appears twice");
-      }
-      b.ids_.push_back(id.get<int>());
-    }
-    if (static_cast<int>(b.ids_.size()) != b.columns_ * b.rows_) {
-      throw InputError(fmt::format("{}: 'ids' has {} entries, columns x rows = {}", what,
-                                   b.ids_.size(), b.columns_ * b.rows_));
-    }
-    const double s = b.tag_size_;
-    for (int k = 0; k < b.columns_ * b.rows_; ++k) {
-      const double x = (k % b.columns_) * b.pitch_, y = (k / b.columns_) * b.pitch_;
-      // libapriltag's order: bottom-left, bottom-right, top-right, top-left (board.h).
-      b.points_.emplace_back(x, y + s, 0.0);
-      b.points_.emplace_back(x + s, y + s, 0.0);
-      b.points_.emplace_back(x + s, y, 0.0);
-      b.points_.emplace_back(x, y, 0.0);
-    }
+    b.ReadAprilTagGrid(j, what);
   } else {
     throw InputError(what + ": unknown board type '" + type +
                      "' (\"chessboard\" or \"apriltag-grid\")");
@@ -149,6 +104,84 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
   b.sample_region_ = Polygon(j, "sample_region", what);
   b.white_region_ = Polygon(j, "white_region", what);
   return b;
+}
+
+void Board::ReadChessboard(const nlohmann::json& j, const std::string& what) {
+  type_ = Type::kChessboard;
+  CheckKeys(j,
+            {"type", "inner_corners", "square_size", "sample_region", "white_region", "provenance"},
+            what);
+  if (!j.contains("inner_corners") || !j["inner_corners"].is_array() ||
+      j["inner_corners"].size() != 2) {
+    throw InputError(what + ": 'inner_corners' must be [columns, rows]");
+  }
+  inner_columns_ = PositiveInt(j["inner_corners"][0], what, "inner_corners");
+  inner_rows_ = PositiveInt(j["inner_corners"][1], what, "inner_corners");
+  if (inner_columns_ < 2 || inner_rows_ < 2) {
+    throw InputError(what + ": 'inner_corners' must be at least [2, 2]");
+  }
+  square_size_ = PositiveNumber(j, "square_size", what);
+  for (int r = 0; r < inner_rows_; ++r) {
+    for (int c = 0; c < inner_columns_; ++c) {
+      points_.emplace_back(c * square_size_, r * square_size_, 0.0);
+    }
+  }
+}
+
+void Board::ReadAprilTagGrid(const nlohmann::json& j, const std::string& what) {
+  type_ = Type::kAprilTagGrid;
+  CheckKeys(j,
+            {"type", "family", "tag_size", "pitch", "columns", "rows", "ids", "sample_region",
+             "white_region", "provenance"},
+            what);
+  if (!j.contains("family") || !j["family"].is_string()) {
+    throw InputError(what + ": missing key 'family' (e.g. \"tag36h11\")");
+  }
+  family_ = j["family"];
+  if (!kFamilies.count(family_)) {
+    throw InputError(what + ": unknown tag family '" + family_ + "'");
+  }
+  tag_size_ = PositiveNumber(j, "tag_size", what);
+  pitch_ = PositiveNumber(j, "pitch", what);
+  if (pitch_ < tag_size_) {
+    throw InputError(what + ": 'pitch' must be at least 'tag_size' (tags would overlap)");
+  }
+  if (!j.contains("columns") || !j.contains("rows")) {
+    throw InputError(what + ": missing key 'columns' or 'rows'");
+  }
+  columns_ = PositiveInt(j["columns"], what, "columns");
+  rows_ = PositiveInt(j["rows"], what, "rows");
+  ReadTagIds(j, what);
+  const double s = tag_size_;
+  for (int k = 0; k < columns_ * rows_; ++k) {
+    const double x = (k % columns_) * pitch_, y = (k / columns_) * pitch_;
+    // libapriltag's order: bottom-left, bottom-right, top-right, top-left (board.h).
+    points_.emplace_back(x, y + s, 0.0);
+    points_.emplace_back(x + s, y + s, 0.0);
+    points_.emplace_back(x + s, y, 0.0);
+    points_.emplace_back(x, y, 0.0);
+  }
+}
+
+void Board::ReadTagIds(const nlohmann::json& j, const std::string& what) {
+  if (!j.contains("ids") || !j["ids"].is_array()) {
+    throw InputError(what + ": missing key 'ids' (tag ids, row-major)");
+  }
+  std::set<int> seen;
+  for (const auto& id : j["ids"]) {
+    // -1 marks a grid position without a tag (a ring of tags around the sample).
+    if (!id.is_number_integer() || id.get<long long>() < -1) {
+      throw InputError(what + ": 'ids' must hold non-negative integers (or -1 for no tag)");
+    }
+    if (id.get<int>() >= 0 && !seen.insert(id.get<int>()).second) {
+      throw InputError(what + ": tag id " + std::to_string(id.get<int>()) + " appears twice");
+    }
+    ids_.push_back(id.get<int>());
+  }
+  if (static_cast<int>(ids_.size()) != columns_ * rows_) {
+    throw InputError(fmt::format("{}: 'ids' has {} entries, columns x rows = {}", what, ids_.size(),
+                                 columns_ * rows_));
+  }
 }
 
 nlohmann::json Board::ToJson() const { return source_; }
@@ -200,6 +233,60 @@ Board::MrcalGrid Board::ToMrcalGrid() const {
     g.lattice_index.push_back(row * g.width_n + col);
   }
   return g;
+}
+
+PaperRegion PaperRegion::FromBoard(const Board& board) {
+  PaperRegion r;
+  r.sample_region = board.sample_region();
+  r.white_region = board.white_region();
+  if (board.is_chessboard() || board.columns() == 0 || board.rows() == 0) return r;
+  r.has_grid = true;
+  const double p = board.pitch(), s = board.tag_size();
+  r.grid_box = {0, 0, (board.columns() - 1) * p + s, (board.rows() - 1) * p + s};
+  for (int k = 0; k < board.columns() * board.rows(); ++k) {
+    if (board.ids()[k] < 0) continue;
+    const double x = (k % board.columns()) * p, y = (k / board.columns()) * p;
+    r.tags.push_back({x, y, x + s, y + s});
+  }
+  return r;
+}
+
+PaperRegion PaperRegion::Read(const std::filesystem::path& path) {
+  const nlohmann::json j = ReadJsonFile(path);
+  const bool flat = j.value("type", "") == "apriltag-grid" &&
+                    (j.value("columns", 1) == 0 || j.value("rows", 1) == 0);
+  if (!flat) return FromBoard(Board::Read(path));
+  PaperRegion r;
+  auto polygon = [&](const char* key) {
+    std::vector<Eigen::Vector2d> out;
+    if (!j.contains(key)) return out;
+    try {
+      for (const auto& p : j[key]) out.emplace_back(p.at(0).get<double>(), p.at(1).get<double>());
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(path.string() + ": malformed '" + key + "': " + e.what());
+    }
+    return out;
+  };
+  r.sample_region = polygon("sample_region");
+  r.white_region = polygon("white_region");
+  if (r.white_region.size() < 3) {
+    throw InputError(path.string() + ": a board without tags needs a 'white_region' polygon");
+  }
+  r.uniform = true;
+  return r;
+}
+
+bool PaperRegion::IsPaper(double x, double y, double margin) const {
+  const bool in_grid =
+      has_grid && x >= grid_box[0] && y >= grid_box[1] && x <= grid_box[2] && y <= grid_box[3];
+  if (!in_grid && !(PolygonDistance(white_region, x, y) > 0)) return false;
+  if (PolygonDistance(sample_region, x, y) > -margin) return false;
+  for (const auto& t : tags) {
+    if (x >= t[0] - margin && x <= t[2] + margin && y >= t[1] - margin && y <= t[3] + margin) {
+      return false;
+    }
+  }
+  return true;
 }
 
 }  // namespace gonio

@@ -8,8 +8,11 @@
 // (its bit pattern as apriltag_to_image draws it), p[0] is the bottom-left corner, p[1] the
 // bottom-right, p[2] the top-right and p[3] the top-left: counter-clockwise as displayed on a
 // screen (y down). tests/calib/detect_test.cc measures this on a rendered tag.
+//
+// PaperRegion: where a board is white paper (the vignetting calibration's samples).
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -72,6 +75,12 @@ class Board {
   MrcalGrid ToMrcalGrid() const;
 
  private:
+  // The type-specific parts of FromJson.
+  void ReadChessboard(const nlohmann::json& j, const std::string& what);
+  void ReadAprilTagGrid(const nlohmann::json& j, const std::string& what);
+  // Tag ids, row-major, -1 = no tag; InputError for a bad or repeated id.
+  void ReadTagIds(const nlohmann::json& j, const std::string& what);
+
   Type type_ = Type::kChessboard;
   int inner_columns_ = 0, inner_rows_ = 0;
   double square_size_ = 0;
@@ -82,6 +91,26 @@ class Board {
   std::vector<Eigen::Vector2d> sample_region_, white_region_;
   std::vector<Eigen::Vector3d> points_;
   nlohmann::json source_;
+};
+
+// Where the board is known to be white paper: inside the tag grid's bounding box or the white
+// region, at least `margin` from every tag and from the sample region.
+struct PaperRegion {
+  std::vector<std::array<double, 4>> tags;  // [xmin, ymin, xmax, ymax] of each tag, metres
+  std::array<double, 4> grid_box{};         // bounding box of the tag grid
+  bool has_grid = false;
+  std::vector<Eigen::Vector2d> sample_region, white_region;
+  // A flat field: tag-free white target of uniform radiance (read from a board file with no
+  // tags). Its texture is then one constant, which the pose-by-pose texture grid cannot
+  // establish when every view looks at the same target point from the same distance (a radial
+  // V(r) change and a radial texture change are then nearly indistinguishable).
+  bool uniform = false;
+
+  static PaperRegion FromBoard(const Board& board);
+  // A board file; a tag-free flat target ("columns" or "rows" 0, as data_synth's flat-field
+  // preset writes) gives just its white region. InputError naming the file otherwise.
+  static PaperRegion Read(const std::filesystem::path& path);
+  bool IsPaper(double x, double y, double margin) const;
 };
 
 }  // namespace gonio

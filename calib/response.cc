@@ -13,6 +13,7 @@
 
 #include "common/error.h"
 #include "common/parallel.h"
+#include "common/stats.h"
 
 namespace gonio {
 namespace {
@@ -67,13 +68,6 @@ std::vector<double> Isotonic(const std::vector<double>& y, const std::vector<dou
   std::vector<double> out;
   for (size_t b = 0; b < level.size(); ++b) out.insert(out.end(), count[b], level[b]);
   return out;
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
 }
 
 struct ChannelFit {
@@ -154,6 +148,93 @@ std::vector<cv::Point> SamplePixels(const std::vector<cv::Mat>& planes, const Se
   return picked;
 }
 
+// Where value z falls between knots: h(z) = (1 - a) h[k] + a h[k + 1].
+struct KnotPair {
+  int k;
+  double a;
+};
+
+KnotPair KnotsOf(const Setup& s, double z) {
+  const double pos = KnotPosition(s, z);
+  const int k = std::min(static_cast<int>(pos), s.num_knots - 2);
+  return {k, pos - k};
+}
+
+// One residual per well-exposed observation of a sampled pixel; each pixel's ln E starts at
+// the median over its frames of h(Z) - ln t. Returns the number of observations.
+size_t AddObservations(const std::vector<cv::Mat>& planes, const Setup& s,
+                       const std::vector<cv::Point>& pixels, ceres::Problem* problem,
+                       ChannelFit* fit, std::vector<double>* ln_e) {
+  size_t n_obs = 0;
+  for (size_t p = 0; p < pixels.size(); ++p) {
+    std::vector<double> est;
+    for (int j : s.usable) {
+      const double z = planes[j].at<float>(pixels[p]);
+      const double w = HatWeight(s, z);
+      if (w < 0.05) continue;
+      const auto [k, a] = KnotsOf(s, z);
+      est.push_back((1 - a) * fit->h[k] + a * fit->h[k + 1] - fit->ln_t[j]);
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ObservationResidual, 1, 1, 1, 1, 1>(
+                                    new ObservationResidual{a, w}),
+                                nullptr, &fit->h[k], &fit->h[k + 1], &(*ln_e)[p], &fit->ln_t[j]);
+      fit->counts[k] += w * (1 - a);
+      fit->counts[k + 1] += w * a;
+      ++n_obs;
+    }
+    (*ln_e)[p] = est.empty() ? 0.0 : Median(est);
+  }
+  return n_obs;
+}
+
+// Second differences of h, weighted by the hat function as in Debevec-Malik: ln X curves
+// hardest near the dark end, where a uniform penalty would bias it.
+void AddSmoothness(const Setup& s, double weight, ceres::Problem* problem, ChannelFit* fit) {
+  const int K = s.num_knots;
+  for (int k = 1; k + 1 < K; ++k) {
+    const double z = static_cast<double>(k) * s.max_value / (K - 1);
+    const double w = weight * std::max(0.05, HatWeight(s, z));
+    problem->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SmoothnessResidual, 1, 1, 1, 1>(new SmoothnessResidual{w}),
+        nullptr, &fit->h[k - 1], &fit->h[k], &fit->h[k + 1]);
+  }
+}
+
+// Exposure priors with a heavy-tailed loss (see the header); a frame without a trusted time
+// floats freely, a trusted one is held exactly when `times_fixed`.
+void AddExposurePriors(const std::vector<double>& listed, const std::vector<bool>& has_prior,
+                       bool times_fixed, const Setup& s, double prior_sigma,
+                       ceres::Problem* problem, ChannelFit* fit) {
+  for (int j : s.usable) {
+    if (!problem->HasParameterBlock(&fit->ln_t[j])) continue;
+    if (times_fixed && has_prior[j]) {
+      problem->SetParameterBlockConstant(&fit->ln_t[j]);
+    } else if (has_prior[j]) {
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 1, 1>(
+                                    new PriorResidual{std::log(listed[j]), 1.0 / prior_sigma}),
+                                new ceres::CauchyLoss(1.0), &fit->ln_t[j]);
+    }
+  }
+}
+
+// RMS of h(Z) - ln E - ln t over the well-exposed observations.
+double ObservationRms(const std::vector<cv::Mat>& planes, const Setup& s,
+                      const std::vector<cv::Point>& pixels, const ChannelFit& fit,
+                      const std::vector<double>& ln_e) {
+  double ssr = 0;
+  size_t m = 0;
+  for (size_t p = 0; p < pixels.size(); ++p) {
+    for (int j : s.usable) {
+      const double z = planes[j].at<float>(pixels[p]);
+      if (HatWeight(s, z) < 0.05) continue;
+      const auto [k, a] = KnotsOf(s, z);
+      const double r = (1 - a) * fit.h[k] + a * fit.h[k + 1] - ln_e[p] - fit.ln_t[j];
+      ssr += r * r;
+      ++m;
+    }
+  }
+  return std::sqrt(ssr / std::max<size_t>(m, 1));
+}
+
 ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<double>& listed,
                       const std::vector<bool>& has_prior, bool times_fixed, const Setup& s,
                       const std::vector<cv::Point>& pixels, const ResponseOptions& o) {
@@ -167,51 +248,12 @@ ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<doub
   std::vector<double> ln_e(pixels.size(), 0.0);
 
   ceres::Problem problem;
-  size_t n_obs = 0;
-  for (size_t p = 0; p < pixels.size(); ++p) {
-    std::vector<double> est;
-    for (int j : s.usable) {
-      const double z = planes[j].at<float>(pixels[p]);
-      const double w = HatWeight(s, z);
-      if (w < 0.05) continue;
-      const double pos = KnotPosition(s, z);
-      const int k = std::min(static_cast<int>(pos), K - 2);
-      const double a = pos - k;
-      est.push_back((1 - a) * fit.h[k] + a * fit.h[k + 1] - fit.ln_t[j]);
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ObservationResidual, 1, 1, 1, 1, 1>(
-                                   new ObservationResidual{a, w}),
-                               nullptr, &fit.h[k], &fit.h[k + 1], &ln_e[p], &fit.ln_t[j]);
-      fit.counts[k] += w * (1 - a);
-      fit.counts[k + 1] += w * a;
-      ++n_obs;
-    }
-    ln_e[p] = est.empty() ? 0.0 : Median(est);
-  }
+  const size_t n_obs = AddObservations(planes, s, pixels, &problem, &fit, &ln_e);
   if (n_obs == 0) {
     throw InputError("exposure sweep: no pixel is well exposed in any frame");
   }
-  const double smooth_w = o.smoothness * std::sqrt(static_cast<double>(n_obs) / K);
-  for (int k = 1; k + 1 < K; ++k) {
-    // Weighted by the hat function as in Debevec-Malik: ln X curves hardest near the dark end,
-    // where a uniform penalty would bias it.
-    const double z = static_cast<double>(k) * s.max_value / (K - 1);
-    const double w = smooth_w * std::max(0.05, HatWeight(s, z));
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SmoothnessResidual, 1, 1, 1, 1>(new SmoothnessResidual{w}),
-        nullptr, &fit.h[k - 1], &fit.h[k], &fit.h[k + 1]);
-  }
-  // Exposure priors with a heavy-tailed loss (see the header); a frame without a trusted time
-  // floats freely.
-  for (int j : s.usable) {
-    if (!problem.HasParameterBlock(&fit.ln_t[j])) continue;
-    if (times_fixed && has_prior[j]) {
-      problem.SetParameterBlockConstant(&fit.ln_t[j]);
-    } else if (has_prior[j]) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 1, 1>(
-                                   new PriorResidual{std::log(listed[j]), 1.0 / o.prior_sigma}),
-                               new ceres::CauchyLoss(1.0), &fit.ln_t[j]);
-    }
-  }
+  AddSmoothness(s, o.smoothness * std::sqrt(static_cast<double>(n_obs) / K), &problem, &fit);
+  AddExposurePriors(listed, has_prior, times_fixed, s, o.prior_sigma, &problem, &fit);
   // Additive gauge of (h, ln E): h = 0 at the middle knot.
   problem.SetParameterBlockConstant(&fit.h[K / 2]);
   fit.h[K / 2] = 0.0;
@@ -225,21 +267,7 @@ ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<doub
   if (!summary.IsSolutionUsable()) {
     throw NumericalError("response fit failed: " + summary.message);
   }
-  double ssr = 0;
-  size_t m = 0;
-  for (size_t p = 0; p < pixels.size(); ++p) {
-    for (int j : s.usable) {
-      const double z = planes[j].at<float>(pixels[p]);
-      if (HatWeight(s, z) < 0.05) continue;
-      const double pos = KnotPosition(s, z);
-      const int k = std::min(static_cast<int>(pos), K - 2);
-      const double a = pos - k;
-      const double r = (1 - a) * fit.h[k] + a * fit.h[k + 1] - ln_e[p] - fit.ln_t[j];
-      ssr += r * r;
-      ++m;
-    }
-  }
-  fit.rms = std::sqrt(ssr / std::max<size_t>(m, 1));
+  fit.rms = ObservationRms(planes, s, pixels, fit, ln_e);
   return fit;
 }
 
@@ -329,6 +357,192 @@ std::vector<cv::Mat> SplitToFloat(const cv::Mat& image) {
   return planes;
 }
 
+// InputError unless the frames share size and type, have exposure times > 0, and differ in
+// exposure.
+void CheckSweep(const std::vector<ExposureFrame>& frames) {
+  if (frames.size() < 2) throw InputError("an exposure sweep needs at least two frames");
+  const cv::Mat& first = frames[0].image;
+  for (const auto& f : frames) {
+    if (f.image.empty()) throw InputError(f.file + ": empty image");
+    if (f.image.size() != first.size() || f.image.type() != first.type()) {
+      throw InputError(f.file + ": size or type differs from " + frames[0].file);
+    }
+    if (!(f.exposure_s > 0)) throw InputError(f.file + ": exposure time must be > 0");
+  }
+  double min_t = INFINITY, max_t = 0;
+  for (const auto& f : frames) {
+    min_t = std::min(min_t, f.exposure_s);
+    max_t = std::max(max_t, f.exposure_s);
+  }
+  if (max_t <= min_t * 1.01) throw InputError("exposure sweep: all frames have the same exposure");
+}
+
+Setup MakeSetup(const ResponseOptions& o, const cv::Mat& first) {
+  Setup s;
+  s.bit_depth = o.bit_depth ? o.bit_depth : (first.depth() == CV_8U ? 8 : 16);
+  s.max_value = (1 << s.bit_depth) - 1;
+  s.num_knots = std::min(o.num_knots, s.max_value + 1);
+  s.saturation_limit = s.max_value * (1.0 - o.saturation_margin);
+  s.dark_limit = (o.black_level ? *o.black_level : 0.0) + 0.02 * s.max_value;
+  return s;
+}
+
+// planes[channel][frame] as CV_32F; InputError for a value beyond the bit depth.
+std::vector<std::vector<cv::Mat>> ChannelPlanes(const std::vector<ExposureFrame>& frames,
+                                                const Setup& s, int channels) {
+  std::vector<std::vector<cv::Mat>> planes(channels);
+  for (const auto& f : frames) {
+    double maxv = 0;
+    cv::minMaxLoc(f.image.reshape(1), nullptr, &maxv);
+    if (maxv > s.max_value) {
+      throw InputError(fmt::format("{}: value {} exceeds bit depth {}", f.file, maxv, s.bit_depth));
+    }
+    const auto split = SplitToFloat(f.image);
+    for (int c = 0; c < channels; ++c) planes[c].push_back(split[c]);
+  }
+  return planes;
+}
+
+// One report per frame; frames that carry no information (saturated or dark everywhere) are
+// left out, the others listed in s->usable. InputError when fewer than two remain.
+void ScreenFrames(const std::vector<ExposureFrame>& frames, const std::vector<cv::Mat>& gray,
+                  Setup* s, ResponseResult* result) {
+  for (size_t j = 0; j < frames.size(); ++j) {
+    FrameExposureReport rep;
+    rep.file = frames[j].file;
+    rep.listed_s = rep.estimated_s = frames[j].exposure_s;
+    const double n = static_cast<double>(gray[j].total());
+    const double sat = cv::countNonZero(gray[j] >= s->saturation_limit) / n;
+    const double dark = cv::countNonZero(gray[j] <= s->dark_limit) / n;
+    if (sat > 0.99) {
+      rep.used = false;
+      rep.note = "saturated everywhere";
+    } else if (dark > 0.99) {
+      rep.used = false;
+      rep.note = "dark everywhere";
+    } else {
+      s->usable.push_back(static_cast<int>(j));
+    }
+    result->frames.push_back(rep);
+  }
+  if (s->usable.size() < 2) {
+    std::string bad;
+    for (const auto& r : result->frames) {
+      if (!r.used) bad += (bad.empty() ? "" : ", ") + r.file + " (" + r.note + ")";
+    }
+    throw InputError("exposure sweep: fewer than two usable frames; " + bad);
+  }
+}
+
+// The exposure times and which of them are trusted, shared by the channels' fits.
+struct SweepTimes {
+  std::vector<double> listed;
+  std::vector<bool> has_prior;
+};
+
+std::vector<ChannelFit> FitChannels(const std::vector<std::vector<cv::Mat>>& planes,
+                                    const SweepTimes& times, bool times_fixed, const Setup& s,
+                                    const std::vector<std::vector<cv::Point>>& pixels,
+                                    const ResponseOptions& o) {
+  std::vector<ChannelFit> fits(planes.size());
+  ParallelFor(planes.size(), o.threads, [&](size_t b, size_t e) {
+    for (size_t c = b; c < e; ++c) {
+      fits[c] = FitChannel(planes[c], times.listed, times.has_prior, times_fixed, s, pixels[c], o);
+    }
+  });
+  return fits;
+}
+
+// Pass 1's verdict: the usable frames whose fitted time (median over channels) departs from
+// the listed one by more than the tolerance are marked inconsistent and returned.
+std::vector<int> FindInconsistentFrames(const std::vector<ChannelFit>& fits, const Setup& s,
+                                        const SweepTimes& times, const ResponseOptions& o,
+                                        ResponseResult* result) {
+  std::vector<int> inconsistent;
+  for (int j : s.usable) {
+    std::vector<double> ln_ratio;
+    for (const auto& f : fits) ln_ratio.push_back(f.ln_t[j] - std::log(times.listed[j]));
+    const double r = Median(ln_ratio);
+    if (std::abs(r) > std::log1p(o.exposure_tolerance)) {
+      auto& rep = result->frames[j];
+      rep.consistent = false;
+      rep.note = fmt::format("brightness implies {:.4g} s, listed {:.4g} s",
+                             times.listed[j] * std::exp(r), times.listed[j]);
+      inconsistent.push_back(j);
+    }
+  }
+  const size_t consistent = s.usable.size() - inconsistent.size();
+  if (consistent < 2) {
+    throw InputError(fmt::format(
+        "exposure sweep: only {} frame(s) agree with their listed exposure; cannot calibrate",
+        consistent));
+  }
+  return inconsistent;
+}
+
+// Pass 2's frames: the inconsistent ones lose their prior and are re-timed jointly, or are
+// left out with `drop_inconsistent`.
+void ReleaseInconsistentFrames(const std::vector<int>& inconsistent, const ResponseOptions& o,
+                               Setup* s, SweepTimes* times, ResponseResult* result) {
+  std::vector<int> usable;
+  for (int j : s->usable) {
+    if (std::find(inconsistent.begin(), inconsistent.end(), j) == inconsistent.end()) {
+      usable.push_back(j);
+    }
+  }
+  for (int j : inconsistent) {
+    times->has_prior[j] = false;
+    if (o.drop_inconsistent) {
+      result->frames[j].used = false;
+    } else {
+      usable.push_back(j);
+    }
+  }
+  std::sort(usable.begin(), usable.end());
+  s->usable = usable;
+}
+
+// The re-timed frames' final times (median over channels) and verdicts: pass 1's robust
+// estimate is only a screen; the verdict uses the final estimate.
+void ReportRetimedFrames(const std::vector<ChannelFit>& fits, const std::vector<int>& inconsistent,
+                         const SweepTimes& times, const ResponseOptions& o,
+                         ResponseResult* result) {
+  if (o.drop_inconsistent) return;
+  for (int j : inconsistent) {
+    std::vector<double> ln_t;
+    for (const auto& f : fits) ln_t.push_back(f.ln_t[j]);
+    auto& rep = result->frames[j];
+    rep.estimated_s = std::exp(Median(ln_t));
+    rep.consistent =
+        std::abs(std::log(rep.estimated_s / times.listed[j])) <= std::log1p(o.exposure_tolerance);
+    rep.note = fmt::format("brightness implies {:.4g} s, listed {:.4g} s", rep.estimated_s,
+                           times.listed[j]);
+  }
+}
+
+// The per-channel tables, black and saturation levels, fit RMS and the linearity check.
+void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<ChannelFit>& fits,
+                    const Setup& s, const ResponseOptions& o, ResponseResult* result) {
+  result->black_level.assign(result->channels, o.black_level.value_or(0.0));
+  result->saturation_level.assign(result->channels, s.saturation_limit);
+  double rms = 0;
+  for (int c = 0; c < result->channels; ++c) {
+    result->inverse_response.push_back(
+        BuildTable(fits[c], s, &result->black_level[c], o.black_level.has_value()));
+    rms += fits[c].rms * fits[c].rms;
+  }
+  result->rms_log_residual = std::sqrt(rms / result->channels);
+  std::vector<double> used_t(frames.size());
+  std::vector<bool> used(frames.size());
+  for (size_t j = 0; j < frames.size(); ++j) {
+    used[j] = result->frames[j].used;
+    used_t[j] = result->frames[j].estimated_s;
+  }
+  result->median_ratio_error =
+      MedianRatioError(frames, used_t, used, result->inverse_response, result->saturation_level,
+                       result->black_level, s.bit_depth, &result->pair_ratio_error);
+}
+
 }  // namespace
 
 void ResponseOptions::Check() const {
@@ -385,153 +599,29 @@ std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::
 ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& frames,
                                  const ResponseOptions& o) {
   o.Check();
-  if (frames.size() < 2) throw InputError("an exposure sweep needs at least two frames");
-  const cv::Mat& first = frames[0].image;
-  for (const auto& f : frames) {
-    if (f.image.empty()) throw InputError(f.file + ": empty image");
-    if (f.image.size() != first.size() || f.image.type() != first.type()) {
-      throw InputError(f.file + ": size or type differs from " + frames[0].file);
-    }
-    if (!(f.exposure_s > 0)) throw InputError(f.file + ": exposure time must be > 0");
-  }
-  double min_t = INFINITY, max_t = 0;
-  for (const auto& f : frames) {
-    min_t = std::min(min_t, f.exposure_s);
-    max_t = std::max(max_t, f.exposure_s);
-  }
-  if (max_t <= min_t * 1.01) throw InputError("exposure sweep: all frames have the same exposure");
-
-  Setup s;
-  s.bit_depth = o.bit_depth ? o.bit_depth : (first.depth() == CV_8U ? 8 : 16);
-  s.max_value = (1 << s.bit_depth) - 1;
-  s.num_knots = std::min(o.num_knots, s.max_value + 1);
-  s.saturation_limit = s.max_value * (1.0 - o.saturation_margin);
-  s.dark_limit = (o.black_level ? *o.black_level : 0.0) + 0.02 * s.max_value;
-
+  CheckSweep(frames);
+  Setup s = MakeSetup(o, frames[0].image);
   ResponseResult result;
   result.bit_depth = s.bit_depth;
-  result.channels = first.channels();
-  std::vector<std::vector<cv::Mat>> planes(result.channels);
-  for (const auto& f : frames) {
-    double maxv = 0;
-    cv::minMaxLoc(f.image.reshape(1), nullptr, &maxv);
-    if (maxv > s.max_value) {
-      throw InputError(fmt::format("{}: value {} exceeds bit depth {}", f.file, maxv, s.bit_depth));
-    }
-    const auto split = SplitToFloat(f.image);
-    for (int c = 0; c < result.channels; ++c) planes[c].push_back(split[c]);
-  }
+  result.channels = frames[0].image.channels();
+  const auto planes = ChannelPlanes(frames, s, result.channels);
+  ScreenFrames(frames, planes[0], &s, &result);
 
-  // Frames that carry no information: saturated or dark everywhere.
-  for (size_t j = 0; j < frames.size(); ++j) {
-    FrameExposureReport rep;
-    rep.file = frames[j].file;
-    rep.listed_s = rep.estimated_s = frames[j].exposure_s;
-    const cv::Mat gray = planes[0][j];
-    const double sat =
-        cv::countNonZero(gray >= s.saturation_limit) / static_cast<double>(gray.total());
-    const double dark = cv::countNonZero(gray <= s.dark_limit) / static_cast<double>(gray.total());
-    if (sat > 0.99) {
-      rep.used = false;
-      rep.note = "saturated everywhere";
-    } else if (dark > 0.99) {
-      rep.used = false;
-      rep.note = "dark everywhere";
-    } else {
-      s.usable.push_back(static_cast<int>(j));
-    }
-    result.frames.push_back(rep);
-  }
-  if (s.usable.size() < 2) {
-    std::string bad;
-    for (const auto& r : result.frames) {
-      if (!r.used) bad += (bad.empty() ? "" : ", ") + r.file + " (" + r.note + ")";
-    }
-    throw InputError("exposure sweep: fewer than two usable frames; " + bad);
-  }
-
-  std::vector<double> listed;
-  for (const auto& f : frames) listed.push_back(f.exposure_s);
-  std::vector<bool> has_prior(frames.size(), true);
+  SweepTimes times;
+  for (const auto& f : frames) times.listed.push_back(f.exposure_s);
+  times.has_prior.assign(frames.size(), true);
   std::vector<std::vector<cv::Point>> pixels(result.channels);
   for (int c = 0; c < result.channels; ++c) pixels[c] = SamplePixels(planes[c], s, o.num_pixels);
-
-  std::vector<ChannelFit> fits(result.channels);
-  auto fit_all = [&](bool times_fixed) {
-    ParallelFor(result.channels, o.threads, [&](size_t b, size_t e) {
-      for (size_t c = b; c < e; ++c) {
-        fits[c] = FitChannel(planes[c], listed, has_prior, times_fixed, s, pixels[c], o);
-      }
-    });
-  };
   // Pass 1: every frame, listed times as robust priors, to find the frames whose brightness
-  // contradicts their listed time (median over channels).
-  fit_all(false);
-  std::vector<int> consistent, inconsistent;
-  for (int j : s.usable) {
-    std::vector<double> ln_ratio;
-    for (const auto& f : fits) ln_ratio.push_back(f.ln_t[j] - std::log(listed[j]));
-    const double r = Median(ln_ratio);
-    auto& rep = result.frames[j];
-    if (std::abs(r) > std::log1p(o.exposure_tolerance)) {
-      rep.consistent = false;
-      rep.note = fmt::format("brightness implies {:.4g} s, listed {:.4g} s",
-                             listed[j] * std::exp(r), listed[j]);
-      inconsistent.push_back(j);
-    } else {
-      consistent.push_back(j);
-    }
-  }
-  if (consistent.size() < 2) {
-    throw InputError(fmt::format(
-        "exposure sweep: only {} frame(s) agree with their listed exposure; cannot calibrate",
-        consistent.size()));
-  }
+  // contradicts their listed time.
+  auto fits = FitChannels(planes, times, false, s, pixels, o);
+  const std::vector<int> inconsistent = FindInconsistentFrames(fits, s, times, o, &result);
   // Pass 2: the consistent frames' times are held exactly, so they alone fix the exponent
-  // ambiguity; the inconsistent frames are re-timed jointly (no prior) or left out.
-  s.usable = consistent;
-  for (int j : inconsistent) {
-    has_prior[j] = false;
-    if (o.drop_inconsistent) {
-      result.frames[j].used = false;
-    } else {
-      s.usable.push_back(j);
-    }
-  }
-  std::sort(s.usable.begin(), s.usable.end());
-  fit_all(true);
-  for (int j : inconsistent) {
-    if (o.drop_inconsistent) continue;
-    std::vector<double> ln_t;
-    for (const auto& f : fits) ln_t.push_back(f.ln_t[j]);
-    auto& rep = result.frames[j];
-    rep.estimated_s = std::exp(Median(ln_t));
-    // Pass 1's robust estimate is only a screen; the verdict uses the final estimate.
-    rep.consistent =
-        std::abs(std::log(rep.estimated_s / listed[j])) <= std::log1p(o.exposure_tolerance);
-    rep.note =
-        fmt::format("brightness implies {:.4g} s, listed {:.4g} s", rep.estimated_s, listed[j]);
-  }
-
-  result.black_level.assign(result.channels, o.black_level.value_or(0.0));
-  result.saturation_level.assign(result.channels, s.saturation_limit);
-  double rms = 0;
-  for (int c = 0; c < result.channels; ++c) {
-    result.inverse_response.push_back(
-        BuildTable(fits[c], s, &result.black_level[c], o.black_level.has_value()));
-    rms += fits[c].rms * fits[c].rms;
-  }
-  result.rms_log_residual = std::sqrt(rms / result.channels);
-
-  std::vector<double> used_t(frames.size());
-  std::vector<bool> used(frames.size());
-  for (size_t j = 0; j < frames.size(); ++j) {
-    used[j] = result.frames[j].used;
-    used_t[j] = result.frames[j].estimated_s;
-  }
-  result.median_ratio_error =
-      MedianRatioError(frames, used_t, used, result.inverse_response, result.saturation_level,
-                       result.black_level, s.bit_depth, &result.pair_ratio_error);
+  // ambiguity.
+  ReleaseInconsistentFrames(inconsistent, o, &s, &times, &result);
+  fits = FitChannels(planes, times, true, s, pixels, o);
+  ReportRetimedFrames(fits, inconsistent, times, o, &result);
+  FinishResponse(frames, fits, s, o, &result);
   return result;
 }
 

@@ -6,12 +6,13 @@
 // with C the board's "albedo" (reflectance times the irradiance pattern of a light fixed to the
 // board; view-independent for matte paper), on a texture grid over the board. First the radial
 // polynomial V = 1 + v1 r^2 + v2 r^4 + v3 r^6 (r = distance to the principal point /
-// half-diagonal, as data_synth renders it) is fitted by variable projection (C closed form,
-// Levenberg-Marquardt over v); then, for the "map" model, the paper's alternating least squares
-// (eq. 5, each step closed form) on a vignette grid over the image refines it locally. Tags
-// (black ink) and a margin around them, and the sample region, are left out; so are saturated
-// and dark pixels. Where the board covers too little of the image the radial polynomial is the
-// answer (order limited by the radius the data reach). V is 1 at the principal point.
+// half-diagonal, common/vignetting.h) is fitted jointly with C by Ceres (the Schur complement
+// eliminates C, so each step solves for v only, as variable projection does); then, for the
+// "map" model, the paper's alternating least squares (eq. 5, each step closed form) on a
+// vignette grid over the image refines it locally. Tags (black ink) and a margin around them,
+// and the sample region, are left out; so are saturated and dark pixels. Where the board covers
+// too little of the image the radial polynomial is the answer (order limited by the radius the
+// data reach). V is 1 at the principal point.
 // docs/photometric.md has the measurements behind these choices.
 #pragma once
 
@@ -27,26 +28,6 @@
 #include "common/geometry.h"
 
 namespace gonio {
-
-// Where the board is known to be white paper: inside the tag grid's bounding box or the white
-// region, at least `margin` from every tag and from the sample region.
-struct PaperRegion {
-  std::vector<std::array<double, 4>> tags;  // [xmin, ymin, xmax, ymax] of each tag, metres
-  std::array<double, 4> grid_box{};         // bounding box of the tag grid
-  bool has_grid = false;
-  std::vector<Eigen::Vector2d> sample_region, white_region;
-  // A flat field: tag-free white target of uniform radiance (read from a board file with no
-  // tags). Its texture is then one constant, which the pose-by-pose texture grid cannot
-  // establish when every view looks at the same target point from the same distance (a radial
-  // V(r) change and a radial texture change are then nearly indistinguishable).
-  bool uniform = false;
-
-  static PaperRegion FromBoard(const Board& board);
-  // A board file; a tag-free flat target ("columns" or "rows" 0, as data_synth's flat-field
-  // preset writes) gives just its white region. InputError naming the file otherwise.
-  static PaperRegion Read(const std::filesystem::path& path);
-  bool IsPaper(double x, double y, double margin) const;
-};
 
 struct VignetteOptions {
   std::string model = "map";     // "map" (grid, radial fill-in) or "radial" (polynomial only)

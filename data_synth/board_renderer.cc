@@ -172,6 +172,105 @@ json TagCornersJson(const TagBoard& board, const CameraModel& camera,
 
 json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
+// The geometry of one pose: where the camera and the light are in the board frame.
+PoseGeometry PoseGeometryOf(const Scene& scene, const Rigid3d& cam_from_board) {
+  PoseGeometry g;
+  g.cam_from_board = cam_from_board;
+  const Rigid3d board_from_cam = cam_from_board.Inverse();
+  g.camera_in_board = board_from_cam.t;
+  const bool light_in_cam = scene.light.frame == "camera";
+  g.light_in_board = light_in_cam ? board_from_cam * scene.light.position : scene.light.position;
+  g.to_light_in_board =
+      (light_in_cam ? board_from_cam.R * scene.light.direction : scene.light.direction)
+          .normalized();
+  return g;
+}
+
+// Pixel values of frame `frame` from its radiance image; counts saturated pixels.
+cv::Mat ExposeFrame(const Scene& scene, const PhotometricChain& chain, const cv::Mat& radiance,
+                    double exposure_s, int frame, int threads, size_t* saturated_pixels) {
+  const int w = scene.camera.width, h = scene.camera.height;
+  const int cv_type = scene.photometric.bit_depth == 8 ? CV_8U : CV_16U;
+  cv::Mat image(h, w, cv_type);
+  std::atomic<size_t> saturated{0};
+  ParallelFor(h, threads, [&](size_t b, size_t e) {
+    size_t local = 0;
+    for (size_t y = b; y < e; ++y) {
+      std::mt19937_64 rng(RowSeed(scene.seed, frame, y));
+      const double* in = radiance.ptr<double>(static_cast<int>(y));
+      for (int x = 0; x < w; ++x) {
+        const uint16_t v = chain.Value(in[x], exposure_s, x, static_cast<double>(y), rng);
+        local += v >= chain.max_value();
+        if (cv_type == CV_8U) {
+          image.ptr<uint8_t>(static_cast<int>(y))[x] = static_cast<uint8_t>(v);
+        } else {
+          image.ptr<uint16_t>(static_cast<int>(y))[x] = v;
+        }
+      }
+    }
+    saturated += local;
+  });
+  *saturated_pixels = saturated;
+  return image;
+}
+
+// truth.json "light": the light as the scene gives it, in its frame.
+json LightTruthJson(const LightSpec& light) {
+  json out = {{"type", light.type}, {"frame", light.frame}};
+  if (light.type == "point") {
+    out[light.frame == "board" ? "position_in_board" : "position_in_camera"] = Vec(light.position);
+    out["intensity"] = light.intensity;
+    out["falloff"] = "inverse-square: E = intensity * cos(theta_i) / d^2";
+  } else {
+    out[light.frame == "board" ? "direction_in_board" : "direction_in_camera"] =
+        Vec(light.direction.normalized());
+    out["irradiance"] = light.irradiance;
+  }
+  return out;
+}
+
+// board.json, camera.cameramodel, session.json and truth.json of a rendered session.
+void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material& material,
+                       const PhotometricChain& chain, const json& session_frames,
+                       const json& truth_frames, const fs::path& out_dir) {
+  WriteJsonAtomically(out_dir / "board.json", board.BoardJson());
+  scene.camera.Write(out_dir / "camera.cameramodel",
+                     "gonio synth: the camera that rendered this session");
+  WriteJsonAtomically(out_dir / "session.json", {{"format", "gonio-session"},
+                                                 {"version", 1},
+                                                 {"camera_id", "synthetic"},
+                                                 {"board", "board.json"},
+                                                 {"bit_depth", scene.photometric.bit_depth},
+                                                 {"frames", session_frames}});
+  WriteJsonAtomically(out_dir / "truth.json",
+                      {{"format", "gonio-synth-truth"},
+                       {"version", 1},
+                       {"scene_type", "board"},
+                       {"material", material.ToJson()},
+                       {"light", LightTruthJson(scene.light)},
+                       {"white_albedo", scene.board.white_albedo},
+                       {"black_albedo", scene.board.black_albedo},
+                       {"board",
+                        {{"file", "board.json"},
+                         {"sample_region", scene.board.sample_region},
+                         {"white_region", scene.board.white_region}}},
+                       {"camera",
+                        {{"file", "camera.cameramodel"},
+                         {"lens_model", scene.camera.lens_model},
+                         {"intrinsics", scene.camera.intrinsics},
+                         {"width", scene.camera.width},
+                         {"height", scene.camera.height}}},
+                       {"frames", truth_frames},
+                       {"photometric", chain.ToJson()},
+                       {"render",
+                        {{"supersampling", scene.supersampling},
+                         {"seed", scene.seed},
+                         {"pixel_filter",
+                          "box over the pixel square; radiance per surface at the "
+                          "footprint centre"}}},
+                       {"scene", SceneToJson(scene)}});
+}
+
 }  // namespace
 
 std::string BoardRenderResult::Report() const {
@@ -200,50 +299,23 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
   BoardRenderResult result;
   result.poses = static_cast<int>(poses.size());
   json session_frames = json::array(), truth_frames = json::array();
-  const int w = scene.camera.width, h = scene.camera.height;
-  const int cv_type = scene.photometric.bit_depth == 8 ? CV_8U : CV_16U;
+  const double pixels = static_cast<double>(scene.camera.width) * scene.camera.height;
   Progress progress("synth: rendering frames", poses.size() * exposures.size());
   int frame = 0;
   for (size_t pose_index = 0; pose_index < poses.size(); ++pose_index) {
-    PoseGeometry g;
-    g.cam_from_board = poses[pose_index];
-    const Rigid3d board_from_cam = g.cam_from_board.Inverse();
-    g.camera_in_board = board_from_cam.t;
-    const bool light_in_camera = scene.light.frame == "camera";
-    g.light_in_board =
-        light_in_camera ? board_from_cam * scene.light.position : scene.light.position;
-    g.to_light_in_board =
-        (light_in_camera ? board_from_cam.R * scene.light.direction : scene.light.direction)
-            .normalized();
+    const PoseGeometry g = PoseGeometryOf(scene, poses[pose_index]);
     const cv::Mat radiance =
         RenderRadiance(scene, board, shader, rays, g, threads, &result.supersampled_pixels);
     const json corners = TagCornersJson(board, scene.camera, g.cam_from_board);
     for (double exposure_s : exposures) {
-      cv::Mat image(h, w, cv_type);
-      std::atomic<size_t> saturated{0};
-      ParallelFor(h, threads, [&](size_t b, size_t e) {
-        size_t local = 0;
-        for (size_t y = b; y < e; ++y) {
-          std::mt19937_64 rng(RowSeed(scene.seed, frame, y));
-          const double* in = radiance.ptr<double>(static_cast<int>(y));
-          for (int x = 0; x < w; ++x) {
-            const uint16_t v = chain.Value(in[x], exposure_s, x, static_cast<double>(y), rng);
-            local += v >= chain.max_value();
-            if (cv_type == CV_8U) {
-              image.ptr<uint8_t>(static_cast<int>(y))[x] = static_cast<uint8_t>(v);
-            } else {
-              image.ptr<uint16_t>(static_cast<int>(y))[x] = v;
-            }
-          }
-        }
-        saturated += local;
-      });
+      size_t saturated = 0;
+      const cv::Mat image =
+          ExposeFrame(scene, chain, radiance, exposure_s, frame, threads, &saturated);
       char name[32];
       std::snprintf(name, sizeof(name), "frame_%04d.png", frame);
       WriteAtomically(out_dir / name,
                       [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
-      result.saturated_fraction.push_back(static_cast<double>(saturated) /
-                                          (static_cast<double>(w) * h));
+      result.saturated_fraction.push_back(static_cast<double>(saturated) / pixels);
       session_frames.push_back({{"file", name},
                                 {"exposure_s", exposure_s},
                                 {"gain", 1.0},
@@ -262,54 +334,7 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
   }
   progress.Done();
   result.frames = frame;
-
-  WriteJsonAtomically(out_dir / "board.json", board.BoardJson());
-  scene.camera.Write(out_dir / "camera.cameramodel",
-                     "gonio synth: the camera that rendered this session");
-  WriteJsonAtomically(out_dir / "session.json", {{"format", "gonio-session"},
-                                                 {"version", 1},
-                                                 {"camera_id", "synthetic"},
-                                                 {"board", "board.json"},
-                                                 {"bit_depth", scene.photometric.bit_depth},
-                                                 {"frames", session_frames}});
-  json light = {{"type", scene.light.type}, {"frame", scene.light.frame}};
-  if (scene.light.type == "point") {
-    light[scene.light.frame == "board" ? "position_in_board" : "position_in_camera"] =
-        Vec(scene.light.position);
-    light["intensity"] = scene.light.intensity;
-    light["falloff"] = "inverse-square: E = intensity * cos(theta_i) / d^2";
-  } else {
-    light[scene.light.frame == "board" ? "direction_in_board" : "direction_in_camera"] =
-        Vec(scene.light.direction.normalized());
-    light["irradiance"] = scene.light.irradiance;
-  }
-  WriteJsonAtomically(out_dir / "truth.json",
-                      {{"format", "gonio-synth-truth"},
-                       {"version", 1},
-                       {"scene_type", "board"},
-                       {"material", material.ToJson()},
-                       {"light", light},
-                       {"white_albedo", scene.board.white_albedo},
-                       {"black_albedo", scene.board.black_albedo},
-                       {"board",
-                        {{"file", "board.json"},
-                         {"sample_region", scene.board.sample_region},
-                         {"white_region", scene.board.white_region}}},
-                       {"camera",
-                        {{"file", "camera.cameramodel"},
-                         {"lens_model", scene.camera.lens_model},
-                         {"intrinsics", scene.camera.intrinsics},
-                         {"width", w},
-                         {"height", h}}},
-                       {"frames", truth_frames},
-                       {"photometric", chain.ToJson()},
-                       {"render",
-                        {{"supersampling", scene.supersampling},
-                         {"seed", scene.seed},
-                         {"pixel_filter",
-                          "box over the pixel square; radiance per surface at the "
-                          "footprint centre"}}},
-                       {"scene", SceneToJson(scene)}});
+  WriteSessionFiles(scene, board, material, chain, session_frames, truth_frames, out_dir);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -6,19 +6,13 @@
 namespace gonio::synth {
 
 PhotometricChain::PhotometricChain(const PhotometricSpec& spec, const CameraModel& camera)
-    : spec_(spec) {
-  cx_ = camera.intrinsics[2];
-  cy_ = camera.intrinsics[3];
-  const double hw = 0.5 * camera.width, hh = 0.5 * camera.height;
-  inv_r2_max_ = 1.0 / (hw * hw + hh * hh);
+    : spec_(spec), vignetting_geometry_(VignettingGeometry::Of(camera)) {
   max_value_ = std::ldexp(1.0, spec.bit_depth) - 1.0;
   response_kind_ = spec.response == "gamma" ? 1 : spec.response == "srgb" ? 2 : 0;
 }
 
 double PhotometricChain::Vignetting(double x, double y) const {
-  const double r2 = ((x - cx_) * (x - cx_) + (y - cy_) * (y - cy_)) * inv_r2_max_;
-  const auto& v = spec_.vignetting;
-  return 1.0 + r2 * (v[0] + r2 * (v[1] + r2 * v[2]));
+  return RadialVignettingAtR2(spec_.vignetting, vignetting_geometry_.R2(x, y));
 }
 
 double PhotometricChain::Response(double x) const {
@@ -81,8 +75,8 @@ nlohmann::json PhotometricChain::ToJson() const {
       {"vignetting",
        {{"model", "radial-polynomial"},
         {"coefficients", spec_.vignetting},
-        {"center", {cx_, cy_}},
-        {"radius_px", 1.0 / std::sqrt(inv_r2_max_)},
+        {"center", {vignetting_geometry_.cx, vignetting_geometry_.cy}},
+        {"radius_px", 1.0 / std::sqrt(vignetting_geometry_.inv_radius2)},
         {"formula", "V = 1 + v1 r^2 + v2 r^4 + v3 r^6, r = |pixel - center| / radius_px"}}},
       {"exposure_scale", spec_.exposure_scale},
       {"exposure_scale_unit", "relative exposure per (W m^-2 sr^-1 s); X = 1 saturates"},

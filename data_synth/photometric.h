@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/camera_model.h"
+#include "common/vignetting.h"
 #include "data_synth/scene.h"
 
 namespace gonio::synth {
@@ -34,7 +35,7 @@ class PhotometricChain {
  private:
   double FromRelativeExposure(double x_rel) const;
   PhotometricSpec spec_;
-  double cx_, cy_, inv_r2_max_;
+  VignettingGeometry vignetting_geometry_;
   double max_value_;
   int response_kind_ = 0;  // 0 linear, 1 gamma, 2 srgb
 };

@@ -56,13 +56,13 @@ struct MaterialSpec {
 };
 
 struct LightSpec {
-  // "point": isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
+  // "point": isotropic point light, irradiance E = I cos(theta_i) / d^2.
   // "distant": parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
   std::string type = "point";
-  // Frame the position (or direction) is given in: "board" (lamp fixed while the camera
-  // moves) or "camera" (lamp fixed to the camera while the board turns).
+  // Frame the position (or direction) is given in: "board" (light fixed while the camera
+  // moves) or "camera" (light fixed to the camera while the board turns).
   std::string frame = "board";
-  Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point lamp
+  Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point light
   double intensity = 1.0;                        // W/sr (arbitrary but consistent units)
   Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the light, distant light
   double irradiance = 1.0;                       // at normal incidence, distant light
@@ -125,12 +125,14 @@ struct Scene {
   std::vector<Rigid3d> CamFromBoardPoses() const;
 };
 
-// `what` names the source (the file) in error messages. Unknown keys are an error.
+// `what` names the source (the file) in error messages. Unknown keys are an error. Reading,
+// writing and Scene::Check are driven by one field table in scene.cc: a new field is its
+// member (with its default) here and one row there.
 Scene SceneFromJson(const nlohmann::json& j, const std::string& what);
 nlohmann::json SceneToJson(const Scene& scene);
 
 struct PresetOptions {
-  // sfs presets: the lamp turned this far off the camera axis about the object (0 =
+  // sfs presets: the light turned this far off the camera axis about the object (0 =
   // collocated with the camera).
   double sfs_light_offaxis_deg = 0.0;
 };

@@ -27,7 +27,7 @@ using json = nlohmann::json;
 // rays are marched in depth z over [z_near, z_far].
 class Shape {
  public:
-  Shape(const SfsSpec& spec) : spec_(spec), c_(0, 0, spec.distance), s_(spec.size) {
+  Shape(const SfsSpec& spec) : spec_(spec), centre_in_cam_(0, 0, spec.distance), s_(spec.size) {
     if (spec.shape == "bumps") {
       // Gaussian bumps (and one dent) on a square patch facing the camera; heights and widths
       // relative to the patch half-width.
@@ -36,33 +36,35 @@ class Shape {
                 {-0.55, 0.45, 0.2, 0.18},
                 {-0.5, -0.55, 0.16, 0.15},
                 {0.5, -0.5, -0.12, 0.15}};
-      z_near_ = c_.z() - 0.4 * s_;
-      z_far_ = c_.z() + 0.2 * s_;
+      z_near_ = centre_in_cam_.z() - 0.4 * s_;
+      z_far_ = centre_in_cam_.z() + 0.2 * s_;
     } else {
-      z_near_ = c_.z() - 1.05 * s_;
-      z_far_ = c_.z() + 1.05 * s_;
+      z_near_ = centre_in_cam_.z() - 1.05 * s_;
+      z_far_ = centre_in_cam_.z() + 1.05 * s_;
     }
     half_height_ = spec.shape == "vase" ? 1.7 * s_ : s_;
   }
 
   double F(const Eigen::Vector3d& p) const {
-    if (spec_.shape == "sphere") return (p - c_).norm() - s_;
+    if (spec_.shape == "sphere") return (p - centre_in_cam_).norm() - s_;
     if (spec_.shape == "vase") {
-      const double s = (p.y() - c_.y()) / half_height_;
-      const double rho2 = p.x() * p.x() + (p.z() - c_.z()) * (p.z() - c_.z());
+      const double s = (p.y() - centre_in_cam_.y()) / half_height_;
+      const double rho2 =
+          p.x() * p.x() + (p.z() - centre_in_cam_.z()) * (p.z() - centre_in_cam_.z());
       if (std::abs(s) >= 1) return rho2 + (std::abs(s) - 1) * s_ * s_;
       return rho2 - VaseR2(s);
     }
-    return c_.z() - Height(p.x(), p.y()) - p.z();
+    return centre_in_cam_.z() - Height(p.x(), p.y()) - p.z();
   }
 
   // Outward unit normal at a surface point.
   Eigen::Vector3d Normal(const Eigen::Vector3d& p) const {
-    if (spec_.shape == "sphere") return (p - c_).normalized();
+    if (spec_.shape == "sphere") return (p - centre_in_cam_).normalized();
     if (spec_.shape == "vase") {
-      const double s = (p.y() - c_.y()) / half_height_, h = 1e-6;
+      const double s = (p.y() - centre_in_cam_.y()) / half_height_, h = 1e-6;
       const double dr2_ds = (VaseR2(s + h) - VaseR2(s - h)) / (2 * h);
-      return Eigen::Vector3d(2 * p.x(), -dr2_ds / half_height_, 2 * (p.z() - c_.z())).normalized();
+      return Eigen::Vector3d(2 * p.x(), -dr2_ds / half_height_, 2 * (p.z() - centre_in_cam_.z()))
+          .normalized();
     }
     double hx = 0, hy = 0;
     HeightGradient(p.x(), p.y(), &hx, &hy);
@@ -106,7 +108,8 @@ class Shape {
   }
 
   json ToJson() const {
-    json j = {{"shape", spec_.shape}, {"centre_in_camera", {c_.x(), c_.y(), c_.z()}}};
+    json j = {{"shape", spec_.shape},
+              {"centre_in_camera", {centre_in_cam_.x(), centre_in_cam_.y(), centre_in_cam_.z()}}};
     if (spec_.shape == "sphere") {
       j["radius"] = s_;
       j["definition"] = "|p - centre| = radius";
@@ -157,7 +160,7 @@ class Shape {
   }
 
   SfsSpec spec_;
-  Eigen::Vector3d c_;
+  Eigen::Vector3d centre_in_cam_;
   double s_;
   double half_height_ = 0;
   double z_near_ = 0, z_far_ = 0;
@@ -203,6 +206,189 @@ void WriteFloatTiff(const fs::path& path, const cv::Mat& m) {
   });
 }
 
+// Unit-z rays through the pixel-square corners and the depth of their first hit (<= 0: miss).
+struct CornerHits {
+  std::vector<Eigen::Vector3d> rays;
+  std::vector<double> z;
+};
+
+CornerHits TraceCorners(const CameraModel& camera, const Shape& shape, int threads) {
+  const int w1 = camera.width + 1;
+  CornerHits c;
+  c.rays.resize(static_cast<size_t>(w1) * (camera.height + 1));
+  c.z.resize(c.rays.size());
+  ParallelFor(camera.height + 1, threads, [&](size_t b, size_t e) {
+    for (size_t y = b; y < e; ++y) {
+      for (int x = 0; x < w1; ++x) {
+        const size_t k = y * w1 + x;
+        c.rays[k] = camera.Unproject(Eigen::Vector2d(x - 0.5, y - 0.5));
+        c.z[k] = shape.Trace(c.rays[k]);
+      }
+    }
+  });
+  return c;
+}
+
+// The rendered image and its truth maps.
+struct SfsImages {
+  cv::Mat image, mask, depth, normals;
+  size_t mask_pixels = 0;
+  int brightest = 0;  // highest pixel value
+};
+
+// Radiance of pixel (x, y): shaded at the centre when the whole footprint is on the object
+// (then the truth maps are filled there), averaged over S x S rays on the silhouette.
+double PixelRadiance(const Scene& scene, const Shape& shape, const Material& material,
+                     const CornerHits& corners, int x, int y, SfsImages* out, size_t* on_object) {
+  const int w1 = scene.camera.width + 1, ss = scene.supersampling;
+  const size_t i00 = static_cast<size_t>(y) * w1 + x, i10 = i00 + 1, i01 = i00 + w1, i11 = i01 + 1;
+  const auto& z = corners.z;
+  const int hits = (z[i00] > 0) + (z[i10] > 0) + (z[i01] > 0) + (z[i11] > 0);
+  if (hits == 0) return 0.0;
+  const Eigen::Vector3d centre_ray = scene.camera.Unproject(Eigen::Vector2d(x, y));
+  const double zc = shape.Trace(centre_ray);
+  if (hits == 4 && zc > 0) {
+    Eigen::Vector3d n;
+    const double radiance = Shade(shape, material, scene.light, centre_ray * zc, &n);
+    out->mask.at<uint8_t>(y, x) = 255;
+    out->depth.at<float>(y, x) = static_cast<float>(zc);
+    out->normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n.x(), n.y(), n.z());
+    ++*on_object;
+    return radiance;
+  }
+  // Silhouette: average over S x S rays in the footprint (background radiance 0).
+  const auto& rays = corners.rays;
+  double radiance = 0;
+  for (int j = 0; j < ss; ++j) {
+    for (int i = 0; i < ss; ++i) {
+      // Multi-jittered canonical pattern, as in the board renderer.
+      const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
+      const Eigen::Vector3d ray = (1 - v) * ((1 - u) * rays[i00] + u * rays[i10]) +
+                                  v * ((1 - u) * rays[i01] + u * rays[i11]);
+      const double zr = shape.Trace(ray);
+      if (zr > 0) radiance += Shade(shape, material, scene.light, ray * zr, nullptr);
+    }
+  }
+  return radiance / (ss * ss);
+}
+
+SfsImages RenderImages(const Scene& scene, const Shape& shape, const Material& material,
+                       const PhotometricChain& chain, const CornerHits& corners, int threads) {
+  const int w = scene.camera.width, h = scene.camera.height;
+  const double exposure_s = scene.views.exposures_s.front();
+  SfsImages out;
+  out.image = cv::Mat(h, w, scene.photometric.bit_depth == 8 ? CV_8U : CV_16U);
+  out.mask = cv::Mat(h, w, CV_8U, cv::Scalar(0));
+  out.depth = cv::Mat(h, w, CV_32F, cv::Scalar(0));
+  out.normals = cv::Mat(h, w, CV_32FC3, cv::Scalar(0, 0, 0));
+  std::atomic<size_t> mask_count{0};
+  std::atomic<int> brightest{0};
+  ParallelFor(h, threads, [&](size_t b, size_t e) {
+    size_t local = 0;
+    int local_max = 0;
+    for (size_t y = b; y < e; ++y) {
+      std::mt19937_64 rng(RowSeed(scene.seed, 0, y));
+      for (int x = 0; x < w; ++x) {
+        const double radiance =
+            PixelRadiance(scene, shape, material, corners, x, static_cast<int>(y), &out, &local);
+        const uint16_t value = chain.Value(radiance, exposure_s, x, static_cast<double>(y), rng);
+        local_max = std::max<int>(local_max, value);
+        if (out.image.depth() == CV_8U) {
+          out.image.at<uint8_t>(y, x) = static_cast<uint8_t>(value);
+        } else {
+          out.image.at<uint16_t>(y, x) = value;
+        }
+      }
+    }
+    mask_count += local;
+    int prev = brightest.load();
+    while (local_max > prev && !brightest.compare_exchange_weak(prev, local_max)) {
+    }
+  });
+  out.mask_pixels = mask_count;
+  out.brightest = brightest;
+  return out;
+}
+
+// light.json: the light in the camera frame, and for a linear camera without vignetting the
+// radiance of one digital number.
+json SfsLightJson(const Scene& scene, const PhotometricChain& chain) {
+  const auto& p = scene.light.position;
+  json light = {{"frame", "camera"},
+                {"position", {p.x(), p.y(), p.z()}},
+                {"collocated", p.norm() < 1e-9},
+                {"intensity", scene.light.intensity},
+                {"falloff", "inverse-square: E = intensity * cos(theta_i) / d^2"}};
+  const auto& ph = scene.photometric;
+  const bool linear = ph.response == "linear" && ph.vignetting == std::array<double, 3>{0, 0, 0};
+  if (linear) {
+    // Radiance of one digital number above the black level (linear response, no vignetting).
+    light["radiance_per_dn"] = 1.0 / ((chain.max_value() - ph.black_level) * ph.exposure_scale *
+                                      scene.views.exposures_s.front());
+    light["black_level"] = ph.black_level;
+  }
+  return light;
+}
+
+json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_json,
+                  const json& light, const PhotometricChain& chain) {
+  const CameraModel& camera = scene.camera;
+  return {
+      {"format", "gonio-synth-truth"},
+      {"version", 1},
+      {"scene_type", "sfs"},
+      {"object", shape.ToJson()},
+      {"material", material_json},
+      {"light", light},
+      {"camera",
+       {{"file", "camera.cameramodel"},
+        {"lens_model", camera.lens_model},
+        {"intrinsics", camera.intrinsics},
+        {"width", camera.width},
+        {"height", camera.height}}},
+      {"image", {{"file", "image.png"}, {"exposure_s", scene.views.exposures_s.front()}}},
+      {"mask",
+       {{"file", "mask.png"}, {"meaning", "255 where the whole pixel footprint is on the object"}}},
+      {"depth",
+       {{"file", "depth.tiff"},
+        {"type", "float32"},
+        {"unit", "m"},
+        {"meaning", "camera-frame z of the surface at the pixel centre; 0 outside the mask"}}},
+      {"normals",
+       {{"file", "normals.tiff"},
+        {"type", "float32 x3"},
+        {"channels", {"x", "y", "z"}},
+        {"frame", "camera"},
+        {"meaning",
+         "outward unit normal at the pixel centre, 0 outside the mask; read "
+         "with cv::imread(IMREAD_UNCHANGED), channel 0 = x"}}},
+      {"photometric", chain.ToJson()},
+      {"scene", SceneToJson(scene)}};
+}
+
+// The input folder of `gonio sfs`: image, mask, depth and normal truth, camera, material,
+// light, truth.json.
+void WriteSfsFiles(const Scene& scene, const Shape& shape, const Material& material,
+                   const PhotometricChain& chain, const SfsImages& images,
+                   const fs::path& out_dir) {
+  auto write_image = [&](const std::string& name, const cv::Mat& m) {
+    WriteAtomically(out_dir / name,
+                    [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
+  };
+  write_image("image.png", images.image);
+  write_image("mask.png", images.mask);
+  WriteFloatTiff(out_dir / "depth.tiff", images.depth);
+  WriteFloatTiff(out_dir / "normals.tiff", images.normals);
+  scene.camera.Write(out_dir / "camera.cameramodel", "gonio synth: the camera of this sfs scene");
+  const json material_json = material.ToJson();
+  WriteJsonAtomically(out_dir / "material.json", {{"selected", material.model()},
+                                                  {"candidates", json::array({material_json})}});
+  const json light = SfsLightJson(scene, chain);
+  WriteJsonAtomically(out_dir / "light.json", light);
+  WriteJsonAtomically(out_dir / "truth.json",
+                      SfsTruthJson(scene, shape, material_json, light, chain));
+}
+
 }  // namespace
 
 std::string SfsRenderResult::Report() const {
@@ -218,146 +404,16 @@ SfsRenderResult RenderSfsScene(const Scene& scene, const fs::path& out_dir, int 
   const Material material(scene.material);
   const Shape shape(scene.sfs);
   const PhotometricChain chain(scene.photometric, scene.camera);
-  const CameraModel& camera = scene.camera;
-  const int w = camera.width, h = camera.height, w1 = w + 1, ss = scene.supersampling;
-  const double exposure_s = scene.views.exposures_s.front();
   EnsureDirectory(out_dir);
-
-  // Depth of the first hit through every footprint corner.
-  std::vector<Eigen::Vector3d> rays(static_cast<size_t>(w1) * (h + 1));
-  std::vector<double> corner_z(rays.size());
-  ParallelFor(h + 1, threads, [&](size_t b, size_t e) {
-    for (size_t y = b; y < e; ++y) {
-      for (int x = 0; x < w1; ++x) {
-        const size_t k = y * w1 + x;
-        rays[k] = camera.Unproject(Eigen::Vector2d(x - 0.5, y - 0.5));
-        corner_z[k] = shape.Trace(rays[k]);
-      }
-    }
-  });
-
-  cv::Mat image(h, w, scene.photometric.bit_depth == 8 ? CV_8U : CV_16U);
-  cv::Mat mask(h, w, CV_8U, cv::Scalar(0));
-  cv::Mat depth(h, w, CV_32F, cv::Scalar(0));
-  cv::Mat normals(h, w, CV_32FC3, cv::Scalar(0, 0, 0));
-  std::atomic<size_t> mask_count{0};
-  std::atomic<int> brightest{0};
-  ParallelFor(h, threads, [&](size_t b, size_t e) {
-    size_t local = 0;
-    int local_max = 0;
-    for (size_t y = b; y < e; ++y) {
-      std::mt19937_64 rng(RowSeed(scene.seed, 0, y));
-      for (int x = 0; x < w; ++x) {
-        const size_t i00 = y * w1 + x, i10 = i00 + 1, i01 = i00 + w1, i11 = i01 + 1;
-        const int hits =
-            (corner_z[i00] > 0) + (corner_z[i10] > 0) + (corner_z[i01] > 0) + (corner_z[i11] > 0);
-        double radiance = 0;
-        if (hits > 0) {
-          const Eigen::Vector3d centre_ray = camera.Unproject(Eigen::Vector2d(x, y));
-          const double zc = shape.Trace(centre_ray);
-          if (hits == 4 && zc > 0) {
-            Eigen::Vector3d n;
-            const Eigen::Vector3d p = centre_ray * zc;
-            radiance = Shade(shape, material, scene.light, p, &n);
-            mask.at<uint8_t>(y, x) = 255;
-            depth.at<float>(y, x) = static_cast<float>(zc);
-            normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n.x(), n.y(), n.z());
-            ++local;
-          } else {
-            // Silhouette: average over S x S rays in the footprint (background radiance 0).
-            for (int j = 0; j < ss; ++j) {
-              for (int i = 0; i < ss; ++i) {
-                // Multi-jittered canonical pattern, as in the board renderer.
-                const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
-                const Eigen::Vector3d ray = (1 - v) * ((1 - u) * rays[i00] + u * rays[i10]) +
-                                            v * ((1 - u) * rays[i01] + u * rays[i11]);
-                const double z = shape.Trace(ray);
-                if (z > 0) radiance += Shade(shape, material, scene.light, ray * z, nullptr);
-              }
-            }
-            radiance /= ss * ss;
-          }
-        }
-        const uint16_t value = chain.Value(radiance, exposure_s, x, static_cast<double>(y), rng);
-        local_max = std::max<int>(local_max, value);
-        if (image.depth() == CV_8U) {
-          image.at<uint8_t>(y, x) = static_cast<uint8_t>(value);
-        } else {
-          image.at<uint16_t>(y, x) = value;
-        }
-      }
-    }
-    mask_count += local;
-    int prev = brightest.load();
-    while (local_max > prev && !brightest.compare_exchange_weak(prev, local_max)) {
-    }
-  });
-  if (mask_count == 0) throw InputError("sfs scene: the object is not visible in the image");
-
-  auto write_image = [&](const std::string& name, const cv::Mat& m) {
-    WriteAtomically(out_dir / name,
-                    [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
-  };
-  write_image("image.png", image);
-  write_image("mask.png", mask);
-  WriteFloatTiff(out_dir / "depth.tiff", depth);
-  WriteFloatTiff(out_dir / "normals.tiff", normals);
-  camera.Write(out_dir / "camera.cameramodel", "gonio synth: the camera of this sfs scene");
-  const json material_json = material.ToJson();
-  WriteJsonAtomically(out_dir / "material.json", {{"selected", material.model()},
-                                                  {"candidates", json::array({material_json})}});
-  const bool collocated = scene.light.position.norm() < 1e-9;
-  json light = {
-      {"frame", "camera"},
-      {"position", {scene.light.position.x(), scene.light.position.y(), scene.light.position.z()}},
-      {"collocated", collocated},
-      {"intensity", scene.light.intensity},
-      {"falloff", "inverse-square: E = intensity * cos(theta_i) / d^2"}};
-  const auto& ph = scene.photometric;
-  const bool linear = ph.response == "linear" && ph.vignetting == std::array<double, 3>{0, 0, 0};
-  if (linear) {
-    // Radiance of one digital number above the black level (linear response, no vignetting).
-    light["radiance_per_dn"] =
-        1.0 / ((chain.max_value() - ph.black_level) * ph.exposure_scale * exposure_s);
-    light["black_level"] = ph.black_level;
+  const CornerHits corners = TraceCorners(scene.camera, shape, threads);
+  const SfsImages images = RenderImages(scene, shape, material, chain, corners, threads);
+  if (images.mask_pixels == 0) {
+    throw InputError("sfs scene: the object is not visible in the image");
   }
-  WriteJsonAtomically(out_dir / "light.json", light);
-  WriteJsonAtomically(
-      out_dir / "truth.json",
-      {{"format", "gonio-synth-truth"},
-       {"version", 1},
-       {"scene_type", "sfs"},
-       {"object", shape.ToJson()},
-       {"material", material_json},
-       {"light", light},
-       {"camera",
-        {{"file", "camera.cameramodel"},
-         {"lens_model", camera.lens_model},
-         {"intrinsics", camera.intrinsics},
-         {"width", w},
-         {"height", h}}},
-       {"image", {{"file", "image.png"}, {"exposure_s", exposure_s}}},
-       {"mask",
-        {{"file", "mask.png"},
-         {"meaning", "255 where the whole pixel footprint is on the object"}}},
-       {"depth",
-        {{"file", "depth.tiff"},
-         {"type", "float32"},
-         {"unit", "m"},
-         {"meaning", "camera-frame z of the surface at the pixel centre; 0 outside the mask"}}},
-       {"normals",
-        {{"file", "normals.tiff"},
-         {"type", "float32 x3"},
-         {"channels", {"x", "y", "z"}},
-         {"frame", "camera"},
-         {"meaning",
-          "outward unit normal at the pixel centre, 0 outside the mask; read "
-          "with cv::imread(IMREAD_UNCHANGED), channel 0 = x"}}},
-       {"photometric", chain.ToJson()},
-       {"scene", SceneToJson(scene)}});
+  WriteSfsFiles(scene, shape, material, chain, images, out_dir);
   SfsRenderResult result;
-  result.mask_pixels = mask_count;
-  result.max_value_fraction = brightest / chain.max_value();
+  result.mask_pixels = images.mask_pixels;
+  result.max_value_fraction = images.brightest / chain.max_value();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -1,4 +1,4 @@
-// Radiance of a surface point under one lamp: the pieces both renderers share.
+// Radiance of a surface point under one light: the pieces both renderers share.
 #pragma once
 
 #include <cstdint>
@@ -42,12 +42,13 @@ class Material {
   std::function<double(const Angles<double>&)> eval_;
 };
 
-// Irradiance on a surface with outward unit normal n at p from a point lamp at `lamp`
-// (inverse-square falloff): E = I cos(theta_i) / d^2, and the unit direction to the lamp.
+// Irradiance on a surface with outward unit normal n at p from a point light at
+// `light_position` (inverse-square falloff): E = I cos(theta_i) / d^2, and the unit direction
+// to the light.
 inline double PointIrradiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
-                              const Eigen::Vector3d& lamp, double intensity,
+                              const Eigen::Vector3d& light_position, double intensity,
                               Eigen::Vector3d* to_light) {
-  const Eigen::Vector3d d = lamp - p;
+  const Eigen::Vector3d d = light_position - p;
   const double d2 = d.squaredNorm();
   *to_light = d / std::sqrt(d2);
   const double cos_i = n.dot(*to_light);

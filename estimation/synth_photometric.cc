@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/vignetting.h"
 
 namespace gonio {
 
@@ -29,15 +30,14 @@ PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, in
   cal.response.saturation_level = {maxv};
   const auto& v = p.at("vignetting");
   const auto c = v.at("coefficients").get<std::vector<double>>();
+  if (c.size() != 3) throw InputError("demo: truth vignetting needs 3 coefficients");
   const auto centre = v.at("center").get<std::vector<double>>();
   const double radius = v.at("radius_px").get<double>();
+  const VignettingGeometry geometry{centre.at(0), centre.at(1), 1.0 / (radius * radius)};
   cal.vignette = cv::Mat(height, width, CV_32F);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
-      const double r2 =
-          (std::pow(x - centre[0], 2) + std::pow(y - centre[1], 2)) / (radius * radius);
-      cal.vignette.at<float>(y, x) =
-          static_cast<float>(1 + c[0] * r2 + c[1] * r2 * r2 + c[2] * r2 * r2 * r2);
+      cal.vignette.at<float>(y, x) = static_cast<float>(RadialVignettingAtR2(c, geometry.R2(x, y)));
     }
   }
   return cal;

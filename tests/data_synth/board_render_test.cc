@@ -79,6 +79,40 @@ TEST_F(BoardRenderTest, TruthJsonHasTheDocumentedSchema) {
   EXPECT_EQ(board.at("ids")[6], -1) << "ring layout leaves the interior free";
 }
 
+// The detector fits edges to intensity gradients, so it needs linear data: undo the response
+// with truth.json's own formula (as the pipeline does with photometric.json); a gamma-encoded
+// edge profile is skewed towards the dark side.
+cv::Mat LinearGrey(const cv::Mat& raw, const json& ph) {
+  const double black = ph.at("black_level"), max_value = ph.at("max_value");
+  const double gamma = ph.at("response").at("gamma");
+  cv::Mat grey(raw.size(), CV_8U);
+  for (int y = 0; y < raw.rows; ++y) {
+    for (int x = 0; x < raw.cols; ++x) {
+      const double f = std::max(0.0, (raw.at<uint16_t>(y, x) - black) / (max_value - black));
+      grey.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(255.0 * std::pow(f, gamma) / 0.7);
+    }
+  }
+  return grey;
+}
+
+// Truth: the board's tag corners projected with the session's camera and pose, by tag id.
+std::map<int, std::array<Eigen::Vector2d, 4>> ProjectedCorners(const json& board,
+                                                               const CameraModel& cam,
+                                                               const Rigid3d& cam_from_board) {
+  std::map<int, std::array<Eigen::Vector2d, 4>> projected;
+  const int columns = board.at("columns");
+  const double pitch = board.at("pitch"), size = board.at("tag_size");
+  for (size_t k = 0; k < board.at("ids").size(); ++k) {
+    const int id = board.at("ids")[k];
+    if (id < 0) continue;
+    const double x = (k % columns) * pitch, y = (k / columns) * pitch;
+    const Eigen::Vector3d c[4] = {
+        {x, y, 0}, {x + size, y, 0}, {x + size, y + size, 0}, {x, y + size, 0}};
+    for (int i = 0; i < 4; ++i) projected[id][i] = cam.Project(cam_from_board * c[i]);
+  }
+  return projected;
+}
+
 // libapriltag's detector on the rendered frames: every detected corner within 0.1 px of the
 // projected truth (the anti-aliasing is what makes this possible).
 TEST_F(BoardRenderTest, TagCornersDetectedWithinATenthOfAPixel) {
@@ -98,34 +132,10 @@ TEST_F(BoardRenderTest, TagCornersDetectedWithinATenthOfAPixel) {
     const cv::Mat raw = cv::imread((Session(false) / frame.at("file").get<std::string>()).string(),
                                    cv::IMREAD_UNCHANGED);
     ASSERT_EQ(raw.type(), CV_16U);
-    // The detector fits edges to intensity gradients, so it needs linear data: undo the
-    // response with truth.json's own formula (as the pipeline does with photometric.json);
-    // a gamma-encoded edge profile is skewed towards the dark side.
-    const json& ph = truth.at("photometric");
-    const double black = ph.at("black_level"), max_value = ph.at("max_value");
-    const double gamma = ph.at("response").at("gamma");
-    cv::Mat grey(raw.size(), CV_8U);
-    for (int y = 0; y < raw.rows; ++y) {
-      for (int x = 0; x < raw.cols; ++x) {
-        const double f = std::max(0.0, (raw.at<uint16_t>(y, x) - black) / (max_value - black));
-        grey.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(255.0 * std::pow(f, gamma) / 0.7);
-      }
-    }
+    const cv::Mat grey = LinearGrey(raw, truth.at("photometric"));
     image_u8_t im{grey.cols, grey.rows, static_cast<int32_t>(grey.step), grey.data};
     zarray_t* detections = apriltag_detector_detect(detector, &im);
-    // Truth: the board's corners projected with the session's camera and pose.
-    const Rigid3d pose = RigidFromJson(frame.at("cam_from_board"));
-    std::map<int, std::array<Eigen::Vector2d, 4>> projected;
-    const int columns = board.at("columns");
-    const double pitch = board.at("pitch"), size = board.at("tag_size");
-    for (size_t k = 0; k < board.at("ids").size(); ++k) {
-      const int id = board.at("ids")[k];
-      if (id < 0) continue;
-      const double x = (k % columns) * pitch, y = (k / columns) * pitch;
-      const Eigen::Vector3d c[4] = {
-          {x, y, 0}, {x + size, y, 0}, {x + size, y + size, 0}, {x, y + size, 0}};
-      for (int i = 0; i < 4; ++i) projected[id][i] = cam.Project(pose * c[i]);
-    }
+    auto projected = ProjectedCorners(board, cam, RigidFromJson(frame.at("cam_from_board")));
     tags_expected += static_cast<int>(frame.at("tag_corners").size());
     for (int d = 0; d < zarray_size(detections); ++d) {
       apriltag_detection_t* det;
@@ -260,10 +270,10 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
     const Rigid3d board_from_cam = RigidFromJson(frame.at("cam_from_board")).Inverse();
     const Eigen::Vector3d c = board_from_cam.t;
     const double exposure = frame.at("exposure_s");
-    // The lamp of this frame (equal to light.position_in_board when the lamp is fixed to
+    // The light of this frame (equal to light.position_in_board when the light is fixed to
     // the board; moving with the camera when it is fixed to the camera).
-    Eigen::Vector3d lamp;
-    for (int i = 0; i < 3; ++i) lamp[i] = frame.at("light_in_board")[i];
+    Eigen::Vector3d light_in_board;
+    for (int i = 0; i < 3; ++i) light_in_board[i] = frame.at("light_in_board")[i];
     for (int y = 0; y < im.rows; y += 3) {
       for (int x = 0; x < im.cols; x += 3) {
         const Eigen::Vector3d d = board_from_cam.R * cam.Unproject(Eigen::Vector2d(x, y));
@@ -275,7 +285,7 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
           continue;
         }
         // Sample frame: outward normal -z of the board, so flip z to get +z up.
-        const Eigen::Vector3d to_l = lamp - p, to_v = c - p;
+        const Eigen::Vector3d to_l = light_in_board - p, to_v = c - p;
         const double l[3] = {to_l.x(), to_l.y(), -to_l.z()}, v[3] = {to_v.x(), to_v.y(), -to_v.z()};
         const double cos_i = -to_l.normalized().z();
         double brdf = 0;
@@ -324,9 +334,9 @@ TEST_F(BoardRenderTest, SamplePixelsEqualModelRadianceWithinNoise) {
   EXPECT_NEAR(std::sqrt(var_z), 1.0, 0.05);
 }
 
-// The board turned in front of a fixed camera and lamp: the lamp is given in the camera frame
+// The board turned in front of a fixed camera and light: the light is given in the camera frame
 // and moves in the board frame from pose to pose.
-TEST(BoardTurnedTest, LampFixedToTheCameraLightsEachPoseFromItsOwnPosition) {
+TEST(BoardTurnedTest, LightFixedToTheCameraLightsEachPoseFromItsOwnPosition) {
   TempDir dir;
   json scene = SmallBoardScene(false);
   scene["light"] = {
@@ -339,9 +349,11 @@ TEST(BoardTurnedTest, LampFixedToTheCameraLightsEachPoseFromItsOwnPosition) {
   EXPECT_FALSE(truth.at("light").contains("position_in_board"));
   for (const auto& frame : truth.at("frames")) {
     const Rigid3d cam_from_board = RigidFromJson(frame.at("cam_from_board"));
-    const Eigen::Vector3d lamp(frame.at("light_in_board")[0], frame.at("light_in_board")[1],
-                               frame.at("light_in_board")[2]);
-    EXPECT_NEAR((cam_from_board * lamp - Eigen::Vector3d(0.15, -0.05, 0.0)).norm(), 0, 1e-12);
+    const Eigen::Vector3d light_in_board(frame.at("light_in_board")[0],
+                                         frame.at("light_in_board")[1],
+                                         frame.at("light_in_board")[2]);
+    EXPECT_NEAR((cam_from_board * light_in_board - Eigen::Vector3d(0.15, -0.05, 0.0)).norm(), 0,
+                1e-12);
   }
   const SampleResidual res = SampleResiduals(dir.path() / "s");
   ASSERT_GT(res.residual.size(), 2000u);

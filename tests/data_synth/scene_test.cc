@@ -1,5 +1,10 @@
 // Scene files: presets round-trip through JSON, and bad scenes are refused with exit code 2
 // and a message naming the problem.
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "common/error.h"
@@ -77,6 +82,58 @@ struct BadScene {
   std::function<void(json&)> edit;
   const char* message;  // expected in stderr
 };
+
+// Each checked field refuses a value outside its range with an InputError that names it
+// ("part.key"), read and checked in-process; values the table does not apply to (a distant
+// light's position, board keys of an sfs scene) are not written.
+TEST(SceneTest, OutOfRangeFieldsAreNamedAndInapplicableOnesNotWritten) {
+  const std::vector<std::pair<std::function<void(json&)>, std::string>> cases = {
+      {[](json& j) { j["supersampling"] = 0; }, "scene.supersampling"},
+      {[](json& j) { j["type"] = "movie"; }, "scene.type"},
+      {[](json& j) { j["camera"]["width"] = 8; }, "camera.width"},
+      {[](json& j) {
+         j["camera"]["intrinsics"] = {560, 555, 321.3};
+       },
+       "camera.intrinsics"},
+      {[](json& j) { j["photometric"]["black_level"] = 3000; }, "photometric.black_level"},
+      {[](json& j) { j["photometric"]["response"] = "log"; }, "photometric.response"},
+      {[](json& j) { j["board"]["black_albedo"] = 0.9; }, "board.black_albedo"},
+      {[](json& j) {
+         j["board"]["white_region"] = {0.06, 0.06, 0.1, 0.1};
+       },
+       "board.white_region: overlaps the sample region"},
+      {[](json& j) {
+         j["views"]["rings_deg"] = {15, 90};
+       },
+       "views.rings_deg"},
+      {[](json& j) {
+         j["views"]["exposures_s"] = {0.01, -1};
+       },
+       "views.exposures_s"},
+      {[](json& j) { j["light"]["intensity"] = 0; }, "light.intensity"},
+      {[](json& j) {
+         j["light"]["position"] = {0, 0};
+       },
+       "light.position: expected [x, y, z]"},
+  };
+  for (const auto& [edit, name] : cases) {
+    json j = SmallBoardScene(false);
+    edit(j);
+    try {
+      synth::SceneFromJson(j, "scene.json").Check();
+      ADD_FAILURE() << name << ": accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+  synth::Scene flat = synth::PresetScene("flat-field");
+  const json flat_json = synth::SceneToJson(flat);
+  EXPECT_FALSE(flat_json.at("light").contains("position"));
+  EXPECT_TRUE(flat_json.at("light").contains("irradiance"));
+  const json sfs_json = synth::SceneToJson(synth::PresetScene("sfs-sphere"));
+  EXPECT_FALSE(sfs_json.contains("board"));
+  EXPECT_EQ(sfs_json.at("views").size(), 1u) << sfs_json.at("views");
+}
 
 TEST(SceneTest, BadSceneFilesExitWithCode2) {
   const std::vector<BadScene> cases = {

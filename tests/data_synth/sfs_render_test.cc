@@ -1,4 +1,4 @@
-// sfs scenes: the image equals the material's radiance under the collocated lamp through the
+// sfs scenes: the image equals the material's radiance under the collocated light through the
 // chain, and the depth/normal truth describes the rendered shape.
 #include <algorithm>
 #include <cmath>
@@ -48,8 +48,8 @@ TEST(SfsRenderTest, SphereImageDepthAndNormalsMatchTheGeometry) {
   EXPECT_DOUBLE_EQ(material.at("candidates")[0].at("params").at("albedo").get<double>(), 0.8);
   EXPECT_TRUE(light.at("collocated").get<bool>());
   const double radius = truth.at("object").at("radius");
-  Eigen::Vector3d centre;
-  for (int i = 0; i < 3; ++i) centre[i] = truth.at("object").at("centre_in_camera")[i];
+  Eigen::Vector3d centre_in_cam;
+  for (int i = 0; i < 3; ++i) centre_in_cam[i] = truth.at("object").at("centre_in_camera")[i];
 
   const CameraModel cam = CameraModel::Read(out / "camera.cameramodel");
   const cv::Mat image = cv::imread((out / "image.png").string(), cv::IMREAD_UNCHANGED);
@@ -67,22 +67,23 @@ TEST(SfsRenderTest, SphereImageDepthAndNormalsMatchTheGeometry) {
       ++inside;
       // The pixel ray's exact intersection with the sphere.
       const Eigen::Vector3d d = cam.Unproject(Eigen::Vector2d(x, y)).normalized();
-      const double b = d.dot(centre), disc = b * b - centre.squaredNorm() + radius * radius;
+      const double b = d.dot(centre_in_cam),
+                   disc = b * b - centre_in_cam.squaredNorm() + radius * radius;
       ASSERT_GT(disc, 0) << "mask pixel whose ray misses the sphere";
       const Eigen::Vector3d p = (b - std::sqrt(disc)) * d;
-      const Eigen::Vector3d n = (p - centre) / radius;
+      const Eigen::Vector3d n = (p - centre_in_cam) / radius;
       worst_depth = std::max(worst_depth, std::abs(depth.at<float>(y, x) - p.z()));
       // Stored as RGB = (x, y, z); OpenCV hands it back as BGR.
       const cv::Vec3f nf = normals.at<cv::Vec3f>(y, x);
       worst_normal = std::max(worst_normal, (Eigen::Vector3d(nf[2], nf[1], nf[0]) - n).norm());
-      // Lambert under the collocated lamp: L = albedo/pi * I cos(theta_i) / d^2.
+      // Lambert under the collocated light: L = albedo/pi * I cos(theta_i) / d^2.
       const double cos_i = n.dot(-p.normalized());
       const double radiance = 0.8 / M_PI * cos_i / p.squaredNorm();
       worst_value = std::max(worst_value, std::abs(image.at<uint16_t>(y, x) - radiance / per_dn));
     }
   }
   // Projected disc area: pi (f R / sqrt(D^2 - R^2))^2, less the silhouette ring of width ~1 px.
-  const double r_px = 250 * radius / std::sqrt(centre.squaredNorm() - radius * radius);
+  const double r_px = 250 * radius / std::sqrt(centre_in_cam.squaredNorm() - radius * radius);
   EXPECT_NEAR(inside, M_PI * (r_px - 1) * (r_px - 1), 2 * M_PI * r_px);
   EXPECT_LT(worst_depth, 1e-6);
   EXPECT_LT(worst_normal, 1e-5);
@@ -104,11 +105,13 @@ TEST(SfsRenderTest, VaseAndBumpsRenderWithMaskInsideTheImageAndUnitNormals) {
     const json light = ReadJsonFile(out / "light.json");
     EXPECT_FALSE(light.at("collocated").get<bool>());
     // 20 deg off axis, same distance from the object centre.
-    const Eigen::Vector3d lamp(light.at("position")[0], light.at("position")[1],
-                               light.at("position")[2]);
-    const Eigen::Vector3d centre(0, 0, 0.5);
-    EXPECT_NEAR(std::acos((-centre).normalized().dot((lamp - centre).normalized())) * 180 / M_PI,
-                20, 1e-9);
+    const Eigen::Vector3d light_in_cam(light.at("position")[0], light.at("position")[1],
+                                       light.at("position")[2]);
+    const Eigen::Vector3d centre_in_cam(0, 0, 0.5);
+    EXPECT_NEAR(
+        std::acos((-centre_in_cam).normalized().dot((light_in_cam - centre_in_cam).normalized())) *
+            180 / M_PI,
+        20, 1e-9);
     int inside = 0, border = 0, lit = 0;
     for (int y = 0; y < mask.rows; ++y) {
       for (int x = 0; x < mask.cols; ++x) {

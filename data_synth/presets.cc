@@ -1,0 +1,141 @@
+// The named scene presets (scene.h) later stages are tested on.
+#include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "common/error.h"
+#include "common/math.h"
+#include "data_synth/scene.h"
+
+namespace gonio::synth {
+namespace {
+
+// What the presets share: the 1280x960 camera and a point light 0.5 m from the sample centre
+// (0.155, 0.095), 35 deg off the normal towards -x, so the orbit sees backscatter (phi ~ 0)
+// and forward scatter (phi ~ pi) alike.
+Scene PresetBase() {
+  Scene s;
+  s.camera.lens_model = "LENSMODEL_OPENCV8";
+  s.camera.intrinsics = {1100, 1100, 639.5, 479.5, -0.12, 0.05, 0.0005, -0.0003, -0.01, 0, 0, 0};
+  s.camera.width = 1280;
+  s.camera.height = 960;
+  const Eigen::Vector3d sample_centre(0.155, 0.095, 0.0);
+  const double light_theta = DegToRad(35.0);
+  s.light.position =
+      sample_centre + 0.5 * Eigen::Vector3d(-std::sin(light_theta), 0.0, -std::cos(light_theta));
+  s.light.intensity = 1.0;
+  return s;
+}
+
+// 24 views, 1280x960, oren-nayar sigma 30 deg, albedo 0.6, 12-bit noise.
+Scene DefaultPreset(const std::string&, const PresetOptions&) {
+  Scene s = PresetBase();
+  s.material = {"oren-nayar", {{"sigma", DegToRad(30.0)}, {"albedo", 0.6}}};
+  return s;
+}
+
+// A white target filling the view under parallel light: uniform radiance, so the images show
+// vignetting (and response) only. A few poses so a method can separate the target from the
+// lens; no tags.
+Scene FlatFieldPreset(const std::string&, const PresetOptions&) {
+  Scene s = PresetBase();
+  s.material = {"lambert", {{"albedo", 0.8}}};
+  s.board.columns = s.board.rows = 0;
+  s.board.margin = 2.0;
+  // The sample region is required by the format; park it far outside every view.
+  s.board.sample_region = {-1.95, -1.95, -1.9, -1.9};
+  s.board.white_region = {-1.5, -1.5, 1.5, 1.5};
+  s.light.type = "distant";
+  s.light.direction = {0, 0, -1};
+  s.light.irradiance = 4.0;
+  s.views.target = {0, 0, 0};
+  s.views.distance = 0.5;
+  s.views.rings_deg = {0, 10};
+  s.views.per_ring = 3;
+  s.views.roll_deg = 5;
+  return s;
+}
+
+// One static pose, 14 exposures a factor 2 apart: from mostly dark to mostly saturated.
+Scene ExposureSweepPreset(const std::string&, const PresetOptions&) {
+  Scene s = PresetBase();
+  s.material = {"lambert", {{"albedo", 0.5}}};
+  s.views.mode = "explicit";
+  Rigid3d pose;
+  pose.R = Eigen::AngleAxisd(DegToRad(20.0), Eigen::Vector3d::UnitY()).toRotationMatrix();
+  pose.t = Eigen::Vector3d(0, 0, 0.45) - pose.R * s.views.target;
+  s.views.cam_from_board = {pose};
+  s.views.exposures_s.clear();
+  for (int k = 0; k < 14; ++k) s.views.exposures_s.push_back(0.0005 * std::ldexp(1.0, k));
+  return s;
+}
+
+// "sfs-sphere", "sfs-vase", "sfs-bumps": oren-nayar sigma 30 deg, albedo 0.8, the light
+// collocated with the camera (or turned about the object centre), linear 16-bit images without
+// vignetting.
+Scene SfsPreset(const std::string& name, const PresetOptions& options) {
+  Scene s = PresetBase();
+  s.type = "sfs";
+  s.supersampling = 4;
+  s.material = {"oren-nayar", {{"sigma", DegToRad(30.0)}, {"albedo", 0.8}}};
+  s.camera.lens_model = "LENSMODEL_PINHOLE";
+  s.camera.intrinsics = {800, 800, 319.5, 239.5};
+  s.camera.width = 640;
+  s.camera.height = 480;
+  s.sfs.shape = name.substr(4);
+  s.sfs.distance = 0.5;
+  s.sfs.size = s.sfs.shape == "vase" ? 0.07 : 0.1;
+  const Eigen::Vector3d centre(0, 0, s.sfs.distance);
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(DegToRad(options.sfs_light_offaxis_deg), Eigen::Vector3d::UnitY())
+          .toRotationMatrix();
+  s.light.frame = "camera";
+  s.light.position = centre + turn * (Eigen::Vector3d::Zero() - centre);
+  s.light.intensity = 1.0;
+  s.photometric.bit_depth = 16;
+  s.photometric.response = "linear";
+  s.photometric.black_level = 0;
+  s.photometric.vignetting = {0, 0, 0};
+  s.photometric.noise = false;
+  // Lambertian white at 0.5 m: L = 0.8/pi * 4 ~ 1; keep the brightest pixel near 0.8.
+  s.photometric.exposure_scale = 60.0;
+  return s;
+}
+
+using PresetMaker = Scene (*)(const std::string& name, const PresetOptions& options);
+
+const std::vector<std::pair<std::string, PresetMaker>>& Presets() {
+  static const std::vector<std::pair<std::string, PresetMaker>> presets = {
+      {"default", DefaultPreset},
+      {"flat-field", FlatFieldPreset},
+      {"exposure-sweep", ExposureSweepPreset},
+      {"sfs-sphere", SfsPreset},
+      {"sfs-vase", SfsPreset},
+      {"sfs-bumps", SfsPreset}};
+  return presets;
+}
+
+}  // namespace
+
+const std::vector<std::string>& PresetNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const auto& [name, make] : Presets()) out.push_back(name);
+    return out;
+  }();
+  return names;
+}
+
+Scene PresetScene(const std::string& name, const PresetOptions& options) {
+  for (const auto& [preset, make] : Presets()) {
+    if (preset == name) return make(name, options);
+  }
+  std::string known;
+  for (const auto& n : PresetNames()) known += (known.empty() ? "" : ", ") + n;
+  throw InputError("--preset: unknown preset '" + name + "' (known: " + known + ")");
+}
+
+}  // namespace gonio::synth
