@@ -13,6 +13,7 @@
 
 #include "common/error.h"
 #include "common/log.h"
+#include "common/stats.h"
 #include "estimation/sfs_costs.h"
 #include "reflectance/registry.h"
 
@@ -257,7 +258,7 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
       for (size_t i = 0; i < measured.size(); ++i) {
         const double pred =
             Radiance<M, double>(pr.params.data(), false, 1.0, normals[i], points[i] * std::exp(c),
-                                pr.lamp_in_camera, pr.lamp_intensity);
+                                pr.light_in_cam, pr.light_intensity);
         const double r = (std::isfinite(pred) ? pred : 0.0) - measured[i];
         sum += r * r;
       }
@@ -293,30 +294,18 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
   }
 }
 
-struct LevelSolve {
-  int iterations = 0;
-};
-
+// The residuals of one pyramid level: photometric at interior pixels, occluding contour at
+// boundary pixels, smoothness of u along x and y. Returns the number of photometric residuals.
 template <typename M>
-LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
-                      double smoothness, int max_iterations, bool coarser_solved, cv::Mat* u,
-                      double* log_k) {
-  ceres::Problem::Options po;
-  ceres::Problem problem(po);
+size_t AddLevelResiduals(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
+                         double smoothness, cv::Mat* u, double* log_k, ceres::Problem* problem) {
   const bool lambert = opt.reflectance == "lambert";
   const double inv_ref = 1.0 / ref;
   auto U = [&](int x, int y) { return &u->at<double>(y, x); };
-  problem.AddParameterBlock(log_k, 1);
   // Coarse levels keep only blocks wholly inside the mask, so their boundary lies ~scale
   // full-resolution pixels inside the silhouette where n . v grows like sqrt(distance).
   const double max_cos = std::min(0.95, opt.contour_max_cos * std::sqrt(lv.scale));
   size_t photometric = 0;
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      if (!lv.In(x, y)) continue;
-      problem.AddParameterBlock(U(x, y), 1);
-    }
-  }
   for (int y = 0; y < lv.h; ++y) {
     for (int x = 0; x < lv.w; ++x) {
       if (!lv.In(x, y)) continue;
@@ -328,11 +317,11 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
                                          lv.Ray(x, y + 1),
                                          pr.params.data(),
                                          lambert,
-                                         pr.lamp_in_camera,
-                                         pr.lamp_intensity,
+                                         pr.light_in_cam,
+                                         pr.light_intensity,
                                          lv.radiance.at<double>(y, x),
                                          inv_ref};
-        problem.AddResidualBlock(
+        problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<PhotometricCost<M>, 1, 1, 1, 1, 1, 1, 1>(c), nullptr,
             U(x, y), U(x - 1, y), U(x + 1, y), U(x, y - 1), U(x, y + 1), log_k);
         ++photometric;
@@ -346,31 +335,28 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
                                     static_cast<double>(yb - y),
                                     opt.contour_weight,
                                     max_cos};
-          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ContourCost, 1, 1, 1, 1>(c),
-                                   nullptr, U(x, y), U(xa, y), U(x, yb));
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ContourCost, 1, 1, 1, 1>(c),
+                                    nullptr, U(x, y), U(xa, y), U(x, yb));
         }
       }
-      if (smoothness > 0) {
-        if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
-          problem.AddResidualBlock(
-              new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
-              nullptr, U(x - 1, y), U(x, y), U(x + 1, y));
-        }
-        if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
-          problem.AddResidualBlock(
-              new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
-              nullptr, U(x, y - 1), U(x, y), U(x, y + 1));
-        }
+      if (smoothness <= 0) continue;
+      if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
+            nullptr, U(x - 1, y), U(x, y), U(x + 1, y));
+      }
+      if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
+            nullptr, U(x, y - 1), U(x, y), U(x, y + 1));
       }
     }
   }
-  if (photometric == 0) {
-    throw InputError("sfs: the mask has no interior pixels at pyramid level " +
-                     std::to_string(lv.scale) + " (object too small)");
-  }
-  // k is fixed (see sfs.h): a free k and a free depth scale are one degenerate direction
-  // under a collocated lamp (uniform scaling about the camera changes only 1/d^2).
-  problem.SetParameterBlockConstant(log_k);
+  return photometric;
+}
+
+ceres::Solver::Options LevelSolverOptions(const SfsOptions& opt, const Level& lv,
+                                          int max_iterations, bool coarser_solved) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   // Conjugate gradients only from an upsampled coarse solution, where local corrections
@@ -388,16 +374,36 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
   so.gradient_tolerance = 1e-10;
   so.parameter_tolerance = 1e-8;
   so.logging_type = ceres::SILENT;
+  return so;
+}
+
+// Solves one pyramid level for u (log k held fixed); returns the solver's iterations.
+template <typename M>
+int SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
+               double smoothness, int max_iterations, bool coarser_solved, cv::Mat* u,
+               double* log_k) {
+  ceres::Problem problem;
+  problem.AddParameterBlock(log_k, 1);
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (lv.In(x, y)) problem.AddParameterBlock(&u->at<double>(y, x), 1);
+    }
+  }
+  if (AddLevelResiduals<M>(pr, opt, lv, ref, smoothness, u, log_k, &problem) == 0) {
+    throw InputError("sfs: the mask has no interior pixels at pyramid level " +
+                     std::to_string(lv.scale) + " (object too small)");
+  }
+  // k is fixed (see sfs.h): a free k and a free depth scale are one degenerate direction
+  // under a collocated lamp (uniform scaling about the camera changes only 1/d^2).
+  problem.SetParameterBlockConstant(log_k);
   ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  ceres::Solve(LevelSolverOptions(opt, lv, max_iterations, coarser_solved), &problem, &summary);
   if (!summary.IsSolutionUsable()) {
     throw NumericalError("sfs: Ceres failed at pyramid level " + std::to_string(lv.scale) + ": " +
                          summary.message);
   }
   spdlog::debug("{}", summary.BriefReport());
-  LevelSolve r;
-  r.iterations = static_cast<int>(summary.iterations.size());
-  return r;
+  return static_cast<int>(summary.iterations.size());
 }
 
 }  // namespace
@@ -451,7 +457,7 @@ void SfsProblem::Check() const {
   if (!(anchor_depth > 0) || !std::isfinite(anchor_depth)) {
     throw InputError("sfs: need a positive object distance (anchor depth)");
   }
-  if (!(lamp_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
+  if (!(light_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
   bool found = VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     if (static_cast<int>(params.size()) != M::kNumParams) {
@@ -486,37 +492,35 @@ double SfsRadiance(const SfsProblem& pr, const std::string& reflectance, double 
   VisitModel(pr.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     value = Radiance<M, double>(pr.params.data(), reflectance == "lambert", scale, normal, point,
-                                pr.lamp_in_camera, pr.lamp_intensity);
+                                pr.light_in_cam, pr.light_intensity);
   });
   return std::isfinite(value) ? value : 0.0;
 }
 
-SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
-  const auto start = std::chrono::steady_clock::now();
-  opt.Check();
-  pr.Check();
-  SfsResult result;
-  result.reflectance = opt.reflectance;
-  result.mask_pixels = static_cast<size_t>(cv::countNonZero(pr.mask));
+namespace {
 
-  // Pyramid depth: halve until the object is at most 320 px across.
-  int levels = opt.levels;
-  if (levels == 0) {
-    const cv::Rect box = cv::boundingRect(pr.mask);
-    levels = 1;
-    for (int s = std::max(box.width, box.height); s > 320 && levels < 6; s /= 2) ++levels;
-  }
+// Pyramid depth: opt.levels, or halving until the object is at most 320 px across.
+int PyramidLevels(const SfsProblem& pr, const SfsOptions& opt) {
+  if (opt.levels > 0) return opt.levels;
+  const cv::Rect box = cv::boundingRect(pr.mask);
+  int levels = 1;
+  for (int s = std::max(box.width, box.height); s > 320 && levels < 6; s /= 2) ++levels;
+  return levels;
+}
+
+// The median radiance inside the mask (the photometric residual's unit) and the noise and
+// smoothness weight that follow from it, into `result`.
+void SetRadianceScale(const SfsProblem& pr, const SfsOptions& opt, SfsResult* result) {
   std::vector<double> measured;
   for (int y = 0; y < pr.radiance.rows; ++y) {
     for (int x = 0; x < pr.radiance.cols; ++x) {
       if (pr.mask.at<uint8_t>(y, x)) measured.push_back(pr.radiance.at<double>(y, x));
     }
   }
-  std::nth_element(measured.begin(), measured.begin() + measured.size() / 2, measured.end());
-  const double ref = measured[measured.size() / 2];
+  const double ref = Median(measured);
   if (!(ref > 0)) throw InputError("sfs: the object is black (median radiance <= 0 in the mask)");
-  result.median_radiance = ref;
-  result.noise_relative =
+  result->median_radiance = ref;
+  result->noise_relative =
       opt.noise_relative >= 0 ? opt.noise_relative : EstimateNoise(pr.radiance, pr.mask) / ref;
   // MAP weighting: the photometric residual counts in units of the pixel's uncertainty, the
   // noise with a floor for discretization and model error, while the smoothness prior is
@@ -525,56 +529,104 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
   // means much normal error: measured at 640x480 with 0.9% noise, weight 10 gives 4.5 deg,
   // 100 gives 0.8 deg, 1000 gives 1.2 deg; without noise 10 is best (docs/sfs.md).
   constexpr double kNoiseFloor = 1e-3;
-  result.smoothness = opt.smoothness * std::hypot(1.0, result.noise_relative / kNoiseFloor);
+  result->smoothness = opt.smoothness * std::hypot(1.0, result->noise_relative / kNoiseFloor);
   spdlog::info("sfs: image noise {:.3g} of the median radiance, smoothness weight {:.3g}",
-               result.noise_relative, result.smoothness);
+               result->noise_relative, result->smoothness);
+}
 
-  const double f_px = pr.camera.intrinsics[0];
+// The starting surface on the coarsest level: the mask balloon (or the given initial depth)
+// with the brightest pixel at the anchor depth, and log k (see sfs.h).
+void InitialSurface(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, cv::Mat* u,
+                    double* log_k) {
+  int ax = 0, ay = 0;
+  Brightest(lv, &ax, &ay);
+  *u = BalloonLogDepth(lv, pr.camera.intrinsics[0], pr.anchor_depth, ax, ay);
+  if (!pr.initial_depth.empty()) {
+    for (int y = 0; y < lv.h; ++y) {
+      for (int x = 0; x < lv.w; ++x) {
+        const double z =
+            pr.initial_depth.at<double>(y * lv.scale + lv.scale / 2, x * lv.scale + lv.scale / 2);
+        if (lv.In(x, y) && z > 0) u->at<double>(y, x) = std::log(z);
+      }
+    }
+  }
+  if (opt.reflectance == "lambert" || !pr.absolute) {
+    // k such that the brightest pixel, at the anchor depth with its normal facing the
+    // camera, matches (the Lambertian albedo of the comparison, or the relative scale).
+    const Eigen::Vector3d p = lv.Ray(ax, ay) * pr.anchor_depth;
+    const double pred = SfsRadiance(pr, opt.reflectance, 1.0, -p.normalized(), p);
+    const double meas = lv.radiance.at<double>(ay, ax);
+    *log_k = pred > 0 && meas > 0 ? std::log(meas / pred) : 0.0;
+  } else if (pr.initial_depth.empty()) {
+    FitGlobalDepth(pr, lv, u);
+  }
+}
+
+// Depth, normals and the re-rendered image at full resolution (level `lv`, scale 1), and the
+// rms residual over interior pixels relative to the median radiance.
+void FillOutputs(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, const cv::Mat& u,
+                 SfsResult* result) {
+  result->depth = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  result->normals = cv::Mat(lv.h, lv.w, CV_64FC3, cv::Scalar(0, 0, 0));
+  result->rendered = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  double sq = 0;
+  size_t n_interior = 0;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (!lv.In(x, y)) continue;
+      const double z = std::exp(u.at<double>(y, x));
+      result->depth.at<double>(y, x) = z;
+      Eigen::Vector3d n;
+      if (!NormalAt(lv, u, x, y, &n)) n = -lv.Ray(x, y).normalized();
+      result->normals.at<cv::Vec3d>(y, x) = cv::Vec3d(n.x(), n.y(), n.z());
+      const double pred = SfsRadiance(pr, opt.reflectance, result->scale, n, lv.Ray(x, y) * z);
+      result->rendered.at<double>(y, x) = pred;
+      if (Interior(lv, x, y)) {
+        const double r = (pred - pr.radiance.at<double>(y, x)) / result->median_radiance;
+        sq += r * r;
+        ++n_interior;
+      }
+    }
+  }
+  result->rms_relative_residual = n_interior ? std::sqrt(sq / n_interior) : 0.0;
+}
+
+}  // namespace
+
+SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
+  const auto start = std::chrono::steady_clock::now();
+  opt.Check();
+  pr.Check();
+  SfsResult result;
+  result.reflectance = opt.reflectance;
+  result.mask_pixels = static_cast<size_t>(cv::countNonZero(pr.mask));
+  SetRadianceScale(pr, opt, &result);
+
+  // Coarse to fine: each level starts from the upsampled solution of the coarser one.
+  const int levels = PyramidLevels(pr, opt);
   double log_k = 0;
   cv::Mat u;
-  Level prev;
+  Level prev, lv;
   Progress progress("sfs pyramid levels", static_cast<size_t>(levels));
-  Level lv;
   for (int l = levels - 1; l >= 0; --l) {
     lv = MakeLevel(pr, 1 << l);
     if (cv::countNonZero(lv.mask) < 9) {
       if (l == 0) throw InputError("sfs: the mask has too few pixels");
       continue;
     }
-    int ax = 0, ay = 0;
-    Brightest(lv, &ax, &ay);
     if (u.empty()) {
-      u = BalloonLogDepth(lv, f_px, pr.anchor_depth, ax, ay);
-      if (!pr.initial_depth.empty()) {
-        for (int y = 0; y < lv.h; ++y) {
-          for (int x = 0; x < lv.w; ++x) {
-            const double z = pr.initial_depth.at<double>(y * lv.scale + lv.scale / 2,
-                                                         x * lv.scale + lv.scale / 2);
-            if (lv.In(x, y) && z > 0) u.at<double>(y, x) = std::log(z);
-          }
-        }
-      }
-      if (opt.reflectance == "lambert" || !pr.absolute) {
-        // k such that the brightest pixel, at the anchor depth with its normal facing the
-        // camera, matches (the Lambertian albedo of the comparison, or the relative scale).
-        const Eigen::Vector3d p = lv.Ray(ax, ay) * pr.anchor_depth;
-        const double pred = SfsRadiance(pr, opt.reflectance, 1.0, -p.normalized(), p);
-        const double meas = lv.radiance.at<double>(ay, ax);
-        log_k = pred > 0 && meas > 0 ? std::log(meas / pred) : 0.0;
-      } else if (pr.initial_depth.empty()) {
-        FitGlobalDepth(pr, lv, &u);
-      }
+      InitialSurface(pr, opt, lv, &u, &log_k);
     } else {
       u = Upsample(prev, u, lv);
     }
     const auto level_start = std::chrono::steady_clock::now();
-    bool ok = VisitModel(pr.model, [&](auto tag) {
+    const bool coarser_solved = result.levels > 0;
+    const int max_iterations =
+        l == 0 && coarser_solved ? opt.max_iterations_finest : opt.max_iterations;
+    const bool ok = VisitModel(pr.model, [&](auto tag) {
       using M = typename decltype(tag)::type;
-      const int it = SolveLevel<M>(pr, opt, lv, ref, result.smoothness,
-                                   l == 0 && result.levels > 0 ? opt.max_iterations_finest
-                                                               : opt.max_iterations,
-                                   result.levels > 0, &u, &log_k)
-                         .iterations;
+      const int it = SolveLevel<M>(pr, opt, lv, result.median_radiance, result.smoothness,
+                                   max_iterations, coarser_solved, &u, &log_k);
       result.iterations += it;
       spdlog::info(
           "sfs level 1/{}: {}x{}, {} iterations, {:.2f} s", lv.scale, lv.w, lv.h, it,
@@ -587,31 +639,7 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
   }
   progress.Done();
   result.scale = std::exp(log_k);
-
-  // Outputs at full resolution.
-  result.depth = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
-  result.normals = cv::Mat(lv.h, lv.w, CV_64FC3, cv::Scalar(0, 0, 0));
-  result.rendered = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
-  double sq = 0;
-  size_t n_interior = 0;
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      if (!lv.In(x, y)) continue;
-      const double z = std::exp(u.at<double>(y, x));
-      result.depth.at<double>(y, x) = z;
-      Eigen::Vector3d n;
-      if (!NormalAt(lv, u, x, y, &n)) n = -lv.Ray(x, y).normalized();
-      result.normals.at<cv::Vec3d>(y, x) = cv::Vec3d(n.x(), n.y(), n.z());
-      const double pred = SfsRadiance(pr, opt.reflectance, result.scale, n, lv.Ray(x, y) * z);
-      result.rendered.at<double>(y, x) = pred;
-      if (Interior(lv, x, y)) {
-        const double r = (pred - pr.radiance.at<double>(y, x)) / ref;
-        sq += r * r;
-        ++n_interior;
-      }
-    }
-  }
-  result.rms_relative_residual = n_interior ? std::sqrt(sq / n_interior) : 0.0;
+  FillOutputs(pr, opt, lv, u, &result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
