@@ -123,8 +123,8 @@ std::string RunPipeline(const RunOptions& o) {
   spdlog::info("[3/4] fitting {} observations", data.observations.size());
   JointFitOptions fo;
   if (o.models != "auto") fo.candidates = SplitComma(o.models);
-  fo.criterion = o.criterion;
-  fo.light_frame = o.light_frame;
+  fo.criterion = ParseCriterion(o.criterion, "--criterion");
+  fo.light_frame = ParseLightFrame(o.light_frame, "--light-frame");
   if (o.white_albedo >= 0) fo.white_albedo = o.white_albedo;
   if (!o.light_init.empty()) {
     const auto v = SplitComma(o.light_init);

@@ -59,12 +59,12 @@ struct FitArgs {
 JointFitOptions FitOptionsFrom(const FitArgs& a) {
   JointFitOptions o;
   if (a.models != "auto") o.candidates = SplitComma(a.models);
-  o.criterion = a.criterion;
-  o.light_frame = a.light_frame;
+  o.criterion = ParseCriterion(a.criterion, "--criterion");
+  o.light_frame = ParseLightFrame(a.light_frame, "--light-frame");
   if (!a.light_init.empty()) o.light_init = ParseVector(a.light_init, "--light-init");
   if (a.white_albedo >= 0) o.white_albedo = a.white_albedo;
   o.per_channel = !a.grey;
-  o.robust_loss = a.robust;
+  o.robust_loss = ParseRobustLoss(a.robust, "--robust");
   o.threads = a.threads;
   o.Check();
   return o;
