@@ -112,6 +112,14 @@ bool HasResidual(const Observation& o, const JointFitOptions& options) {
   return !o.white || options.white_albedo.has_value();
 }
 
+// Residuals of the problem over `use`: one per channel of every observation that has one.
+size_t CountResiduals(const ObservationSet& data, const std::vector<size_t>& use,
+                      const JointFitOptions& options) {
+  size_t n = 0;
+  for (size_t i : use) n += HasResidual(data.observations[i], options) ? data.channels : 0;
+  return n;
+}
+
 ceres::LossFunction* NewLoss(RobustLoss loss) {
   switch (loss) {
     case RobustLoss::kHuber:
@@ -480,14 +488,15 @@ void FinishFrames(const ObservationSet& data, std::map<int, FrameResidual> frame
   }
 }
 
-// Goodness of fit: the weighted sum of squares and AIC/BIC over the residuals of the problem;
-// rms, rel_rms and the per-frame residuals over the sample observations.
+// Goodness of fit: the weighted sum of squares and AIC/BIC over every residual of the problem
+// (a white-reference observation has one only with a known white albedo); rms, rel_rms and the
+// per-frame residuals over the sample observations.
 template <typename M>
 void ComputeMetrics(const ModelInfo& info, const ObservationSet& data,
                     const std::vector<size_t>& use, const JointFitOptions& o, const State& s,
                     JointFitResult* r) {
   double ssr_w = 0, sq = 0, mean = 0;
-  size_t n = 0;
+  size_t n_res = 0, n = 0;
   std::map<int, FrameResidual> frames;
   for (size_t i : use) {
     const Observation& obs = data.observations[i];
@@ -497,6 +506,7 @@ void ComputeMetrics(const ModelInfo& info, const ObservationSet& data,
           Predict<M>(obs, c, s, info, o.light_frame, o.white_albedo) - obs.radiance[c];
       const double z = res / Sigma(obs, c, o.relative_noise_floor);
       ssr_w += z * z;
+      ++n_res;
       if (obs.white) continue;
       sq += res * res;
       mean += obs.radiance[c];
@@ -513,7 +523,7 @@ void ComputeMetrics(const ModelInfo& info, const ObservationSet& data,
   m.weighted_ssr = ssr_w;
   m.rms = std::sqrt(sq / nn);
   m.rel_rms = mean > 0 ? m.rms / (mean / nn) : m.rms;
-  const double nr = static_cast<double>(use.size() * data.channels);
+  const double nr = static_cast<double>(std::max<size_t>(n_res, 1));
   m.aic = nr * std::log(std::max(ssr_w / nr, 1e-300)) + 2.0 * m.n_effective;
   m.bic = nr * std::log(std::max(ssr_w / nr, 1e-300)) + std::log(nr) * m.n_effective;
   FinishFrames(data, std::move(frames), r);
@@ -564,7 +574,7 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
   State s = InitialState<M>(info, data, use, light_start, o);
   Solve<M>(data, use, info, o, &s);
   JointFitResult r = ResultFromState(info, s, o, use.size());
-  r.material.n_samples = use.size() * data.channels;
+  r.material.n_samples = CountResiduals(data, use, o);
   if (!s.usable) return r;
   AnalyzeJointUncertainty<M>(info, data, use, o, s, &r);
   CheckIrradianceContrast(data, use, o, s, &r);
@@ -680,6 +690,9 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
     frames.insert(o.frame);
   }
   if (sample == 0) throw InputError("no sample observations to fit");
+  if (options.criterion == Criterion::kCv && frames.size() < 2) {
+    throw InputError("--criterion cv: needs observations from at least 2 frames to hold out");
+  }
   const Eigen::Vector3d light0 = InitialLight(data, options);
   const std::vector<std::string> names =
       options.candidates.empty() ? AutoCandidates() : options.candidates;
