@@ -42,10 +42,10 @@ void RunFitTable(const FitTableArgs& args) {
 
   ModelSelectionOptions opt;
   if (args.models != "auto") opt.candidates = SplitComma(args.models);
-  opt.criterion = args.criterion;
+  opt.criterion = ParseCriterion(args.criterion, "--criterion");
   opt.threads = args.threads;
   opt.fit.relative_scale = args.relative;
-  opt.fit.robust_loss = args.robust;
+  opt.fit.robust_loss = ParseRobustLoss(args.robust, "--robust");
   opt.Check();
   if (!args.plot_dir.empty()) EnsureDirectory(args.plot_dir);
 

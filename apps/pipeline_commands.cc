@@ -74,8 +74,8 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
   if (a.models != "auto" && o.candidates.empty()) {
     throw InputError("--models: empty list (give auto or comma-separated model names)");
   }
-  o.criterion = a.criterion;
-  o.light_frame = a.light_frame;
+  o.criterion = ParseCriterion(a.criterion, "--criterion");
+  o.light_frame = ParseLightFrame(a.light_frame, "--light-frame");
   if (!a.light_init.empty()) o.light_init = ParseVector3(a.light_init, "--light-init");
   if (!a.white_albedo.empty()) {
     const double w = ParseNumber(a.white_albedo, "--white-albedo");
@@ -85,7 +85,7 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
     o.white_albedo = w;
   }
   o.per_channel = !a.grey;
-  o.robust_loss = a.robust;
+  o.robust_loss = ParseRobustLoss(a.robust, "--robust");
   o.threads = a.threads;
   o.Check();
   return o;

@@ -11,6 +11,7 @@
 #include "common/log.h"
 #include "common/math.h"
 #include "common/parallel.h"
+#include "common/stats.h"
 #include "reflectance/oren_nayar_facet.h"
 #include "reflectance/pitted.h"
 #include "reflectance/registry.h"
@@ -111,9 +112,8 @@ double TimeNsPerEval(const std::function<void(size_t)>& run, const BenchSizes& s
     run(n);
     ns.push_back(Seconds(t0, std::chrono::steady_clock::now()) * 1e9 / n);
   }
-  std::sort(ns.begin(), ns.end());
   *batch = n;
-  return ns[ns.size() / 2];
+  return Median(ns);  // at least one repetition
 }
 
 }  // namespace
@@ -170,7 +170,7 @@ std::string EvaluateAny(const std::string& name, const std::vector<double>& para
 
 double ErrorUnit(const ModelInfo& info, const std::vector<double>& params) {
   for (int k = 0; k < info.num_params(); ++k) {
-    if (info.params[k].is_scale && params[k] > 0) return params[k] * kInvPi;
+    if (info.params[k].per_channel && params[k] > 0) return params[k] * kInvPi;
   }
   return kInvPi;
 }

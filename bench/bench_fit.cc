@@ -10,6 +10,7 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "common/math.h"
+#include "common/stats.h"
 #include "estimation/brdf_fit.h"
 #include "reflectance/registry.h"
 
@@ -114,8 +115,7 @@ std::vector<FitRow> RunFittingBench(const BenchSizes& s, const std::vector<FitBe
         row.n_undetermined = std::max(row.n_undetermined, o.row.n_undetermined);
         row.converged = row.converged && o.row.converged;
       }
-      std::sort(times.begin(), times.end());
-      row.time_s = times[times.size() / 2];
+      row.time_s = Median(times);  // at least one repetition
       row.repeats = static_cast<int>(times.size());
       row.max_param_err = n_ok ? sum_max / n_ok : -1.0;
       row.rms_param_err = n_ok ? sum_rms / n_ok : -1.0;
@@ -202,8 +202,7 @@ StabilityReport RunFitStability(const BenchSizes& s) {
       auto samples = SyntheticSamples(model, truth, 200, s.fit_noise, 93);
       std::vector<double> v;
       for (const auto& x : samples) v.push_back(x.value);
-      std::sort(v.begin(), v.end());
-      const double clip = v[static_cast<size_t>(keep * (v.size() - 1))];
+      const double clip = Percentile(v, keep);  // 200 values: never NaN
       for (auto& x : samples) x.value = std::min(x.value, clip);
       add("saturation", "clip at q" + std::to_string(int(keep * 100)), samples, base, false);
     }

@@ -19,7 +19,8 @@ std::vector<double> MapParams(const std::string& model, const std::vector<double
 // EvaluateChecked, extended to the high-order facet reference.
 std::string EvaluateAny(const std::string& name, const std::vector<double>& params,
                         const Angles<double>& a, double* value);
-// albedo/pi for the model's first scale parameter (1/pi when it has none or it is 0).
+// albedo/pi for the model's first albedo-like (per-channel) parameter (1/pi when it has none
+// or it is 0).
 double ErrorUnit(const ModelInfo& info, const std::vector<double>& params);
 // Registry defaults: the parameters every bench uses.
 std::vector<double> BenchParams(const ModelInfo& info);

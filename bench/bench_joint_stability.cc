@@ -16,7 +16,7 @@ namespace {
 
 struct JointCase {
   std::string axis, value;
-  double lamp_distance = 0.5;
+  double light_distance = 0.5;
   int views = 24;
   double noise = 0.01;
   double clip = INFINITY;  // radiance above this fraction of the maximum is clipped
@@ -26,8 +26,8 @@ ObservationSet Synthesize(const JointCase& c, Eigen::Vector3d* light, unsigned s
   const Eigen::Vector3d centre(0.155, 0.095, 0.0);
   // The default preset's geometry: lamp 35 deg off the sample normal (-z), cameras on rings.
   const double off = DegToRad(35);
-  *light = centre + c.lamp_distance * Eigen::Vector3d(-std::sin(off), 0.0, -std::cos(off));
-  const double intensity = c.lamp_distance * c.lamp_distance / 0.25;  // same irradiance
+  *light = centre + c.light_distance * Eigen::Vector3d(-std::sin(off), 0.0, -std::cos(off));
+  const double intensity = c.light_distance * c.light_distance / 0.25;  // same irradiance
   const double albedo = 0.6, sigma = DegToRad(30), white = 0.8;
   std::mt19937 rng(seed);
   std::normal_distribution<double> gauss(0, 1);

@@ -1,11 +1,11 @@
-// Speed against accuracy and stability where methods fail (issue 10): the library behind
+// Speed against accuracy and stability where methods fail: the library behind
 // `gonio bench`. Every registered model is timed on batches (EvaluateBatch, single thread and
 // all threads) and compared with the most exact method available for its physics; fits
 // (FitBrdf) are timed against their parameter error; stability sweeps drive every model and fit
 // towards its failure regions and classify each point as valid / degraded / error.
 //
 // Errors of evaluations are in units of albedo/pi: |f - f_ref| divided by (s/pi), where s is the
-// model's first scale parameter (albedo, ks, scale: ParamInfo.is_scale) at the benchmark
+// model's first albedo-like parameter (albedo, ks, scale: ParamInfo.per_channel) at the benchmark
 // parameters, so 0.01 means "1% of a Lambertian surface of the same albedo".
 //
 // `gonio bench --sfs` (RunSfsBench): solve time against normal error of shape from shading over

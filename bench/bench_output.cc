@@ -176,6 +176,92 @@ BenchSizes SizesFor(const BenchOptions& o) {
   return s;
 }
 
+namespace {
+
+nlohmann::json EvaluationJson(const std::vector<EvalRow>& eval) {
+  nlohmann::json ev = nlohmann::json::array();
+  for (const auto& r : eval) {
+    ev.push_back({{"model", r.model},
+                  {"method", r.method},
+                  {"reference", r.reference.empty() ? "no reference" : r.reference},
+                  {"reference_note", r.reference_note},
+                  {"ns_per_eval_1t", r.ns_per_eval_1t},
+                  {"ns_per_eval_mt", r.ns_per_eval_mt},
+                  {"batch_1t", r.batch},
+                  {"batch_mt", r.batch_mt},
+                  {"max_err", r.max_err},
+                  {"rms_err", r.rms_err},
+                  {"grid_points", r.grid_points},
+                  {"grid_skipped", r.grid_skipped}});
+  }
+  return ev;
+}
+
+nlohmann::json FittingJson(const std::vector<FitRow>& fits) {
+  nlohmann::json fj = nlohmann::json::array();
+  for (const auto& r : fits) {
+    nlohmann::json row = {{"model", r.model},
+                          {"method", r.method},
+                          {"n_samples", r.n_samples},
+                          {"noise", r.noise},
+                          {"repeats", r.repeats},
+                          {"time_s", r.time_s},
+                          {"max_param_err", r.max_param_err},
+                          {"rms_param_err", r.rms_param_err},
+                          {"n_undetermined", r.n_undetermined},
+                          {"converged", r.converged}};
+    if (!r.error.empty()) row["error"] = r.error;
+    fj.push_back(row);
+  }
+  return fj;
+}
+
+// eval_pareto.{png,svg}: time against max error of every model with a reference; returns the
+// models on the Pareto front.
+nlohmann::json EvaluationChart(const fs::path& dir, const std::vector<EvalRow>& eval) {
+  std::vector<std::string> labels, groups;
+  std::vector<double> cost, err;
+  for (const auto& r : eval) {
+    labels.push_back(r.model);
+    groups.push_back(r.method);
+    cost.push_back(r.ns_per_eval_1t);
+    err.push_back(r.reference.empty() ? 0.0 : r.max_err);
+  }
+  nlohmann::json front = nlohmann::json::array();
+  std::vector<double> c, e;
+  std::vector<size_t> idx;
+  for (size_t k = 0; k < cost.size(); ++k) {
+    if (err[k] > 0) {
+      c.push_back(cost[k]);
+      e.push_back(err[k]);
+      idx.push_back(k);
+    }
+  }
+  for (size_t k : ParetoFront(c, e)) front.push_back(labels[idx[k]]);
+  ParetoChart("Evaluation: time vs max error against the most exact method",
+              "ns per evaluation (1 thread, log)", "max error over grid [albedo/pi] (log)", labels,
+              groups, cost, err, dir / "eval_pareto");
+  return front;
+}
+
+// fit_pareto.{png,svg}: fit time against parameter error per model and sample count.
+void FittingChart(const fs::path& dir, const std::vector<FitRow>& fits, double noise) {
+  std::vector<std::string> labels, groups;
+  std::vector<double> cost, err;
+  for (const auto& r : fits) {
+    labels.push_back(r.model + " n=" + std::to_string(r.n_samples));
+    groups.push_back(r.model);
+    cost.push_back(r.error.empty() ? r.time_s : 0.0);
+    err.push_back(r.error.empty() ? r.max_param_err : 0.0);
+  }
+  ParetoChart("Fitting: time vs parameter error (synthetic, " + std::to_string(int(noise * 100)) +
+                  "% noise)",
+              "fit time [s] (log)", "max parameter error [fraction of range] (log)", labels, groups,
+              cost, err, dir / "fit_pareto", "linespoints pt 7 ps 1.2 lw 1");
+}
+
+}  // namespace
+
 void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
                        const std::vector<EvalRow>& eval, const BaselineResult& baseline,
                        const std::vector<FitRow>& fits) {
@@ -192,22 +278,7 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
       {"timing", "median of " + std::to_string(s.repetitions) +
                      " repetitions after warm-up, batches of uniform random angles"},
       {"param_error_unit", "|fitted - true| / registry range, determined parameters only"}};
-  nlohmann::json ev = nlohmann::json::array();
-  for (const auto& r : eval) {
-    ev.push_back({{"model", r.model},
-                  {"method", r.method},
-                  {"reference", r.reference.empty() ? "no reference" : r.reference},
-                  {"reference_note", r.reference_note},
-                  {"ns_per_eval_1t", r.ns_per_eval_1t},
-                  {"ns_per_eval_mt", r.ns_per_eval_mt},
-                  {"batch_1t", r.batch},
-                  {"batch_mt", r.batch_mt},
-                  {"max_err", r.max_err},
-                  {"rms_err", r.rms_err},
-                  {"grid_points", r.grid_points},
-                  {"grid_skipped", r.grid_skipped}});
-  }
-  j["evaluation"] = ev;
+  j["evaluation"] = EvaluationJson(eval);
   j["baseline"] = {{"what", "hand-written loop of Oren-Nayar eq. 27-29, same run"},
                    {"ns_per_eval_baseline", baseline.ns_per_eval_baseline},
                    {"ns_per_eval_oren_nayar", baseline.ns_per_eval_oren_nayar},
@@ -215,63 +286,9 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
                    {"target_ratio", 1.5},
                    {"max_abs_diff", baseline.max_abs_diff},
                    {"batch", baseline.batch}};
-  nlohmann::json fj = nlohmann::json::array();
-  for (const auto& r : fits) {
-    nlohmann::json row = {{"model", r.model},
-                          {"method", r.method},
-                          {"n_samples", r.n_samples},
-                          {"noise", r.noise},
-                          {"repeats", r.repeats},
-                          {"time_s", r.time_s},
-                          {"max_param_err", r.max_param_err},
-                          {"rms_param_err", r.rms_param_err},
-                          {"n_undetermined", r.n_undetermined},
-                          {"converged", r.converged}};
-    if (!r.error.empty()) row["error"] = r.error;
-    fj.push_back(row);
-  }
-  j["fitting"] = fj;
-
-  std::vector<std::string> labels, groups;
-  std::vector<double> cost, err;
-  for (const auto& r : eval) {
-    labels.push_back(r.model);
-    groups.push_back(r.method);
-    cost.push_back(r.ns_per_eval_1t);
-    err.push_back(r.reference.empty() ? 0.0 : r.max_err);
-  }
-  nlohmann::json front = nlohmann::json::array();
-  {
-    std::vector<double> c, e;
-    std::vector<size_t> idx;
-    for (size_t k = 0; k < cost.size(); ++k) {
-      if (err[k] > 0) {
-        c.push_back(cost[k]);
-        e.push_back(err[k]);
-        idx.push_back(k);
-      }
-    }
-    for (size_t k : ParetoFront(c, e)) front.push_back(labels[idx[k]]);
-  }
-  j["pareto_evaluation"] = front;
-  ParetoChart("Evaluation: time vs max error against the most exact method",
-              "ns per evaluation (1 thread, log)", "max error over grid [albedo/pi] (log)", labels,
-              groups, cost, err, dir / "eval_pareto");
-
-  labels.clear();
-  groups.clear();
-  cost.clear();
-  err.clear();
-  for (const auto& r : fits) {
-    labels.push_back(r.model + " n=" + std::to_string(r.n_samples));
-    groups.push_back(r.model);
-    cost.push_back(r.error.empty() ? r.time_s : 0.0);
-    err.push_back(r.error.empty() ? r.max_param_err : 0.0);
-  }
-  ParetoChart("Fitting: time vs parameter error (synthetic, " +
-                  std::to_string(int(s.fit_noise * 100)) + "% noise)",
-              "fit time [s] (log)", "max parameter error [fraction of range] (log)", labels, groups,
-              cost, err, dir / "fit_pareto", "linespoints pt 7 ps 1.2 lw 1");
+  j["fitting"] = FittingJson(fits);
+  j["pareto_evaluation"] = EvaluationChart(dir, eval);
+  FittingChart(dir, fits, s.fit_noise);
   WriteJsonAtomically(dir / "bench.json", j);
 }
 

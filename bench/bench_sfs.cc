@@ -1,6 +1,6 @@
 // gonio bench --sfs: time against normal error of shape from shading (estimation/sfs.h) over a
 // small set of solver configurations, and its robustness to image noise and to a wrong
-// roughness in the material prior (issue 11: "degrade gracefully (report the curve)").
+// roughness in the material prior: how gracefully it degrades, as a curve (docs/bench.md).
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -230,6 +230,113 @@ SfsBenchReport RunSfsBench(const BenchOptions& options) {
   return RunSfsBench(options, SfsPlanFor(options));
 }
 
+namespace {
+
+bool Contains(const std::vector<std::pair<std::string, double>>& list,
+              const std::pair<std::string, double>& scene) {
+  return std::find(list.begin(), list.end(), scene) != list.end();
+}
+
+// Solves a scene takes: default and lambert everywhere, the explicit configurations on speed
+// scenes, the perturbed points on robustness scenes (the unperturbed ones reuse the default).
+size_t CountSolves(const SfsBenchPlan& plan,
+                   const std::vector<std::pair<std::string, double>>& scenes) {
+  size_t total = 0;
+  for (const auto& s : scenes) {
+    total += Contains(plan.scenes, s) ? plan.configs.size() : 2;
+    if (!Contains(plan.robustness_scenes, s)) continue;
+    total += std::count_if(plan.noise_fractions.begin(), plan.noise_fractions.end(),
+                           [](double f) { return f != 0; }) +
+             std::count_if(plan.sigma_offsets_deg.begin(), plan.sigma_offsets_deg.end(),
+                           [](double d) { return d != 0; });
+  }
+  return total;
+}
+
+// The robustness rows of one scene: the material prior's error against image noise and
+// against a wrong roughness, `def` (the default's clean solve) at the zero points.
+void AddRobustnessRows(const LoadedScene& scene, const SfsBenchPlan& plan, const SfsBenchRow& def,
+                       int threads, Progress* progress, SfsBenchReport* report) {
+  const SfsBenchConfig& default_config = plan.configs.at(0);
+  for (const double fraction : plan.noise_fractions) {
+    SfsBenchRow row = def;
+    if (fraction > 0) {
+      row = SolveRow("noise", scene, WithNoise(scene.material, fraction, plan.noise_seed),
+                     default_config, threads);
+      progress->Step();
+    }
+    row.kind = "noise";
+    row.noise_fraction = fraction;
+    report->rows.push_back(row);
+  }
+  for (const double offset : plan.sigma_offsets_deg) {
+    SfsBenchRow row = def;
+    if (offset != 0) {
+      try {
+        row = SolveRow("sigma", scene, WithSigmaOffset(scene.material, offset), default_config,
+                       threads);
+      } catch (const std::exception& e) {
+        row = SfsBenchRow{};
+        row.scene = scene.name;
+        row.reflectance = "material";
+        row.config = default_config.name;
+        row.error = e.what();
+      }
+      progress->Step();
+    }
+    row.kind = "sigma";
+    row.sigma_offset_deg = offset;
+    report->rows.push_back(row);
+  }
+}
+
+// Renders and loads one scene; false (with a "render" error row in the report) on failure.
+bool LoadScene(const std::pair<std::string, double>& s, const SfsBenchPlan& plan,
+               const fs::path& root, LoadedScene* scene, SfsBenchReport* report) {
+  scene->name = SceneName(s);
+  try {
+    scene->dir = RenderScene(s, plan, root);
+    SfsInputPaths paths;
+    paths.FillFromFolder(scene->dir);
+    scene->material = LoadSfsInput(paths, "material");
+    scene->lambert = LoadSfsInput(paths, "lambert");
+    return true;
+  } catch (const std::exception& e) {
+    SfsBenchRow row;
+    row.kind = "render";
+    row.scene = scene->name;
+    row.config = "render";
+    row.error = e.what();
+    spdlog::warn("sfs bench: {} could not be rendered or loaded: {}", scene->name, row.error);
+    report->rows.push_back(row);
+    return false;
+  }
+}
+
+// Per scene, the configurations on the Pareto front of (seconds, mean normal error) among the
+// successful material-prior speed rows.
+void SetParetoFronts(SfsBenchReport* report) {
+  std::map<std::string, std::vector<size_t>> by_scene;
+  for (size_t k = 0; k < report->rows.size(); ++k) {
+    const SfsBenchRow& r = report->rows[k];
+    if (r.kind == "speed" && r.reflectance == "material" && r.error.empty()) {
+      by_scene[r.scene].push_back(k);
+    }
+  }
+  for (const auto& [scene, idx] : by_scene) {
+    std::vector<double> cost, err;
+    for (size_t k : idx) {
+      cost.push_back(report->rows[k].seconds);
+      err.push_back(report->rows[k].mean_normal_error_deg);
+    }
+    for (size_t k : ParetoFront(cost, err)) {
+      report->pareto[scene].push_back(report->rows[idx[k]].config);
+    }
+  }
+}
+
+}  // namespace
+
 SfsBenchReport RunSfsBench(const BenchOptions& options, const SfsBenchPlan& plan) {
   options.Check();
   if (plan.configs.size() < 2 || plan.width < 16 || plan.height < 16) {
@@ -243,122 +350,38 @@ SfsBenchReport RunSfsBench(const BenchOptions& options, const SfsBenchPlan& plan
   report.size = options.size;
   report.width = plan.width;
   report.height = plan.height;
-  const SfsBenchConfig& default_config = plan.configs.at(0);
-  const SfsBenchConfig& lambert_config = plan.configs.at(1);
-
   std::vector<std::pair<std::string, double>> scenes = plan.scenes;
   for (const auto& s : plan.robustness_scenes) {
-    if (std::find(scenes.begin(), scenes.end(), s) == scenes.end()) scenes.push_back(s);
+    if (!Contains(scenes, s)) scenes.push_back(s);
   }
-  size_t total = 0;
-  for (const auto& s : scenes) {
-    const bool speed = std::find(plan.scenes.begin(), plan.scenes.end(), s) != plan.scenes.end();
-    const bool robust = std::find(plan.robustness_scenes.begin(), plan.robustness_scenes.end(),
-                                  s) != plan.robustness_scenes.end();
-    total += speed ? plan.configs.size() : 2;
-    if (robust) {
-      // The unperturbed points reuse the default's solve.
-      total += std::count_if(plan.noise_fractions.begin(), plan.noise_fractions.end(),
-                             [](double f) { return f != 0; }) +
-               std::count_if(plan.sigma_offsets_deg.begin(), plan.sigma_offsets_deg.end(),
-                             [](double d) { return d != 0; });
-    }
-  }
-  Progress progress("sfs bench solves", total, 10.0);
-
+  Progress progress("sfs bench solves", CountSolves(plan, scenes), 10.0);
   ScratchDir scratch;
   for (const auto& s : scenes) {
     LoadedScene scene;
-    scene.name = SceneName(s);
-    const bool speed = std::find(plan.scenes.begin(), plan.scenes.end(), s) != plan.scenes.end();
-    const bool robust = std::find(plan.robustness_scenes.begin(), plan.robustness_scenes.end(),
-                                  s) != plan.robustness_scenes.end();
-    try {
-      scene.dir = RenderScene(s, plan, scratch.path());
-      SfsInputPaths paths;
-      paths.FillFromFolder(scene.dir);
-      scene.material = LoadSfsInput(paths, "material");
-      scene.lambert = LoadSfsInput(paths, "lambert");
-    } catch (const std::exception& e) {
-      SfsBenchRow row;
-      row.kind = "render";
-      row.scene = scene.name;
-      row.config = "render";
-      row.error = e.what();
-      spdlog::warn("sfs bench: {} could not be rendered or loaded: {}", scene.name, row.error);
-      report.rows.push_back(row);
-      continue;
-    }
-
+    if (!LoadScene(s, plan, scratch.path(), &scene, &report)) continue;
     // The default and lambert run on every scene (robustness references); the explicit
     // configurations only on the speed scenes.
-    const SfsBenchRow def = SolveRow("speed", scene, scene.material, default_config, threads);
+    const SfsBenchRow def = SolveRow("speed", scene, scene.material, plan.configs[0], threads);
     progress.Step();
-    const SfsBenchRow lam = SolveRow("speed", scene, scene.lambert, lambert_config, threads);
+    const SfsBenchRow lam = SolveRow("speed", scene, scene.lambert, plan.configs[1], threads);
     progress.Step();
-    if (speed) {
+    if (Contains(plan.scenes, s)) {
       report.rows.push_back(def);
       report.rows.push_back(lam);
       for (size_t k = 2; k < plan.configs.size(); ++k) {
-        const SfsBenchConfig& c = plan.configs[k];
-        report.rows.push_back(SolveRow("speed", scene, scene.material, c, threads));
+        report.rows.push_back(SolveRow("speed", scene, scene.material, plan.configs[k], threads));
         progress.Step();
       }
     }
-    if (!robust) continue;
-    for (const double fraction : plan.noise_fractions) {
-      SfsBenchRow row = def;
-      if (fraction > 0) {
-        row = SolveRow("noise", scene, WithNoise(scene.material, fraction, plan.noise_seed),
-                       default_config, threads);
-        progress.Step();
-      }
-      row.kind = "noise";
-      row.noise_fraction = fraction;
-      report.rows.push_back(row);
-    }
-    for (const double offset : plan.sigma_offsets_deg) {
-      SfsBenchRow row = def;
-      if (offset != 0) {
-        try {
-          row = SolveRow("sigma", scene, WithSigmaOffset(scene.material, offset), default_config,
-                         threads);
-        } catch (const std::exception& e) {
-          row = SfsBenchRow{};
-          row.scene = scene.name;
-          row.reflectance = "material";
-          row.config = default_config.name;
-          row.error = e.what();
-        }
-        progress.Step();
-      }
-      row.kind = "sigma";
-      row.sigma_offset_deg = offset;
-      report.rows.push_back(row);
-    }
+    if (!Contains(plan.robustness_scenes, s)) continue;
+    AddRobustnessRows(scene, plan, def, threads, &progress, &report);
     // Lambert's error on the clean image: the horizontal reference of both curves.
     SfsBenchRow ref = lam;
     ref.kind = "reference";
     report.rows.push_back(ref);
   }
   progress.Done();
-
-  std::map<std::string, std::vector<size_t>> by_scene;
-  for (size_t k = 0; k < report.rows.size(); ++k) {
-    const SfsBenchRow& r = report.rows[k];
-    if (r.kind == "speed" && r.reflectance == "material" && r.error.empty()) {
-      by_scene[r.scene].push_back(k);
-    }
-  }
-  for (const auto& [scene, idx] : by_scene) {
-    std::vector<double> cost, err;
-    for (size_t k : idx) {
-      cost.push_back(report.rows[k].seconds);
-      err.push_back(report.rows[k].mean_normal_error_deg);
-    }
-    for (size_t k : ParetoFront(cost, err))
-      report.pareto[scene].push_back(report.rows[idx[k]].config);
-  }
+  SetParetoFronts(&report);
   report.seconds_total =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
@@ -396,25 +419,26 @@ nlohmann::json SfsBenchReport::ToJson() const {
           {"rows", rj}};
 }
 
-void WriteSfsBenchOutputs(const fs::path& dir, const SfsBenchReport& report) {
-  EnsureDirectory(dir);
-  nlohmann::json j = report.ToJson();
-  j["settings"] = {
-      {"scenes",
-       "gonio synth presets sfs-sphere / sfs-vase (oren-nayar sigma 30 deg, albedo "
-       "0.8), lamp collocated or turned N deg off axis about the object; camera "
-       "scaled to the image size"},
-      {"config",
-       "Lx solver xN: SfsOptions levels x, finest_solver, N full-resolution iterations "
-       "(max_iterations_finest; max_iterations with one level); "
-       "default: SfsOptions defaults; lambert: reflectance lambert at the defaults"},
-      {"seconds", "SolveSfs wall time (SfsResult::seconds), one run"},
-      {"errors", "normal error inside the mask against the rendered truth (CompareWithTruth)"},
-      {"noise", "Gaussian, sigma = fraction x mean masked radiance, one seeded pattern scaled"},
-      {"sigma", "offset added to the material's roughness sigma (truth 30 deg)"}};
+namespace {
 
-  // Speed against accuracy: one point set per configuration, one Pareto front per scene
-  // (material prior only), lambert drawn apart as the reference.
+nlohmann::json SfsBenchSettings() {
+  return {{"scenes",
+           "gonio synth presets sfs-sphere / sfs-vase (oren-nayar sigma 30 deg, albedo "
+           "0.8), lamp collocated or turned N deg off axis about the object; camera "
+           "scaled to the image size"},
+          {"config",
+           "Lx solver xN: SfsOptions levels x, finest_solver, N full-resolution iterations "
+           "(max_iterations_finest; max_iterations with one level); "
+           "default: SfsOptions defaults; lambert: reflectance lambert at the defaults"},
+          {"seconds", "SolveSfs wall time (SfsResult::seconds), one run"},
+          {"errors", "normal error inside the mask against the rendered truth (CompareWithTruth)"},
+          {"noise", "Gaussian, sigma = fraction x mean masked radiance, one seeded pattern scaled"},
+          {"sigma", "offset added to the material's roughness sigma (truth 30 deg)"}};
+}
+
+// Speed against accuracy: one point set per configuration, one Pareto front per scene
+// (material prior only), lambert drawn apart as the reference.
+void SpeedChart(const fs::path& dir, const SfsBenchReport& report, const std::string& image) {
   std::vector<std::string> labels, groups, fronts;
   std::vector<double> cost, err;
   for (const auto& r : report.rows) {
@@ -438,70 +462,80 @@ void WriteSfsBenchOutputs(const fs::path& dir, const SfsBenchReport& report) {
     styles[g] = "points pt " + std::to_string(point_types[k % point_types.size()]) +
                 " ps 1.4 lc rgb '" + palette[k % palette.size()] + "'";
   }
-  ParetoChart("Shape from shading " + j["image"].get<std::string>() +
+  ParetoChart("Shape from shading " + image +
                   ": solve time vs mean normal error (S/V = sphere/vase, number = lamp "
                   "off-axis deg)",
               "SolveSfs time [s] (log)", "mean normal error [deg] (log)", labels, groups, cost, err,
               dir / "sfs_pareto", "points pt 7 ps 1.4", fronts, styles);
+}
 
-  // Robustness: the material prior's error against the perturbation, lambert on the clean image
-  // as a horizontal line of the same colour.
+// Robustness (kind "noise" or "sigma"): the material prior's error against the perturbation,
+// lambert on the clean image as a horizontal line of the same colour.
+void RobustnessChart(const fs::path& dir, const SfsBenchReport& report, const std::string& kind) {
   const std::vector<std::string> colours = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
-  for (const std::string kind : {"noise", "sigma"}) {
-    PlotSpec spec;
-    spec.title = kind == "noise" ? "Shape from shading: mean normal error vs Gaussian image noise"
-                                 : "Shape from shading: mean normal error vs error of the "
-                                   "material's roughness sigma (truth 30 deg)";
-    spec.xlabel = kind == "noise" ? "noise sigma [% of the mean masked radiance]"
-                                  : "sigma offset in the material prior [deg]";
-    spec.ylabel = "mean normal error [deg] (log)";
-    spec.log_y = true;
-    spec.width = 1000;
-    spec.height = 650;
-    std::vector<std::string> scenes;
-    for (const auto& r : report.rows) {
-      if (r.kind == kind && std::find(scenes.begin(), scenes.end(), r.scene) == scenes.end()) {
-        scenes.push_back(r.scene);
-      }
+  PlotSpec spec;
+  spec.title = kind == "noise" ? "Shape from shading: mean normal error vs Gaussian image noise"
+                               : "Shape from shading: mean normal error vs error of the "
+                                 "material's roughness sigma (truth 30 deg)";
+  spec.xlabel = kind == "noise" ? "noise sigma [% of the mean masked radiance]"
+                                : "sigma offset in the material prior [deg]";
+  spec.ylabel = "mean normal error [deg] (log)";
+  spec.log_y = true;
+  spec.width = 1000;
+  spec.height = 650;
+  auto x_of = [&](const SfsBenchRow& r) {
+    return kind == "noise" ? 100 * r.noise_fraction : r.sigma_offset_deg;
+  };
+  std::vector<std::string> scenes;
+  double x_min = 0, x_max = 0;
+  for (const auto& r : report.rows) {
+    if (r.kind != kind) continue;
+    if (std::find(scenes.begin(), scenes.end(), r.scene) == scenes.end()) {
+      scenes.push_back(r.scene);
     }
-    double x_min = 0, x_max = 0;
-    for (const auto& r : report.rows) {
-      if (r.kind != kind) continue;
-      const double x = kind == "noise" ? 100 * r.noise_fraction : r.sigma_offset_deg;
-      x_min = std::min(x_min, x);
-      x_max = std::max(x_max, x);
-    }
-    for (size_t si = 0; si < scenes.size(); ++si) {
-      const std::string colour = colours[si % colours.size()];
-      PlotSeries curve;
-      curve.label = scenes[si] + ": material prior";
-      curve.style = "linespoints pt 7 ps 1.3 lw 2 lc rgb '" + colour + "'";
-      for (const auto& r : report.rows) {
-        if (r.kind != kind || r.scene != scenes[si] || !r.error.empty() ||
-            !(r.mean_normal_error_deg > 0)) {
-          continue;
-        }
-        curve.x.push_back(kind == "noise" ? 100 * r.noise_fraction : r.sigma_offset_deg);
-        curve.y.push_back(r.mean_normal_error_deg);
-      }
-      if (!curve.x.empty()) spec.series.push_back(curve);
-      for (const auto& r : report.rows) {
-        if (r.kind == "reference" && r.scene == scenes[si] && r.error.empty() &&
-            r.mean_normal_error_deg > 0) {
-          spec.series.push_back({scenes[si] + ": lambert, clean image",
-                                 {x_min, x_max},
-                                 {r.mean_normal_error_deg, r.mean_normal_error_deg},
-                                 "lines lw 2 dt 2 lc rgb '" + colour + "'"});
-        }
-      }
-    }
-    if (spec.series.empty()) {
-      spec.log_y = false;
-      spec.series.push_back({"(no successful solves)", {0.0}, {0.0}, "points pt 0"});
-    }
-    spec.extra = "set key inside bottom right opaque box\n";
-    RenderBoth(spec, dir / ("sfs_robustness_" + kind));
+    x_min = std::min(x_min, x_of(r));
+    x_max = std::max(x_max, x_of(r));
   }
+  for (size_t si = 0; si < scenes.size(); ++si) {
+    const std::string colour = colours[si % colours.size()];
+    PlotSeries curve;
+    curve.label = scenes[si] + ": material prior";
+    curve.style = "linespoints pt 7 ps 1.3 lw 2 lc rgb '" + colour + "'";
+    for (const auto& r : report.rows) {
+      if (r.kind != kind || r.scene != scenes[si] || !r.error.empty() ||
+          !(r.mean_normal_error_deg > 0)) {
+        continue;
+      }
+      curve.x.push_back(x_of(r));
+      curve.y.push_back(r.mean_normal_error_deg);
+    }
+    if (!curve.x.empty()) spec.series.push_back(curve);
+    for (const auto& r : report.rows) {
+      if (r.kind == "reference" && r.scene == scenes[si] && r.error.empty() &&
+          r.mean_normal_error_deg > 0) {
+        spec.series.push_back({scenes[si] + ": lambert, clean image",
+                               {x_min, x_max},
+                               {r.mean_normal_error_deg, r.mean_normal_error_deg},
+                               "lines lw 2 dt 2 lc rgb '" + colour + "'"});
+      }
+    }
+  }
+  if (spec.series.empty()) {
+    spec.log_y = false;
+    spec.series.push_back({"(no successful solves)", {0.0}, {0.0}, "points pt 0"});
+  }
+  spec.extra = "set key inside bottom right opaque box\n";
+  RenderBoth(spec, dir / ("sfs_robustness_" + kind));
+}
+
+}  // namespace
+
+void WriteSfsBenchOutputs(const fs::path& dir, const SfsBenchReport& report) {
+  EnsureDirectory(dir);
+  nlohmann::json j = report.ToJson();
+  j["settings"] = SfsBenchSettings();
+  SpeedChart(dir, report, j["image"].get<std::string>());
+  for (const std::string kind : {"noise", "sigma"}) RobustnessChart(dir, report, kind);
   WriteJsonAtomically(dir / "sfs_bench.json", j);
 }
 

@@ -9,11 +9,15 @@
 
 #include "common/error.h"
 #include "common/math.h"
+#include "estimation/option_words.h"
 #include "estimation/uncertainty.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
 namespace {
+
+constexpr OptionWord<RobustLoss> kRobustLossWords[] = {
+    {RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}};
 
 // Residual of one sample: sqrt(w) * (scale * f_r(params; angles) - value).
 template <typename M>
@@ -38,14 +42,14 @@ struct Solution {
 };
 
 ceres::LossFunction* MakeLoss(const BrdfFitOptions& o, const std::vector<BrdfSample>& samples) {
-  if (o.robust_loss == "none") return nullptr;
+  if (o.robust_loss == RobustLoss::kNone) return nullptr;
   double s = o.loss_scale;
   if (s <= 0) {
     double mean = 0;
     for (const auto& x : samples) mean += std::abs(x.value) * std::sqrt(x.weight);
     s = 0.05 * mean / std::max<size_t>(1, samples.size());
   }
-  if (o.robust_loss == "huber") return new ceres::HuberLoss(s);
+  if (o.robust_loss == RobustLoss::kHuber) return new ceres::HuberLoss(s);
   return new ceres::CauchyLoss(s);
 }
 
@@ -154,12 +158,13 @@ void CheckSamples(const std::vector<BrdfSample>& samples) {
   }
 }
 
+// The best of o.num_starts solves: the registry defaults first, then Halton points inside the
+// parameter box. Not usable when no start converged; its message is then the last failure's.
 template <typename M>
-BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& samples,
-                       const BrdfFitOptions& o) {
+Solution BestOfStarts(const ModelInfo& info, const std::vector<BrdfSample>& samples,
+                      const BrdfFitOptions& o) {
   std::vector<size_t> all(samples.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-
   Solution best;
   std::string last_message;
   for (int s = 0; s < o.num_starts; ++s) {
@@ -174,7 +179,31 @@ BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& sam
     if (!sol.usable) last_message = sol.message;
     if (sol.usable && sol.cost < best.cost) best = sol;
   }
+  if (!best.usable) best.message = last_message;
+  return best;
+}
 
+// rms and rel_rms of `r` over the samples; returns the weighted sum of squared residuals.
+double SetResidualMetrics(const std::vector<BrdfSample>& samples, BrdfFitResult* r) {
+  double ssr = 0, sq = 0, mean = 0;
+  for (const auto& s : samples) {
+    const double pred = r->Predict(s);
+    ssr += s.weight * (pred - s.value) * (pred - s.value);
+    sq += (pred - s.value) * (pred - s.value);
+    mean += s.value;
+  }
+  const double n = static_cast<double>(samples.size());
+  mean /= n;
+  r->weighted_ssr = ssr;
+  r->rms = std::sqrt(sq / n);
+  r->rel_rms = mean > 0 ? r->rms / mean : r->rms;
+  return ssr;
+}
+
+template <typename M>
+BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& samples,
+                       const BrdfFitOptions& o) {
+  const Solution best = BestOfStarts<M>(info, samples, o);
   BrdfFitResult r;
   r.model = info.name;
   for (const auto& p : info.params) r.param_names.push_back(p.name);
@@ -182,7 +211,7 @@ BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& sam
   r.n_params = M::kNumParams + (o.relative_scale ? 1 : 0);
   if (!best.usable) {
     r.converged = false;
-    r.message = "no start converged: " + last_message;
+    r.message = "no start converged: " + best.message;
     r.params.assign(M::kNumParams, NAN);
     r.stddev.assign(M::kNumParams, std::nullopt);
     return r;
@@ -192,6 +221,7 @@ BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& sam
   r.params = best.params;
   r.scale = best.scale;
 
+  // The uncertainty over the model's parameters, and the free scale last in relative fits.
   Eigen::MatrixXd J = WeightedJacobian<M>(samples, best.params, best.scale);
   if (!o.relative_scale) J.conservativeResize(Eigen::NoChange, M::kNumParams);
   std::vector<double> ranges;
@@ -204,20 +234,7 @@ BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& sam
     ranges.push_back(std::abs(best.scale));
     check_fraction.push_back(false);
   }
-
-  double ssr = 0, sq = 0, mean = 0;
-  for (const auto& s : samples) {
-    const double pred = r.Predict(s);
-    ssr += s.weight * (pred - s.value) * (pred - s.value);
-    sq += (pred - s.value) * (pred - s.value);
-    mean += s.value;
-  }
-  const double n = static_cast<double>(samples.size());
-  mean /= n;
-  r.weighted_ssr = ssr;
-  r.rms = std::sqrt(sq / n);
-  r.rel_rms = mean > 0 ? r.rms / mean : r.rms;
-
+  const double ssr = SetResidualMetrics(samples, &r);
   UncertaintyOptions uo;
   uo.rank_tolerance = o.rank_tolerance;
   uo.undetermined_fraction = o.undetermined_fraction;
@@ -232,6 +249,7 @@ BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& sam
 
   // Gaussian log-likelihood with the noise variance profiled out; the penalty counts the
   // directions the data can see, so a parameter absorbed by the free scale is not charged.
+  const double n = static_cast<double>(samples.size());
   const double msr = std::max(ssr / n, 1e-300);
   r.aic = n * std::log(msr) + 2.0 * u.rank;
   r.bic = n * std::log(msr) + std::log(n) * u.rank;
@@ -240,10 +258,13 @@ BrdfFitResult FitModel(const ModelInfo& info, const std::vector<BrdfSample>& sam
 
 }  // namespace
 
+RobustLoss ParseRobustLoss(const std::string& word, const std::string& option_name) {
+  return ParseOptionWord(kRobustLossWords, word, option_name);
+}
+
+std::string ToString(RobustLoss loss) { return OptionWordOf(kRobustLossWords, loss); }
+
 void BrdfFitOptions::Check() const {
-  if (robust_loss != "none" && robust_loss != "huber" && robust_loss != "cauchy") {
-    throw InputError("robust loss '" + robust_loss + "' is not one of none, huber, cauchy");
-  }
   if (!(loss_scale >= 0)) throw InputError("loss scale must be >= 0");
   if (num_starts < 1 || num_starts > 100) throw InputError("number of starts must be in [1, 100]");
   if (max_iterations < 1) throw InputError("max iterations must be >= 1");

@@ -19,11 +19,17 @@ struct BrdfSample {
   double weight = 1;
 };
 
+// Loss on the residuals: plain least squares, or Huber / Cauchy to limit the pull of outliers.
+enum class RobustLoss { kNone, kHuber, kCauchy };
+// "none", "huber" or "cauchy"; InputError naming `option_name` otherwise.
+RobustLoss ParseRobustLoss(const std::string& word, const std::string& option_name);
+std::string ToString(RobustLoss loss);
+
 struct BrdfFitOptions {
   // The data's overall scale is arbitrary (CURET): fit value = scale * f_r with a free scale > 0.
   bool relative_scale = false;
-  // "none", "huber" or "cauchy"; loss_scale in the value's units (0 = 5% of mean |value|).
-  std::string robust_loss = "none";
+  // loss_scale in the value's units (0 = 5% of mean |value|).
+  RobustLoss robust_loss = RobustLoss::kNone;
   double loss_scale = 0.0;
   // Number of deterministic starting points (the registry default is always the first).
   int num_starts = 6;

@@ -24,17 +24,25 @@
 
 namespace gonio {
 
+// The frame the lamp stays fixed in while the photographs are taken: the board's (the camera
+// moves around board and lamp) or the camera's (the board turns in front of a camera that
+// carries the lamp).
+enum class LightFrame { kBoard, kCamera };
+// "board" or "camera"; InputError naming `option_name` otherwise.
+LightFrame ParseLightFrame(const std::string& word, const std::string& option_name);
+std::string ToString(LightFrame frame);
+
 struct JointFitOptions {
-  std::vector<std::string> candidates;        // empty: AutoCandidates()
-  std::string criterion = "bic";              // aic, bic, cv (held-out frames)
-  std::string light_frame = "board";          // "board" or "camera"
-  std::optional<Eigen::Vector3d> light_init;  // in light_frame; none: multi-start
-  std::optional<double> white_albedo;         // known albedo of the white reference
-  bool per_channel = true;                    // per-channel albedo-like parameters (colour data)
-  std::string robust_loss = "huber";          // none, huber, cauchy; scale 3 sigma
-  double relative_noise_floor = 0.01;         // sigma^2 = variance + (floor * L)^2
-  size_t selection_max_observations = 3000;   // candidates compared on a subsample
-  size_t final_max_observations = 30000;      // the selected model's final fit
+  std::vector<std::string> candidates;          // empty: AutoCandidates()
+  Criterion criterion = Criterion::kBic;        // cv: K folds of held-out frames
+  LightFrame light_frame = LightFrame::kBoard;  // where the lamp is fixed
+  std::optional<Eigen::Vector3d> light_init;    // in light_frame; none: multi-start
+  std::optional<double> white_albedo;           // known albedo of the white reference
+  bool per_channel = true;                      // per-channel albedo-like parameters (colour data)
+  RobustLoss robust_loss = RobustLoss::kHuber;  // scale 3 sigma
+  double relative_noise_floor = 0.01;           // sigma^2 = variance + (floor * L)^2
+  size_t selection_max_observations = 3000;     // candidates compared on a subsample
+  size_t final_max_observations = 30000;        // the selected model's final fit
   // The lamp distance is only measured through the change of irradiance (cos theta_i / d^2)
   // across the sample. Below this relative contrast, photometric calibration errors of a few
   // tenths of a percent would move it arbitrarily: its distance is reported as undetermined.
@@ -56,10 +64,11 @@ struct FrameResidual {
 
 struct JointFitResult {
   BrdfFitResult material;  // grey or channel-0 parameters, their stddev, metrics
-  // Per channel, the albedo-like parameters (names in scale_param_names).
-  std::vector<std::string> scale_param_names;
-  std::vector<std::vector<double>> scale_params_per_channel;
-  std::string light_frame;
+  // The parameters fitted per colour channel (ParamInfo::per_channel: albedo-like ones) and,
+  // per channel, their values in that order (fit.json: params_per_channel).
+  std::vector<std::string> per_channel_param_names;
+  std::vector<std::vector<double>> per_channel_params;
+  LightFrame light_frame = LightFrame::kBoard;
   Eigen::Vector3d light_position = Eigen::Vector3d::Zero();
   std::optional<Eigen::Vector3d> light_stddev;
   double intensity = 1.0;

@@ -15,7 +15,7 @@ nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 nlohmann::json JointFitResult::ToJson() const {
   nlohmann::json j = gonio::ToJson(material);
   nlohmann::json light = {
-      {"frame", light_frame},
+      {"frame", ToString(light_frame)},
       {"position", {light_position.x(), light_position.y(), light_position.z()}},
       {"intensity", Finite(intensity)},
       {"intensity_stddev", intensity_stddev ? Finite(*intensity_stddev) : nlohmann::json()},
@@ -25,22 +25,22 @@ nlohmann::json JointFitResult::ToJson() const {
                         ? nlohmann::json({light_stddev->x(), light_stddev->y(), light_stddev->z()})
                         : nlohmann::json();
   j["light"] = light;
-  if (!scale_param_names.empty()) {
+  if (!per_channel_param_names.empty()) {
     nlohmann::json per = nlohmann::json::object();
-    for (size_t k = 0; k < scale_param_names.size(); ++k) {
+    for (size_t k = 0; k < per_channel_param_names.size(); ++k) {
       nlohmann::json values = nlohmann::json::array();
-      for (const auto& ch : scale_params_per_channel) values.push_back(Finite(ch[k]));
-      per[scale_param_names[k]] = values;
+      for (const auto& ch : per_channel_params) values.push_back(Finite(ch[k]));
+      per[per_channel_param_names[k]] = values;
     }
     j["params_per_channel"] = per;
   }
-  if (!absolute && !scale_param_names.empty()) {
+  if (!absolute && !per_channel_param_names.empty()) {
     // Without a white reference only the product with the lamp intensity is measured.
     nlohmann::json prod = nlohmann::json::object();
-    for (size_t k = 0; k < scale_param_names.size(); ++k) {
+    for (size_t k = 0; k < per_channel_param_names.size(); ++k) {
       nlohmann::json values = nlohmann::json::array();
-      for (const auto& ch : scale_params_per_channel) values.push_back(Finite(ch[k] * intensity));
-      prod[scale_param_names[k] + "_x_intensity"] = values;
+      for (const auto& ch : per_channel_params) values.push_back(Finite(ch[k] * intensity));
+      prod[per_channel_param_names[k] + "_x_intensity"] = values;
     }
     j["relative"] = prod;
   }
@@ -77,7 +77,7 @@ std::string JointSelectionResult::Report() const {
   s << selection.Report();
   const auto& f = final_fit;
   s << "final fit on " << f.n_observations << " observations: " << f.material.Report() << "\n";
-  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", f.light_frame,
+  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", ToString(f.light_frame),
                    f.light_position.x(), f.light_position.y(), f.light_position.z());
   if (f.light_stddev) {
     s << fmt::format(" +- ({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(), f.light_stddev->y(),

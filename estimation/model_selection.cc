@@ -9,14 +9,24 @@
 
 #include "common/error.h"
 #include "common/parallel.h"
+#include "estimation/option_words.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
+namespace {
+
+constexpr OptionWord<Criterion> kCriterionWords[] = {
+    {Criterion::kAic, "aic"}, {Criterion::kBic, "bic"}, {Criterion::kCv, "cv"}};
+
+}  // namespace
+
+Criterion ParseCriterion(const std::string& word, const std::string& option_name) {
+  return ParseOptionWord(kCriterionWords, word, option_name);
+}
+
+std::string ToString(Criterion criterion) { return OptionWordOf(kCriterionWords, criterion); }
 
 void ModelSelectionOptions::Check() const {
-  if (criterion != "aic" && criterion != "bic" && criterion != "cv") {
-    throw InputError("criterion '" + criterion + "' is not one of aic, bic, cv");
-  }
   if (!(ic_margin >= 0) || !(cv_margin >= 0)) throw InputError("selection margins must be >= 0");
   if (cv_folds < 2 || cv_folds > 50) throw InputError("cv folds must be in [2, 50]");
   for (const auto& c : candidates) FindModel(c);
@@ -37,8 +47,14 @@ std::vector<std::string> AutoCandidates() {
 }
 
 double ModelSelectionResult::CriterionValue(const BrdfFitResult& r) const {
-  if (criterion == "aic") return r.aic;
-  if (criterion == "bic") return r.bic;
+  switch (criterion) {
+    case Criterion::kAic:
+      return r.aic;
+    case Criterion::kBic:
+      return r.bic;
+    case Criterion::kCv:
+      break;
+  }
   return r.cv_rms.value_or(INFINITY);
 }
 
@@ -96,8 +112,8 @@ void ChooseSimplestAdequate(const ModelSelectionOptions& options, ModelSelection
   }
   if (best < 0) throw NumericalError("no candidate model converged on these samples");
   const double best_value = out.CriterionValue(out.candidates[best]);
-  const double limit = options.criterion == "cv" ? best_value * (1.0 + options.cv_margin)
-                                                 : best_value + options.ic_margin;
+  const double limit = options.criterion == Criterion::kCv ? best_value * (1.0 + options.cv_margin)
+                                                           : best_value + options.ic_margin;
   int chosen = best;
   for (int k = 0; k < static_cast<int>(out.candidates.size()); ++k) {
     const auto& c = out.candidates[k];
@@ -110,19 +126,19 @@ void ChooseSimplestAdequate(const ModelSelectionOptions& options, ModelSelection
   }
   out.selected = chosen;
   const auto& sel = out.candidates[chosen];
-  const std::string margin_text = options.criterion == "cv"
+  const std::string margin_text = options.criterion == Criterion::kCv
                                       ? fmt::format("{:.0f}%", 100 * options.cv_margin)
                                       : fmt::format("{:g}", options.ic_margin);
   if (chosen == best) {
     out.reason = fmt::format(
         "{} has the best {} ({:.6g}); no model with fewer parameters comes "
         "within {} of it",
-        sel.model, options.criterion, best_value, margin_text);
+        sel.model, ToString(options.criterion), best_value, margin_text);
   } else {
     out.reason = fmt::format(
         "{} ({} parameters, {} {:.6g}) is within {} of the best, {} ({} parameters, {:.6g}), "
         "so the simpler model is chosen",
-        sel.model, sel.n_params, options.criterion, out.CriterionValue(sel), margin_text,
+        sel.model, sel.n_params, ToString(options.criterion), out.CriterionValue(sel), margin_text,
         out.candidates[best].model, out.candidates[best].n_params, best_value);
   }
   if (!sel.undetermined.empty()) {
@@ -190,7 +206,7 @@ nlohmann::json ToJson(const ModelSelectionResult& selection) {
   nlohmann::json candidates = nlohmann::json::array();
   for (const auto& c : selection.candidates) candidates.push_back(ToJson(c));
   return {{"selected", selection.selected >= 0 ? selection.Selected().model : ""},
-          {"criterion", selection.criterion},
+          {"criterion", ToString(selection.criterion)},
           {"reason", selection.reason},
           {"n_samples", selection.candidates.empty() ? 0 : selection.candidates[0].n_samples},
           {"skipped", selection.skipped},

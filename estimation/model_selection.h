@@ -16,9 +16,15 @@
 
 namespace gonio {
 
+// What candidates are compared by: AIC, BIC, or the RMS of K-fold cross-validation.
+enum class Criterion { kAic, kBic, kCv };
+// "aic", "bic" or "cv"; InputError naming `option_name` otherwise.
+Criterion ParseCriterion(const std::string& word, const std::string& option_name);
+std::string ToString(Criterion criterion);
+
 struct ModelSelectionOptions {
   std::vector<std::string> candidates;  // empty: AutoCandidates()
-  std::string criterion = "bic";        // "aic", "bic" or "cv"
+  Criterion criterion = Criterion::kBic;
   double ic_margin = 2.0;
   double cv_margin = 0.02;
   int cv_folds = 5;
@@ -31,7 +37,7 @@ struct ModelSelectionOptions {
 struct ModelSelectionResult {
   std::vector<BrdfFitResult> candidates;
   int selected = -1;
-  std::string criterion;
+  Criterion criterion = Criterion::kBic;
   std::string reason;
   std::vector<std::string> skipped;  // "model: why"
 

@@ -13,192 +13,24 @@
 
 #include "common/error.h"
 #include "common/log.h"
+#include "common/stats.h"
 #include "estimation/sfs_costs.h"
+#include "estimation/sfs_pyramid.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
 namespace {
 
+using sfs_internal::BalloonLogDepth;
 using sfs_internal::ContourCost;
+using sfs_internal::Interior;
+using sfs_internal::Level;
+using sfs_internal::MakeLevel;
+using sfs_internal::NormalAt;
 using sfs_internal::PhotometricCost;
 using sfs_internal::Radiance;
 using sfs_internal::SmoothCost;
-
-// One pyramid level: radiance averaged over 2^L x 2^L blocks wholly inside the mask.
-struct Level {
-  int scale = 1, w = 0, h = 0;
-  cv::Mat radiance, mask;             // CV_64F, CV_8U
-  std::vector<Eigen::Vector3d> rays;  // per pixel, (x, y, 1)
-  bool In(int x, int y) const {
-    return x >= 0 && y >= 0 && x < w && y < h && mask.at<uint8_t>(y, x);
-  }
-  const Eigen::Vector3d& Ray(int x, int y) const { return rays[static_cast<size_t>(y) * w + x]; }
-};
-
-Level MakeLevel(const SfsProblem& pr, int scale) {
-  Level lv;
-  lv.scale = scale;
-  lv.w = pr.radiance.cols / scale;
-  lv.h = pr.radiance.rows / scale;
-  lv.radiance = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
-  lv.mask = cv::Mat(lv.h, lv.w, CV_8U, cv::Scalar(0));
-  lv.rays.resize(static_cast<size_t>(lv.w) * lv.h);
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      bool all = true;
-      double sum = 0;
-      for (int j = 0; j < scale && all; ++j) {
-        for (int i = 0; i < scale; ++i) {
-          const int fx = x * scale + i, fy = y * scale + j;
-          if (!pr.mask.at<uint8_t>(fy, fx)) {
-            all = false;
-            break;
-          }
-          sum += pr.radiance.at<double>(fy, fx);
-        }
-      }
-      if (all) {
-        lv.mask.at<uint8_t>(y, x) = 255;
-        lv.radiance.at<double>(y, x) = sum / (scale * scale);
-      }
-      // The block centre in full-resolution pixels (pixel centres at integers).
-      const Eigen::Vector3d r = pr.camera.Unproject(
-          Eigen::Vector2d(x * scale + 0.5 * (scale - 1), y * scale + 0.5 * (scale - 1)));
-      lv.rays[static_cast<size_t>(y) * lv.w + x] = r / r.z();
-    }
-  }
-  return lv;
-}
-
-bool Interior(const Level& lv, int x, int y) {
-  return lv.In(x, y) && lv.In(x - 1, y) && lv.In(x + 1, y) && lv.In(x, y - 1) && lv.In(x, y + 1);
-}
-
-// Normal at a mask pixel from the depth map: central differences, one-sided where a neighbour
-// is outside the mask. False when a direction has no neighbour at all.
-bool NormalAt(const Level& lv, const cv::Mat& u, int x, int y, Eigen::Vector3d* n) {
-  auto P = [&](int xx, int yy) { return lv.Ray(xx, yy) * std::exp(u.at<double>(yy, xx)); };
-  Eigen::Vector3d tx, ty;
-  if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
-    tx = P(x + 1, y) - P(x - 1, y);
-  } else if (lv.In(x + 1, y)) {
-    tx = P(x + 1, y) - P(x, y);
-  } else if (lv.In(x - 1, y)) {
-    tx = P(x, y) - P(x - 1, y);
-  } else {
-    return false;
-  }
-  if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
-    ty = P(x, y + 1) - P(x, y - 1);
-  } else if (lv.In(x, y + 1)) {
-    ty = P(x, y + 1) - P(x, y);
-  } else if (lv.In(x, y - 1)) {
-    ty = P(x, y) - P(x, y - 1);
-  } else {
-    return false;
-  }
-  const Eigen::Vector3d c = ty.cross(tx);
-  if (!(c.norm() > 0)) return false;
-  *n = c.normalized();
-  return true;
-}
-
-// Convex initial surface from the mask's distance transform d: circular cross-sections
-// perpendicular to the contour, h = sqrt(d (2a - d)), where a is the local radius (d at the
-// medial-axis point reached by steepest ascent of d; exact for spheres and for surfaces of
-// revolution seen side-on), with the anchor pixel (ax, ay) at depth `anchor`.
-cv::Mat BalloonLogDepth(const Level& lv, double f_px, double anchor, int ax, int ay) {
-  cv::Mat dt;
-  cv::distanceTransform(lv.mask, dt, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  std::vector<std::pair<float, int>> order;
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      if (lv.In(x, y)) order.push_back({dt.at<float>(y, x), y * lv.w + x});
-    }
-  }
-  std::sort(order.begin(), order.end(), std::greater<>());
-  cv::Mat a = dt.clone();
-  for (const auto& [d, k] : order) {
-    const int x = k % lv.w, y = k / lv.w;
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        if ((dx == 0 && dy == 0) || !lv.In(x + dx, y + dy)) continue;
-        // Only moves nearly straight away from the contour (d grows ~1 per pixel step);
-        // along the medial axis d changes slowly and nothing propagates.
-        const double step = std::hypot(dx, dy);
-        if (dt.at<float>(y + dy, x + dx) - d >= 0.7 * step) {
-          a.at<float>(y, x) = std::max(a.at<float>(y, x), a.at<float>(y + dy, x + dx));
-        }
-      }
-    }
-  }
-  auto height = [&](int x, int y) {
-    const double r = a.at<float>(y, x), d = std::min<double>(dt.at<float>(y, x), r);
-    return std::sqrt(std::max(0.0, d * (2 * r - d))) * lv.scale;  // full-res pixels
-  };
-  const double h_anchor = height(ax, ay);
-  cv::Mat u(lv.h, lv.w, CV_64F, cv::Scalar(0));
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      if (!lv.In(x, y)) continue;
-      u.at<double>(y, x) = std::log(anchor + (h_anchor - height(x, y)) * anchor / f_px);
-    }
-  }
-  return u;
-}
-
-// Extends u outside the mask by repeated neighbour averaging so bilinear upsampling near the
-// contour has values on both sides.
-void FillOutside(const cv::Mat& mask, cv::Mat* u, int rings) {
-  cv::Mat known = mask.clone();
-  for (int it = 0; it < rings; ++it) {
-    cv::Mat next_known = known.clone();
-    cv::Mat next = u->clone();
-    for (int y = 0; y < u->rows; ++y) {
-      for (int x = 0; x < u->cols; ++x) {
-        if (known.at<uint8_t>(y, x)) continue;
-        double sum = 0;
-        int n = 0;
-        for (int dy = -1; dy <= 1; ++dy) {
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int xx = x + dx, yy = y + dy;
-            if (xx < 0 || yy < 0 || xx >= u->cols || yy >= u->rows) continue;
-            if (known.at<uint8_t>(yy, xx)) {
-              sum += u->at<double>(yy, xx);
-              ++n;
-            }
-          }
-        }
-        if (n > 0) {
-          next.at<double>(y, x) = sum / n;
-          next_known.at<uint8_t>(y, x) = 255;
-        }
-      }
-    }
-    *u = next;
-    known = next_known;
-  }
-}
-
-cv::Mat Upsample(const Level& coarse, cv::Mat u, const Level& fine) {
-  FillOutside(coarse.mask, &u, 3);
-  const double r = static_cast<double>(coarse.scale) / fine.scale;
-  cv::Mat out(fine.h, fine.w, CV_64F, cv::Scalar(0));
-  for (int y = 0; y < fine.h; ++y) {
-    for (int x = 0; x < fine.w; ++x) {
-      if (!fine.In(x, y)) continue;
-      const double cx = std::clamp((x + 0.5) / r - 0.5, 0.0, coarse.w - 1.0);
-      const double cy = std::clamp((y + 0.5) / r - 0.5, 0.0, coarse.h - 1.0);
-      const int x0 = std::min(static_cast<int>(cx), coarse.w - 2);
-      const int y0 = std::min(static_cast<int>(cy), coarse.h - 2);
-      const double fx = cx - x0, fy = cy - y0;
-      out.at<double>(y, x) =
-          (1 - fy) * ((1 - fx) * u.at<double>(y0, x0) + fx * u.at<double>(y0, x0 + 1)) +
-          fy * ((1 - fx) * u.at<double>(y0 + 1, x0) + fx * u.at<double>(y0 + 1, x0 + 1));
-    }
-  }
-  return out;
-}
+using sfs_internal::Upsample;
 
 // Standard deviation of the image noise inside the mask, by Immerkaer's estimator ("Fast noise
 // variance estimation", CVIU 1996): the difference of two Laplacians cancels smooth shading
@@ -257,7 +89,7 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
       for (size_t i = 0; i < measured.size(); ++i) {
         const double pred =
             Radiance<M, double>(pr.params.data(), false, 1.0, normals[i], points[i] * std::exp(c),
-                                pr.lamp_in_camera, pr.lamp_intensity);
+                                pr.light_in_cam, pr.light_intensity);
         const double r = (std::isfinite(pred) ? pred : 0.0) - measured[i];
         sum += r * r;
       }
@@ -293,30 +125,18 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
   }
 }
 
-struct LevelSolve {
-  int iterations = 0;
-};
-
+// The residuals of one pyramid level: photometric at interior pixels, occluding contour at
+// boundary pixels, smoothness of u along x and y. Returns the number of photometric residuals.
 template <typename M>
-LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
-                      double smoothness, int max_iterations, bool coarser_solved, cv::Mat* u,
-                      double* log_k) {
-  ceres::Problem::Options po;
-  ceres::Problem problem(po);
+size_t AddLevelResiduals(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
+                         double smoothness, cv::Mat* u, double* log_k, ceres::Problem* problem) {
   const bool lambert = opt.reflectance == "lambert";
   const double inv_ref = 1.0 / ref;
   auto U = [&](int x, int y) { return &u->at<double>(y, x); };
-  problem.AddParameterBlock(log_k, 1);
   // Coarse levels keep only blocks wholly inside the mask, so their boundary lies ~scale
   // full-resolution pixels inside the silhouette where n . v grows like sqrt(distance).
   const double max_cos = std::min(0.95, opt.contour_max_cos * std::sqrt(lv.scale));
   size_t photometric = 0;
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      if (!lv.In(x, y)) continue;
-      problem.AddParameterBlock(U(x, y), 1);
-    }
-  }
   for (int y = 0; y < lv.h; ++y) {
     for (int x = 0; x < lv.w; ++x) {
       if (!lv.In(x, y)) continue;
@@ -328,11 +148,11 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
                                          lv.Ray(x, y + 1),
                                          pr.params.data(),
                                          lambert,
-                                         pr.lamp_in_camera,
-                                         pr.lamp_intensity,
+                                         pr.light_in_cam,
+                                         pr.light_intensity,
                                          lv.radiance.at<double>(y, x),
                                          inv_ref};
-        problem.AddResidualBlock(
+        problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<PhotometricCost<M>, 1, 1, 1, 1, 1, 1, 1>(c), nullptr,
             U(x, y), U(x - 1, y), U(x + 1, y), U(x, y - 1), U(x, y + 1), log_k);
         ++photometric;
@@ -346,31 +166,28 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
                                     static_cast<double>(yb - y),
                                     opt.contour_weight,
                                     max_cos};
-          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ContourCost, 1, 1, 1, 1>(c),
-                                   nullptr, U(x, y), U(xa, y), U(x, yb));
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ContourCost, 1, 1, 1, 1>(c),
+                                    nullptr, U(x, y), U(xa, y), U(x, yb));
         }
       }
-      if (smoothness > 0) {
-        if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
-          problem.AddResidualBlock(
-              new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
-              nullptr, U(x - 1, y), U(x, y), U(x + 1, y));
-        }
-        if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
-          problem.AddResidualBlock(
-              new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
-              nullptr, U(x, y - 1), U(x, y), U(x, y + 1));
-        }
+      if (smoothness <= 0) continue;
+      if (lv.In(x - 1, y) && lv.In(x + 1, y)) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
+            nullptr, U(x - 1, y), U(x, y), U(x + 1, y));
+      }
+      if (lv.In(x, y - 1) && lv.In(x, y + 1)) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<SmoothCost, 1, 1, 1, 1>(new SmoothCost{smoothness}),
+            nullptr, U(x, y - 1), U(x, y), U(x, y + 1));
       }
     }
   }
-  if (photometric == 0) {
-    throw InputError("sfs: the mask has no interior pixels at pyramid level " +
-                     std::to_string(lv.scale) + " (object too small)");
-  }
-  // k is fixed (see sfs.h): a free k and a free depth scale are one degenerate direction
-  // under a collocated lamp (uniform scaling about the camera changes only 1/d^2).
-  problem.SetParameterBlockConstant(log_k);
+  return photometric;
+}
+
+ceres::Solver::Options LevelSolverOptions(const SfsOptions& opt, const Level& lv,
+                                          int max_iterations, bool coarser_solved) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   // Conjugate gradients only from an upsampled coarse solution, where local corrections
@@ -388,16 +205,36 @@ LevelSolve SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& 
   so.gradient_tolerance = 1e-10;
   so.parameter_tolerance = 1e-8;
   so.logging_type = ceres::SILENT;
+  return so;
+}
+
+// Solves one pyramid level for u (log k held fixed); returns the solver's iterations.
+template <typename M>
+int SolveLevel(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, double ref,
+               double smoothness, int max_iterations, bool coarser_solved, cv::Mat* u,
+               double* log_k) {
+  ceres::Problem problem;
+  problem.AddParameterBlock(log_k, 1);
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (lv.In(x, y)) problem.AddParameterBlock(&u->at<double>(y, x), 1);
+    }
+  }
+  if (AddLevelResiduals<M>(pr, opt, lv, ref, smoothness, u, log_k, &problem) == 0) {
+    throw InputError("sfs: the mask has no interior pixels at pyramid level " +
+                     std::to_string(lv.scale) + " (object too small)");
+  }
+  // k is fixed (see sfs.h): a free k and a free depth scale are one degenerate direction
+  // under a collocated lamp (uniform scaling about the camera changes only 1/d^2).
+  problem.SetParameterBlockConstant(log_k);
   ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
+  ceres::Solve(LevelSolverOptions(opt, lv, max_iterations, coarser_solved), &problem, &summary);
   if (!summary.IsSolutionUsable()) {
     throw NumericalError("sfs: Ceres failed at pyramid level " + std::to_string(lv.scale) + ": " +
                          summary.message);
   }
   spdlog::debug("{}", summary.BriefReport());
-  LevelSolve r;
-  r.iterations = static_cast<int>(summary.iterations.size());
-  return r;
+  return static_cast<int>(summary.iterations.size());
 }
 
 }  // namespace
@@ -451,7 +288,7 @@ void SfsProblem::Check() const {
   if (!(anchor_depth > 0) || !std::isfinite(anchor_depth)) {
     throw InputError("sfs: need a positive object distance (anchor depth)");
   }
-  if (!(lamp_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
+  if (!(light_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
   bool found = VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     if (static_cast<int>(params.size()) != M::kNumParams) {
@@ -486,37 +323,35 @@ double SfsRadiance(const SfsProblem& pr, const std::string& reflectance, double 
   VisitModel(pr.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     value = Radiance<M, double>(pr.params.data(), reflectance == "lambert", scale, normal, point,
-                                pr.lamp_in_camera, pr.lamp_intensity);
+                                pr.light_in_cam, pr.light_intensity);
   });
   return std::isfinite(value) ? value : 0.0;
 }
 
-SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
-  const auto start = std::chrono::steady_clock::now();
-  opt.Check();
-  pr.Check();
-  SfsResult result;
-  result.reflectance = opt.reflectance;
-  result.mask_pixels = static_cast<size_t>(cv::countNonZero(pr.mask));
+namespace {
 
-  // Pyramid depth: halve until the object is at most 320 px across.
-  int levels = opt.levels;
-  if (levels == 0) {
-    const cv::Rect box = cv::boundingRect(pr.mask);
-    levels = 1;
-    for (int s = std::max(box.width, box.height); s > 320 && levels < 6; s /= 2) ++levels;
-  }
+// Pyramid depth: opt.levels, or halving until the object is at most 320 px across.
+int PyramidLevels(const SfsProblem& pr, const SfsOptions& opt) {
+  if (opt.levels > 0) return opt.levels;
+  const cv::Rect box = cv::boundingRect(pr.mask);
+  int levels = 1;
+  for (int s = std::max(box.width, box.height); s > 320 && levels < 6; s /= 2) ++levels;
+  return levels;
+}
+
+// The median radiance inside the mask (the photometric residual's unit) and the noise and
+// smoothness weight that follow from it, into `result`.
+void SetRadianceScale(const SfsProblem& pr, const SfsOptions& opt, SfsResult* result) {
   std::vector<double> measured;
   for (int y = 0; y < pr.radiance.rows; ++y) {
     for (int x = 0; x < pr.radiance.cols; ++x) {
       if (pr.mask.at<uint8_t>(y, x)) measured.push_back(pr.radiance.at<double>(y, x));
     }
   }
-  std::nth_element(measured.begin(), measured.begin() + measured.size() / 2, measured.end());
-  const double ref = measured[measured.size() / 2];
+  const double ref = Median(measured);
   if (!(ref > 0)) throw InputError("sfs: the object is black (median radiance <= 0 in the mask)");
-  result.median_radiance = ref;
-  result.noise_relative =
+  result->median_radiance = ref;
+  result->noise_relative =
       opt.noise_relative >= 0 ? opt.noise_relative : EstimateNoise(pr.radiance, pr.mask) / ref;
   // MAP weighting: the photometric residual counts in units of the pixel's uncertainty, the
   // noise with a floor for discretization and model error, while the smoothness prior is
@@ -525,56 +360,104 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
   // means much normal error: measured at 640x480 with 0.9% noise, weight 10 gives 4.5 deg,
   // 100 gives 0.8 deg, 1000 gives 1.2 deg; without noise 10 is best (docs/sfs.md).
   constexpr double kNoiseFloor = 1e-3;
-  result.smoothness = opt.smoothness * std::hypot(1.0, result.noise_relative / kNoiseFloor);
+  result->smoothness = opt.smoothness * std::hypot(1.0, result->noise_relative / kNoiseFloor);
   spdlog::info("sfs: image noise {:.3g} of the median radiance, smoothness weight {:.3g}",
-               result.noise_relative, result.smoothness);
+               result->noise_relative, result->smoothness);
+}
 
-  const double f_px = pr.camera.intrinsics[0];
+// The starting surface on the coarsest level: the mask balloon (or the given initial depth)
+// with the brightest pixel at the anchor depth, and log k (see sfs.h).
+void InitialSurface(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, cv::Mat* u,
+                    double* log_k) {
+  int ax = 0, ay = 0;
+  Brightest(lv, &ax, &ay);
+  *u = BalloonLogDepth(lv, pr.camera.intrinsics[0], pr.anchor_depth, ax, ay);
+  if (!pr.initial_depth.empty()) {
+    for (int y = 0; y < lv.h; ++y) {
+      for (int x = 0; x < lv.w; ++x) {
+        const double z =
+            pr.initial_depth.at<double>(y * lv.scale + lv.scale / 2, x * lv.scale + lv.scale / 2);
+        if (lv.In(x, y) && z > 0) u->at<double>(y, x) = std::log(z);
+      }
+    }
+  }
+  if (opt.reflectance == "lambert" || !pr.absolute) {
+    // k such that the brightest pixel, at the anchor depth with its normal facing the
+    // camera, matches (the Lambertian albedo of the comparison, or the relative scale).
+    const Eigen::Vector3d p = lv.Ray(ax, ay) * pr.anchor_depth;
+    const double pred = SfsRadiance(pr, opt.reflectance, 1.0, -p.normalized(), p);
+    const double meas = lv.radiance.at<double>(ay, ax);
+    *log_k = pred > 0 && meas > 0 ? std::log(meas / pred) : 0.0;
+  } else if (pr.initial_depth.empty()) {
+    FitGlobalDepth(pr, lv, u);
+  }
+}
+
+// Depth, normals and the re-rendered image at full resolution (level `lv`, scale 1), and the
+// rms residual over interior pixels relative to the median radiance.
+void FillOutputs(const SfsProblem& pr, const SfsOptions& opt, const Level& lv, const cv::Mat& u,
+                 SfsResult* result) {
+  result->depth = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  result->normals = cv::Mat(lv.h, lv.w, CV_64FC3, cv::Scalar(0, 0, 0));
+  result->rendered = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
+  double sq = 0;
+  size_t n_interior = 0;
+  for (int y = 0; y < lv.h; ++y) {
+    for (int x = 0; x < lv.w; ++x) {
+      if (!lv.In(x, y)) continue;
+      const double z = std::exp(u.at<double>(y, x));
+      result->depth.at<double>(y, x) = z;
+      Eigen::Vector3d n;
+      if (!NormalAt(lv, u, x, y, &n)) n = -lv.Ray(x, y).normalized();
+      result->normals.at<cv::Vec3d>(y, x) = cv::Vec3d(n.x(), n.y(), n.z());
+      const double pred = SfsRadiance(pr, opt.reflectance, result->scale, n, lv.Ray(x, y) * z);
+      result->rendered.at<double>(y, x) = pred;
+      if (Interior(lv, x, y)) {
+        const double r = (pred - pr.radiance.at<double>(y, x)) / result->median_radiance;
+        sq += r * r;
+        ++n_interior;
+      }
+    }
+  }
+  result->rms_relative_residual = n_interior ? std::sqrt(sq / n_interior) : 0.0;
+}
+
+}  // namespace
+
+SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
+  const auto start = std::chrono::steady_clock::now();
+  opt.Check();
+  pr.Check();
+  SfsResult result;
+  result.reflectance = opt.reflectance;
+  result.mask_pixels = static_cast<size_t>(cv::countNonZero(pr.mask));
+  SetRadianceScale(pr, opt, &result);
+
+  // Coarse to fine: each level starts from the upsampled solution of the coarser one.
+  const int levels = PyramidLevels(pr, opt);
   double log_k = 0;
   cv::Mat u;
-  Level prev;
+  Level prev, lv;
   Progress progress("sfs pyramid levels", static_cast<size_t>(levels));
-  Level lv;
   for (int l = levels - 1; l >= 0; --l) {
     lv = MakeLevel(pr, 1 << l);
     if (cv::countNonZero(lv.mask) < 9) {
       if (l == 0) throw InputError("sfs: the mask has too few pixels");
       continue;
     }
-    int ax = 0, ay = 0;
-    Brightest(lv, &ax, &ay);
     if (u.empty()) {
-      u = BalloonLogDepth(lv, f_px, pr.anchor_depth, ax, ay);
-      if (!pr.initial_depth.empty()) {
-        for (int y = 0; y < lv.h; ++y) {
-          for (int x = 0; x < lv.w; ++x) {
-            const double z = pr.initial_depth.at<double>(y * lv.scale + lv.scale / 2,
-                                                         x * lv.scale + lv.scale / 2);
-            if (lv.In(x, y) && z > 0) u.at<double>(y, x) = std::log(z);
-          }
-        }
-      }
-      if (opt.reflectance == "lambert" || !pr.absolute) {
-        // k such that the brightest pixel, at the anchor depth with its normal facing the
-        // camera, matches (the Lambertian albedo of the comparison, or the relative scale).
-        const Eigen::Vector3d p = lv.Ray(ax, ay) * pr.anchor_depth;
-        const double pred = SfsRadiance(pr, opt.reflectance, 1.0, -p.normalized(), p);
-        const double meas = lv.radiance.at<double>(ay, ax);
-        log_k = pred > 0 && meas > 0 ? std::log(meas / pred) : 0.0;
-      } else if (pr.initial_depth.empty()) {
-        FitGlobalDepth(pr, lv, &u);
-      }
+      InitialSurface(pr, opt, lv, &u, &log_k);
     } else {
       u = Upsample(prev, u, lv);
     }
     const auto level_start = std::chrono::steady_clock::now();
-    bool ok = VisitModel(pr.model, [&](auto tag) {
+    const bool coarser_solved = result.levels > 0;
+    const int max_iterations =
+        l == 0 && coarser_solved ? opt.max_iterations_finest : opt.max_iterations;
+    const bool ok = VisitModel(pr.model, [&](auto tag) {
       using M = typename decltype(tag)::type;
-      const int it = SolveLevel<M>(pr, opt, lv, ref, result.smoothness,
-                                   l == 0 && result.levels > 0 ? opt.max_iterations_finest
-                                                               : opt.max_iterations,
-                                   result.levels > 0, &u, &log_k)
-                         .iterations;
+      const int it = SolveLevel<M>(pr, opt, lv, result.median_radiance, result.smoothness,
+                                   max_iterations, coarser_solved, &u, &log_k);
       result.iterations += it;
       spdlog::info(
           "sfs level 1/{}: {}x{}, {} iterations, {:.2f} s", lv.scale, lv.w, lv.h, it,
@@ -587,31 +470,7 @@ SfsResult SolveSfs(const SfsProblem& pr, const SfsOptions& opt) {
   }
   progress.Done();
   result.scale = std::exp(log_k);
-
-  // Outputs at full resolution.
-  result.depth = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
-  result.normals = cv::Mat(lv.h, lv.w, CV_64FC3, cv::Scalar(0, 0, 0));
-  result.rendered = cv::Mat(lv.h, lv.w, CV_64F, cv::Scalar(0));
-  double sq = 0;
-  size_t n_interior = 0;
-  for (int y = 0; y < lv.h; ++y) {
-    for (int x = 0; x < lv.w; ++x) {
-      if (!lv.In(x, y)) continue;
-      const double z = std::exp(u.at<double>(y, x));
-      result.depth.at<double>(y, x) = z;
-      Eigen::Vector3d n;
-      if (!NormalAt(lv, u, x, y, &n)) n = -lv.Ray(x, y).normalized();
-      result.normals.at<cv::Vec3d>(y, x) = cv::Vec3d(n.x(), n.y(), n.z());
-      const double pred = SfsRadiance(pr, opt.reflectance, result.scale, n, lv.Ray(x, y) * z);
-      result.rendered.at<double>(y, x) = pred;
-      if (Interior(lv, x, y)) {
-        const double r = (pred - pr.radiance.at<double>(y, x)) / ref;
-        sq += r * r;
-        ++n_interior;
-      }
-    }
-  }
-  result.rms_relative_residual = n_interior ? std::sqrt(sq / n_interior) : 0.0;
+  FillOutputs(pr, opt, lv, u, &result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -1,4 +1,4 @@
-// Perspective shape-from-shading of one masked object under a point lamp (issue 11).
+// Perspective shape-from-shading of one masked object under a point lamp.
 //
 // Unknowns: log-depth u = log z per mask pixel (the surface point is ray(pixel) * z, so
 // integrability holds by construction) and one free overall scale k. The photometric residual
@@ -65,8 +65,8 @@ struct SfsProblem {
   cv::Mat radiance;  // CV_64F, linear radiance (absolute or relative units)
   cv::Mat mask;      // CV_8U, nonzero on the object
   CameraModel camera;
-  Eigen::Vector3d lamp_in_camera = Eigen::Vector3d::Zero();  // metres
-  double lamp_intensity = 1.0;
+  Eigen::Vector3d light_in_cam = Eigen::Vector3d::Zero();  // lamp position, metres
+  double light_intensity = 1.0;
   std::string model;           // registry name of the material
   std::vector<double> params;  // registry order
   double anchor_depth = 0;     // camera-frame z of the brightest interior pixel, metres

@@ -171,7 +171,7 @@ void GeometrySketch(const JointFitResult& f, const ObservationSet& data, const B
   for (const auto& [k, c] : cams) gp << c.x() << ' ' << c.y() << ' ' << c.z() << '\n';
   gp << "EOD\n$lamp << EOD\n";
   Eigen::Vector3d l = f.light_position;
-  if (f.light_frame == "camera" && !data.observations.empty()) {
+  if (f.light_frame == LightFrame::kCamera && !data.observations.empty()) {
     Angles<double> a;
     double e;
     // Show the lamp for the first frame: board_from_cam applied to the camera-frame position.
@@ -233,7 +233,7 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   }
   h << fmt::format(
       "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td></tr>",
-      f.light_frame, f.light_position.x(), f.light_position.y(), f.light_position.z(),
+      ToString(f.light_frame), f.light_position.x(), f.light_position.y(), f.light_position.z(),
       f.light_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(),
                                    f.light_stddev->y(), f.light_stddev->z())
                      : "undetermined");

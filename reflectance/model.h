@@ -23,9 +23,12 @@ struct ParamInfo {
   double max = 1.0;
   double default_value = 0.5;
   std::string description;
-  // True for parameters that scale the whole BRDF linearly (albedo, ks, scale): a fit with a
-  // free overall scale (--relative) or an unknown lamp intensity cannot separate them.
-  bool is_scale = false;
+  // True for parameters fitted once per colour channel (albedo, ks, k_dd, scale: what makes a
+  // surface coloured); the others (roughness, lobe widths) are shared by the channels. These
+  // albedo-like parameters are (nearly) degenerate with a free overall scale (--relative) or an
+  // unknown lamp intensity, but not always a linear scale of the BRDF: oren-nayar's albedo rho
+  // also enters its interreflection term as rho^2 (Oren & Nayar eq. 29).
+  bool per_channel = false;
 };
 
 struct ModelInfo {

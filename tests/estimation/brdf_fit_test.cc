@@ -52,7 +52,7 @@ TEST(FitBrdf, RobustLossResistsOutliers) {
   auto samples = testing::SyntheticTable("lambert", {0.5}, 0.01);
   for (size_t k = 0; k < samples.size(); k += 20) samples[k].value *= 5;  // 5% gross outliers
   BrdfFitOptions robust;
-  robust.robust_loss = "cauchy";
+  robust.robust_loss = RobustLoss::kCauchy;
   const auto plain = FitBrdf("lambert", samples, {});
   const auto fit = FitBrdf("lambert", samples, robust);
   EXPECT_NEAR(fit.params[0], 0.5, 0.01);
@@ -61,9 +61,6 @@ TEST(FitBrdf, RobustLossResistsOutliers) {
 
 TEST(FitBrdf, OptionsCheckRejectsNonsense) {
   BrdfFitOptions o;
-  o.robust_loss = "tukey-ish";
-  EXPECT_THROW(o.Check(), InputError);
-  o = {};
   o.num_starts = 0;
   EXPECT_THROW(o.Check(), InputError);
 }

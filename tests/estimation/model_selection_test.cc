@@ -27,7 +27,7 @@ TEST(ModelSelection, LambertDataSelectsLambertUnderEveryCriterion) {
   const auto samples = testing::SyntheticTable("lambert", {0.4}, 0.02);
   for (const char* criterion : {"aic", "bic", "cv"}) {
     ModelSelectionOptions o;
-    o.criterion = criterion;
+    o.criterion = ParseCriterion(criterion, "--criterion");
     o.candidates = {"lambert", "minnaert", "oren-nayar-qualitative", "oren-nayar", "tson"};
     const auto sel = SelectModel(samples, o);
     EXPECT_EQ(sel.Selected().model, "lambert") << criterion << "\n" << sel.Report();
@@ -50,12 +50,18 @@ TEST(ModelSelection, ExplicitCandidateWithTooFewSamplesIsInputError) {
 }
 
 TEST(ModelSelection, UnknownCriterionOrModelIsInputError) {
+  EXPECT_THROW(ParseCriterion("r2", "--criterion"), InputError);
   ModelSelectionOptions o;
-  o.criterion = "r2";
-  EXPECT_THROW(o.Check(), InputError);
-  o = {};
   o.candidates = {"no-such-model"};
   EXPECT_THROW(o.Check(), InputError);
+}
+
+TEST(ModelSelection, CriterionIsWrittenAsItsWord) {
+  const auto samples = testing::SyntheticTable("lambert", {0.4}, 0.02);
+  ModelSelectionOptions o;
+  o.candidates = {"lambert"};
+  o.criterion = Criterion::kAic;
+  EXPECT_EQ(ToJson(SelectModel(samples, o))["criterion"], "aic");
 }
 
 TEST(ModelSelection, JsonHasTheIssueFields) {

@@ -1,0 +1,246 @@
+// The Ceres problem of the joint fit (estimation/joint_fit.h), internal to joint_fit.cc: the
+// lamp and viewing geometry of an observation, the residuals of sample and white-reference
+// observations, the unknowns (State), building and solving the problem, and the radiance a
+// state predicts.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <optional>
+#include <vector>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include "common/math.h"
+#include "common/parallel.h"
+#include "estimation/joint_fit.h"
+#include "reflectance/angles.h"
+#include "reflectance/model.h"
+
+namespace gonio::joint_fit_internal {
+
+// Lamp position in the board frame for one observation: `light` as fitted, in the board frame,
+// or in the camera frame (then moved by the observation's board_from_cam pose).
+template <typename T>
+void LightInBoard(const Observation& o, LightFrame frame, const T* light, T* light_in_board) {
+  if (frame == LightFrame::kBoard) {
+    for (int k = 0; k < 3; ++k) light_in_board[k] = light[k];
+    return;
+  }
+  const T aa[3] = {T(o.board_from_cam_aa.x()), T(o.board_from_cam_aa.y()),
+                   T(o.board_from_cam_aa.z())};
+  ceres::AngleAxisRotatePoint(aa, light, light_in_board);
+  for (int k = 0; k < 3; ++k) light_in_board[k] += T(o.camera_in_board[k]);
+}
+
+// Irradiance factor cos(theta_i)/d^2 at the observed point for the lamp at `light_in_board`,
+// and the (unnormalized) directions to lamp and camera in the sample frame (board x, -y, -z:
+// the sample's outward normal is -z_board). Call sites name them lb, ls and vs.
+template <typename T>
+T Geometry(const Observation& o, const T* light_in_board, T* light_dir_in_sample,
+           T* view_dir_in_sample) {
+  const T* lb = light_in_board;
+  T* ls = light_dir_in_sample;
+  T* vs = view_dir_in_sample;
+  const T l[3] = {lb[0] - T(o.p_in_board.x()), lb[1] - T(o.p_in_board.y()),
+                  lb[2] - T(o.p_in_board.z())};
+  ls[0] = l[0];
+  ls[1] = -l[1];
+  ls[2] = -l[2];
+  const Eigen::Vector3d v = o.camera_in_board - o.p_in_board;
+  vs[0] = T(v.x());
+  vs[1] = T(-v.y());
+  vs[2] = T(-v.z());
+  const T d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
+  using std::sqrt;
+  return ls[2] / (d2 * sqrt(d2));  // cos(theta_i) / d^2
+}
+
+// Residual of one sample observation in one channel. The model's parameters come from two
+// blocks: `shared` (roughness and the like, one for all channels) and `channel` (the
+// per-channel ones of this channel); per_channel[k] says which block holds parameter k.
+template <typename M>
+struct SampleRadianceResidual {
+  const Observation* o;
+  int channel;
+  double inv_sigma;
+  LightFrame light_frame;
+  std::array<bool, 16> per_channel;
+  template <typename T>
+  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity, T* r) const {
+    T lb[3], ls[3], vs[3];
+    LightInBoard(*o, light_frame, light, lb);
+    const T e = Geometry(*o, lb, ls, vs);
+    T p[M::kNumParams];
+    for (int k = 0; k < M::kNumParams; ++k) p[k] = per_channel[k] ? chan[k] : shared[k];
+    T f = T(0);
+    if (ls[2] > T(0)) f = M::Evaluate(p, AnglesFromDirections(ls, vs));
+    const T model = e > T(0) ? f * intensity[0] * e : T(0);
+    r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
+    return true;
+  }
+};
+
+struct WhiteRadianceResidual {
+  const Observation* o;
+  int channel;
+  double inv_sigma, white_albedo;
+  LightFrame light_frame;
+  template <typename T>
+  bool operator()(const T* light, const T* intensity, T* r) const {
+    T lb[3], ls[3], vs[3];
+    LightInBoard(*o, light_frame, light, lb);
+    const T e = Geometry(*o, lb, ls, vs);
+    const T model = e > T(0) ? T(white_albedo * kInvPi) * intensity[0] * e : T(0);
+    r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
+    return true;
+  }
+};
+
+inline double Sigma(const Observation& o, int c, double floor) {
+  return std::sqrt(o.variance[c] + floor * floor * o.radiance[c] * o.radiance[c]) + 1e-30;
+}
+
+// A white-reference observation has a residual only when the reference's albedo is known.
+inline bool HasResidual(const Observation& o, const JointFitOptions& options) {
+  return !o.white || options.white_albedo.has_value();
+}
+
+// Residuals of the problem over `use`: one per channel of every observation that has one.
+inline size_t CountResiduals(const ObservationSet& data, const std::vector<size_t>& use,
+                             const JointFitOptions& options) {
+  size_t n = 0;
+  for (size_t i : use) n += HasResidual(data.observations[i], options) ? data.channels : 0;
+  return n;
+}
+
+inline ceres::LossFunction* NewLoss(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kHuber:
+      return new ceres::HuberLoss(3.0);
+    case RobustLoss::kCauchy:
+      return new ceres::CauchyLoss(3.0);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+// The unknowns of one model's fit. `shared` and every `chan[c]` are full parameter vectors;
+// only the shared entries of `shared` and the per-channel entries of `chan[c]` are free.
+struct State {
+  std::vector<double> shared;
+  std::vector<std::vector<double>> chan;  // per channel (one when options.per_channel is off)
+  Eigen::Vector3d light;
+  double intensity = 1;
+  double cost = INFINITY;
+  bool usable = false;
+};
+
+template <typename M>
+void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
+                  const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
+  std::array<bool, 16> per_channel{};
+  for (int k = 0; k < M::kNumParams; ++k) per_channel[k] = info.params[k].per_channel;
+  for (size_t idx : use) {
+    const Observation& obs = data.observations[idx];
+    if (!HasResidual(obs, o)) continue;
+    for (int c = 0; c < data.channels; ++c) {
+      const int chan = o.per_channel ? c : 0;
+      ceres::LossFunction* loss = plain ? nullptr : NewLoss(o.robust_loss);
+      const double inv_sigma = 1.0 / Sigma(obs, c, o.relative_noise_floor);
+      if (obs.white) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1>(
+                new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.light_frame}),
+            loss, s->light.data(), &s->intensity);
+      } else {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
+                                            M::kNumParams, 3, 1>(
+                new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.light_frame, per_channel}),
+            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity);
+      }
+    }
+  }
+}
+
+// Registry bounds on every parameter, the intensity positive, and manifolds that hold the
+// entries of each block that belong to the other block constant.
+inline void ConstrainParameters(const ModelInfo& info, State* s, ceres::Problem* problem) {
+  const int n = info.num_params();
+  std::vector<int> channel_idx, shared_idx;
+  for (int k = 0; k < n; ++k) (info.params[k].per_channel ? channel_idx : shared_idx).push_back(k);
+  if (problem->HasParameterBlock(s->shared.data())) {
+    if (shared_idx.empty()) {
+      problem->SetParameterBlockConstant(s->shared.data());
+    } else if (!channel_idx.empty()) {
+      problem->SetManifold(s->shared.data(), new ceres::SubsetManifold(n, channel_idx));
+    }
+    for (auto& ch : s->chan) {
+      if (!problem->HasParameterBlock(ch.data())) continue;
+      if (channel_idx.empty()) {
+        problem->SetParameterBlockConstant(ch.data());
+      } else if (!shared_idx.empty()) {
+        problem->SetManifold(ch.data(), new ceres::SubsetManifold(n, shared_idx));
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      problem->SetParameterLowerBound(s->shared.data(), k, info.params[k].min);
+      problem->SetParameterUpperBound(s->shared.data(), k, info.params[k].max);
+      for (auto& ch : s->chan) {
+        if (!problem->HasParameterBlock(ch.data())) continue;
+        problem->SetParameterLowerBound(ch.data(), k, info.params[k].min);
+        problem->SetParameterUpperBound(ch.data(), k, info.params[k].max);
+      }
+    }
+  }
+  if (problem->HasParameterBlock(&s->intensity)) {
+    problem->SetParameterLowerBound(&s->intensity, 0, 1e-12 * std::abs(s->intensity));
+  }
+}
+
+// Builds the problem over `use` observations. `plain` leaves out loss, bounds and manifolds
+// (for the Jacobian of the uncertainty analysis).
+template <typename M>
+void BuildProblem(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
+                  const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
+  AddResiduals<M>(data, use, info, o, s, plain, problem);
+  if (!plain) ConstrainParameters(info, s, problem);
+}
+
+template <typename M>
+void Solve(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
+           const JointFitOptions& o, State* s) {
+  ceres::Problem problem;
+  BuildProblem<M>(data, use, info, o, s, false, &problem);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = 1e-10;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = ResolveThreads(o.threads);
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  s->cost = summary.final_cost;
+  s->usable = summary.IsSolutionUsable() && std::isfinite(summary.final_cost) &&
+              s->light.allFinite() && std::isfinite(s->intensity);
+}
+
+template <typename M>
+double Predict(const Observation& obs, int c, const State& s, const ModelInfo& info,
+               LightFrame light_frame, std::optional<double> white_albedo) {
+  double lb[3], ls[3], vs[3];
+  LightInBoard(obs, light_frame, s.light.data(), lb);
+  const double e = Geometry(obs, lb, ls, vs);
+  if (e <= 0) return 0.0;
+  if (obs.white) return white_albedo.value_or(0.0) * kInvPi * s.intensity * e;
+  double p[M::kNumParams];
+  const auto& ch = s.chan[std::min<size_t>(c, s.chan.size() - 1)];
+  for (int k = 0; k < M::kNumParams; ++k) p[k] = info.params[k].per_channel ? ch[k] : s.shared[k];
+  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e;
+}
+
+}  // namespace gonio::joint_fit_internal
