@@ -57,7 +57,9 @@ struct FitArgs {
 };
 
 void AddFitArgs(CLI::App* cmd, FitArgs* a) {
-  cmd->add_option("--models", a->models, "auto, or a comma-separated list")->capture_default_str();
+  cmd->add_option("--models", a->models,
+                  "auto (staged search), all (every candidate), or a comma-separated list")
+      ->capture_default_str();
   cmd->add_option("--criterion", a->criterion, "bic, aic or cv")->capture_default_str();
   cmd->add_option("--light-frame", a->light_frame, "board (camera moves) or camera (board moves)")
       ->capture_default_str();
@@ -70,8 +72,9 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
 
 JointFitOptions ToJointFitOptions(const FitArgs& a) {
   JointFitOptions o;
-  if (a.models != "auto") o.candidates = SplitComma(a.models);
-  if (a.models != "auto" && o.candidates.empty()) {
+  o.exhaustive = a.models == "all";
+  if (a.models != "auto" && a.models != "all") o.candidates = SplitComma(a.models);
+  if (a.models != "auto" && a.models != "all" && o.candidates.empty()) {
     throw InputError("--models: empty list (give auto or comma-separated model names)");
   }
   o.criterion = ParseCriterion(a.criterion, "--criterion");

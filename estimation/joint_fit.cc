@@ -394,6 +394,17 @@ void JointFitOptions::Check() const {
     throw InputError("--white-albedo must be in (0, 1]");
   }
   if (light_init && !light_init->allFinite()) throw InputError("--light-init must be finite");
+  // A bench lamp is metres away, not kilometres: beyond kMaxLightDistance the start is a typo
+  // (and the distance could not be measured anyway: docs/pipeline.md, identifiability).
+  if (light_init && !(light_init->norm() <= kMaxLightDistance)) {
+    throw InputError(
+        fmt::format("--light-init: {:.3g} m from the origin; a lamp start must be "
+                    "within {:g} m",
+                    light_init->norm(), kMaxLightDistance));
+  }
+  if (!(relative_noise_floor >= 0 && relative_noise_floor < 1)) {
+    throw InputError("relative noise floor must be in [0, 1)");
+  }
   if (cv_folds < 2) throw InputError("cv folds must be >= 2");
   for (const auto& c : candidates) FindModel(c);
 }
@@ -469,6 +480,81 @@ Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& 
   return best;
 }
 
+namespace {
+
+// The candidates in stages of equal parameter count, cheapest first (AutoCandidates and
+// explicit lists alike): the staged search of docs/pipeline.md.
+std::vector<std::vector<std::string>> Stages(const std::vector<std::string>& names) {
+  std::map<size_t, std::vector<std::string>> by_count;
+  for (const auto& n : names) by_count[FindModel(n).params.size()].push_back(n);
+  std::vector<std::vector<std::string>> stages;
+  for (auto& [count, group] : by_count) stages.push_back(group);
+  return stages;
+}
+
+// A fit explains its data when its weighted residuals are what the noise model (pixel noise
+// and the relative floor) predicts: sum z^2 / n <= 1 + 3 sqrt(2 / n), the chi-square
+// distribution's mean plus three of its standard deviations.
+bool ExplainsToTheNoise(const JointFitResult& f) {
+  const double n = static_cast<double>(f.material.n_samples);  // the residuals the fit has
+  return f.material.converged && n > 0 &&
+         f.material.weighted_ssr / n <= 1.0 + 3.0 * std::sqrt(2.0 / n);
+}
+
+// The candidates of one stage, in parallel (each solve single-threaded).
+std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
+                                     const ObservationSet& data, const std::vector<size_t>& use,
+                                     const Eigen::Vector3d& light0, const JointFitOptions& options,
+                                     Progress* progress) {
+  std::vector<JointFitResult> fits(names.size());
+  JointFitOptions per = options;
+  per.threads = 1;
+  const bool cross_validate = options.criterion == Criterion::kCv;
+  std::mutex mutex;
+  ParallelFor(names.size(), options.threads, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      const ModelInfo& info = FindModel(names[k]);
+      VisitModel(names[k], [&](auto tag) {
+        using M = typename decltype(tag)::type;
+        fits[k] = FitModel<M>(info, data, use, light0, per, cross_validate);
+      });
+      std::lock_guard<std::mutex> lock(mutex);
+      progress->Step();
+    }
+  });
+  return fits;
+}
+
+// Free parameters of a candidate in the joint fit: its per-channel parameters once per channel,
+// its shared ones once, the lamp position (3) and the intensity (1).
+size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions& o) {
+  size_t k = 4;
+  for (const auto& p : info.params) k += (p.per_channel && o.per_channel) ? channels : 1;
+  return k;
+}
+
+// Fewer residuals than a model's free parameters leave some of them anywhere: such a fit
+// would report values with a meaningless (or zero) spread. Refused before any solve.
+void CheckEnoughResiduals(const ObservationSet& data, const std::vector<std::string>& names,
+                          const JointFitOptions& o) {
+  std::vector<size_t> all(data.observations.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  const size_t n = CountResiduals(data, all, o);
+  size_t fewest = SIZE_MAX;
+  for (const auto& name : names) {
+    fewest = std::min(fewest, FreeParameters(FindModel(name), data.channels, o));
+  }
+  if (n <= fewest) {
+    throw InputError(fmt::format(
+        "{} observation(s) give {} residual(s): too few to determine the {} free parameters "
+        "of the simplest candidate (material, lamp position and intensity); extract more "
+        "pixels or frames",
+        data.observations.size(), n, fewest));
+  }
+}
+
+}  // namespace
+
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
   options.Check();
   size_t sample = 0;
@@ -481,42 +567,50 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   if (options.criterion == Criterion::kCv && frames.size() < 2) {
     throw InputError("--criterion cv: needs observations from at least 2 frames to hold out");
   }
-  const Eigen::Vector3d light0 = InitialLight(data, options);
   const std::vector<std::string> names =
       options.candidates.empty() ? AutoCandidates() : options.candidates;
+  CheckEnoughResiduals(data, names, options);
+  const Eigen::Vector3d light0 = InitialLight(data, options);
   const auto use = Subsample(data, options.selection_max_observations);
   JointSelectionResult out;
-  out.fits.resize(names.size());
   Progress progress("joint fit candidates", names.size());
-  // Candidates in parallel, each solve single-threaded.
-  JointFitOptions per = options;
-  per.threads = 1;
-  std::mutex mutex;
-  ParallelFor(names.size(), options.threads, [&](size_t b, size_t e) {
-    for (size_t k = b; k < e; ++k) {
-      const ModelInfo& info = FindModel(names[k]);
-      VisitModel(names[k], [&](auto tag) {
-        using M = typename decltype(tag)::type;
-        out.fits[k] = FitModel<M>(info, data, use, light0, per, true);
-      });
-      std::lock_guard<std::mutex> lock(mutex);
-      progress.Step();
+  std::string stopped;
+  for (const auto& stage : Stages(names)) {
+    const auto fits = FitStage(stage, data, use, light0, options, &progress);
+    bool explained = false;
+    for (const auto& f : fits) {
+      explained = explained || ExplainsToTheNoise(f);
+      spdlog::info("{}: weighted residual {:.3g} per residual{}", f.material.model,
+                   f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1),
+                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "");
+      out.fits.push_back(f);
     }
-  });
+    if (explained && !options.exhaustive) {
+      if (out.fits.size() < names.size()) {
+        stopped = fmt::format(
+            "; the search stopped after {} of {} candidates: a model with {} material parameters "
+            "explains the "
+            "data to the noise, so richer ones were not tried",
+            out.fits.size(), names.size(), FindModel(stage[0]).params.size());
+      }
+      break;
+    }
+  }
   progress.Done();
   for (const auto& f : out.fits) out.selection.candidates.push_back(f.material);
   ModelSelectionOptions sel;
   sel.criterion = options.criterion;
   ChooseSimplestAdequate(sel, &out.selection);
+  out.selection.reason += stopped;
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
                data.observations.size());
-  // The final fit on (up to final_max_observations of) everything.
+  // The final fit on (up to final_max_observations of) everything; no folds again.
   const auto final_use = Subsample(data, options.final_max_observations);
   VisitModel(chosen.material.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     out.final_fit = FitModel<M>(FindModel(chosen.material.model), data, final_use,
-                                chosen.light_position, options, true);
+                                chosen.light_position, options, false);
   });
   return out;
 }

@@ -32,6 +32,9 @@ enum class LightFrame { kBoard, kCamera };
 LightFrame ParseLightFrame(const std::string& word, const std::string& option_name);
 std::string ToString(LightFrame frame);
 
+// Lamp starts farther than this from the board origin are refused as typos (metres).
+inline constexpr double kMaxLightDistance = 1000.0;
+
 struct JointFitOptions {
   std::vector<std::string> candidates;          // empty: AutoCandidates()
   Criterion criterion = Criterion::kBic;        // cv: K folds of held-out frames
@@ -47,6 +50,9 @@ struct JointFitOptions {
   // across the sample. Below this relative contrast, photometric calibration errors of a few
   // tenths of a percent would move it arbitrarily: its distance is reported as undetermined.
   double min_irradiance_contrast = 0.05;
+  // Fit every candidate (a comparison table, `--models all`) instead of the staged search,
+  // which stops at the first parameter count whose best model explains the data to the noise.
+  bool exhaustive = false;
   int cv_folds = 4;
   int max_iterations = 100;
   int threads = 0;

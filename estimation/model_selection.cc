@@ -158,8 +158,9 @@ std::string ModelSelectionResult::Report() const {
       s << fmt::format("{:<28} did not converge\n", c.model);
       continue;
     }
-    s << fmt::format("{:<28} {:>3} {:>9.4f} {:>11.2f} {:>11.2f} {:>10.4g}{}\n", c.model, c.n_params,
-                     c.rel_rms, c.aic, c.bic, c.cv_rms.value_or(NAN),
+    s << fmt::format("{:<28} {:>3} {:>9.4f} {:>11.2f} {:>11.2f} {:>10}{}\n", c.model, c.n_params,
+                     c.rel_rms, c.aic, c.bic,
+                     c.cv_rms ? fmt::format("{:.4g}", *c.cv_rms) : std::string("-"),
                      k == selected ? "  <- selected" : "");
   }
   s << "selected: " << reason << "\n";

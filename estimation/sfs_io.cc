@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "common/io.h"
+#include "common/parse.h"
 #include "common/plot.h"
 #include "common/stats.h"
 #include "reflectance/registry.h"
@@ -29,22 +30,7 @@ cv::Mat ReadImage(const fs::path& path, int flags, const std::string& what) {
 
 Eigen::Vector3d ParseLight(const std::string& s) {
   if (s == "collocated") return Eigen::Vector3d::Zero();
-  std::stringstream ss(s);
-  std::string part;
-  std::vector<double> v;
-  while (std::getline(ss, part, ',')) {
-    try {
-      size_t used = 0;
-      v.push_back(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
-      throw InputError("--light: '" + s + "' is not X,Y,Z (metres, camera frame) or collocated");
-    }
-  }
-  if (v.size() != 3 || !std::isfinite(v[0] + v[1] + v[2])) {
-    throw InputError("--light: '" + s + "' is not X,Y,Z (metres, camera frame) or collocated");
-  }
-  return {v[0], v[1], v[2]};
+  return ParseVector3(s, "--light (X,Y,Z metres in the camera frame, or collocated)");
 }
 
 // The selected candidate of a fit.json, parameters in registry order (defaults for missing).

@@ -250,9 +250,10 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
     for (const auto& u : c.undetermined) und += (und.empty() ? "" : ", ") + u;
     h << fmt::format(
         "<tr{}><td>{}</td><td>{}</td><td>{:.4f}</td><td>{:.1f}</td><td>{:.1f}</td>"
-        "<td>{:.4g}</td><td>{}</td></tr>",
+        "<td>{}</td><td>{}</td></tr>",
         static_cast<int>(k) == fit.selection.selected ? " style='font-weight:bold'" : "", c.model,
-        c.n_params, c.rel_rms, c.aic, c.bic, c.cv_rms.value_or(NAN), und);
+        c.n_params, c.rel_rms, c.aic, c.bic,
+        c.cv_rms ? fmt::format("{:.4g}", *c.cv_rms) : std::string("-"), und);
   }
   h << "</table>";
   h << "<p>Residual image per frame (tile = frame, blue: model darker, red: model brighter than "

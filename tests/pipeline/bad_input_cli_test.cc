@@ -3,6 +3,7 @@
 // code, one message line naming the file or option, no output left behind, and the input
 // unchanged.
 #include <cmath>
+#include <sstream>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -197,8 +198,10 @@ TEST_F(BadInputCli, OutputFolderIsCheckedBeforeWork) {
   EXPECT_EQ(ReadTextFile(work.path() / "mine" / "notes.txt"), "keep me\n");
 }
 
-// A long but legal output name (245 characters) works: temporaries are not longer.
-TEST_F(BadInputCli, LongOutputNameWorks) {
+// gonio fit on a run's observations: a long but legal output name (245 characters) works
+// (temporaries are not longer); --out equal to the input, two observations, or a lamp start at
+// 1e308 m are refused.
+TEST_F(BadInputCli, FitCommandInputsAndOutputs) {
   testing::TempDir work;
   const fs::path out = work.path() / "o";
   ASSERT_EQ(testing::RunGonio(Run(Session(), out)).exit_code, 0);
@@ -215,6 +218,26 @@ TEST_F(BadInputCli, LongOutputNameWorks) {
                          (out / "observations.csv").string(), (out / "observations.csv").string())),
                      "observations.csv", "is also an input");
   EXPECT_EQ(ReadTextFile(out / "observations.csv"), before);
+  // Two observations cannot determine albedo, lamp and intensity: refused, not +- 0.
+  std::istringstream lines(before);
+  std::string two, line;
+  int data_lines = 0;
+  while (std::getline(lines, line) && data_lines < 2) {
+    two += line + "\n";
+    if (!line.empty() && line[0] != '#' && line.rfind("frame,", 0) != 0) ++data_lines;
+  }
+  WriteTextAtomically(work.path() / "two.csv", two);
+  ExpectOneLineError(testing::RunGonio(fmt::format(
+                         "fit --observations {} --models lambert --white-albedo 0.8 "
+                         "--out {}",
+                         (work.path() / "two.csv").string(), (work.path() / "two.json").string())),
+                     "residual", "too few");
+  EXPECT_FALSE(fs::exists(work.path() / "two.json"));
+  ExpectOneLineError(testing::RunGonio(fmt::format(
+                         "fit --observations {} --models lambert --light-init 1e308,0,-1 "
+                         "--out {}",
+                         (out / "observations.csv").string(), (work.path() / "far.json").string())),
+                     "--light-init", "within");
 }
 
 // An interrupted run leaves nothing: SIGINT while it fits (the signal is sent once the log says
