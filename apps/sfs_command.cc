@@ -1,5 +1,5 @@
 // gonio sfs: perspective shape-from-shading of one masked object with a fitted rough BRDF as
-// the reflectance prior, or a Lambertian one for comparison (issue 11, docs/sfs.md).
+// the reflectance prior, or a Lambertian one for comparison (docs/sfs.md).
 #include <filesystem>
 #include <memory>
 #include <optional>

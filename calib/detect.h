@@ -1,7 +1,7 @@
 // Target detection: libapriltag for tag grids, OpenCV's chessboard finder + cornerSubPix for
 // chessboards, and mrcal's corners.vnl layout for interop.
 //
-// Pixel coordinates: the centre of the top-left pixel is (0, 0) (DESIGN section 2).
+// Pixel coordinates: the centre of the top-left pixel is (0, 0) (docs/conventions.md).
 // libapriltag 3.3 reports corners in the other convention (the top-left pixel spans
 // [0, 1] x [0, 1], its centre at (0.5, 0.5): see the "(p - 0.5) * decimate + 0.5" rescaling in
 // apriltag.c), which tests/calib/detect_test.cc confirms on a rendered tag; DetectAprilTags

@@ -2,7 +2,7 @@
 //
 // Supported lens models: LENSMODEL_PINHOLE and LENSMODEL_OPENCV4/5/8 (intrinsics fx, fy, cx,
 // cy, then OpenCV's k1, k2, p1, p2[, k3[, k4, k5, k6]] exactly as mrcal and OpenCV order them).
-// Pixel centres at integer coordinates (DESIGN section 2). Project is templated so that
+// Pixel centres at integer coordinates (docs/conventions.md). Project is templated so that
 // ceres::Jet can flow through it (pose refinement, joint fits).
 #pragma once
 

@@ -1,4 +1,4 @@
-// Rigid transforms named target_from_source (DESIGN section 2): p_in_cam = cam_from_board *
+// Rigid transforms named target_from_source (docs/conventions.md): p_in_cam = cam_from_board *
 // p_in_board.
 #pragma once
 

@@ -1,4 +1,5 @@
-// Every JSON output carries the tool version and the command line that produced it (DESIGN 8).
+// Every JSON output carries the tool version and the command line that produced it
+// (docs/formats.md).
 #pragma once
 
 #include <string>

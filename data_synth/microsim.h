@@ -1,5 +1,5 @@
 // Monte Carlo BRDF of an explicit rough surface with Lambertian micro-facets (the brute-force
-// check on the rough-diffuse models, issue 6 part 2). Method in docs/microsim.md.
+// check on the rough-diffuse models, docs/microsim.md). Method in docs/microsim.md.
 //
 // Estimator (traced from the viewer): a ray from viewing direction v enters the mean plane at a
 // uniformly random point of the footprint; at each surface point it reaches, next-event
@@ -82,8 +82,8 @@ struct ShadowingEstimate {
 ShadowingEstimate EstimateShadowing(const Microsurface& surface, const Angles<double>& angles,
                                     const EstimateOptions& options);
 
-// Unit direction of the source (phi_i = 0) and of the viewer for these angles (DESIGN
-// section 2: phi = 0 puts the viewer on the source side).
+// Unit direction of the source (phi_i = 0) and of the viewer for these angles (docs/conventions.md:
+// phi = 0 puts the viewer on the source side).
 Eigen::Vector3d SourceDirection(const Angles<double>& a);
 Eigen::Vector3d ViewerDirection(const Angles<double>& a);
 

@@ -1,4 +1,4 @@
-// Renders a shape-from-shading scene (issue 11): one object (sphere, vase, bumps) in front of
+// Renders a shape-from-shading scene (docs/sfs.md): one object (sphere, vase, bumps) in front of
 // a fixed camera, lit by a point light given in the camera frame, written as the input folder
 // of `gonio sfs`: image.png, mask.png, camera.cameramodel, material.json, light.json,
 // truth.json with depth.tiff and normals.tiff (docs/formats.md).

@@ -1,4 +1,4 @@
-// Angles of one BRDF evaluation, in the sample frame (DESIGN section 2).
+// Angles of one BRDF evaluation, in the sample frame (docs/conventions.md).
 //
 // theta_i, theta_r: polar angles of the source and viewer from the sample's outward normal.
 // phi: azimuth of the viewer relative to the source. phi = 0 puts viewer and source on the

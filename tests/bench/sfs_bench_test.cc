@@ -47,7 +47,7 @@ TEST(BenchSfsCli, SmokeRunWritesRowsCurvesAndCharts) {
   EXPECT_EQ(kinds["noise"], 5);
   EXPECT_EQ(kinds["sigma"], 5);
   EXPECT_EQ(kinds["reference"], 1);
-  // The rough-surface prior explains the collocated sphere; lambert cannot (issue 11: at
+  // The rough-surface prior explains the collocated sphere; lambert cannot (docs/sfs.md: at
   // least 3x worse; measured at this size, docs/bench.md).
   ASSERT_TRUE(speed_error.count("default") && speed_error.count("lambert"));
   EXPECT_LT(3 * speed_error["default"], speed_error["lambert"]);

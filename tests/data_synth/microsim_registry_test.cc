@@ -1,4 +1,4 @@
-// The simulator against the registry's rough-diffuse models (issue 6 tests). The models land on
+// The simulator against the registry's rough-diffuse models (docs/microsim.md). The models land on
 // main from other branches; each test skips with a message while its model is not registered.
 // The figures are printed so the comparison table in docs/microsim.md can be filled from a run.
 #include <cmath>
@@ -91,7 +91,7 @@ TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
   if (!HasModel("oren-nayar-vcavity")) {
     GTEST_SKIP() << "model 'oren-nayar-vcavity' is not registered yet";
   }
-  // Records the differences (issue 6): the model is eq. 25 over eq. 24 (single scattering, which
+  // Records the differences: the model is eq. 25 over eq. 24 (single scattering, which
   // the simulator reproduces exactly, see microsim_test) plus the two-bounce approximation of
   // eq. 49; the simulator gives the exact two-bounce value (--bounces 2) and all bounces.
   // Asserted loosely against the two-bounce simulation, which models the same physics; the

@@ -1,4 +1,4 @@
-// Shape from shading (issue 11) on small data_synth renders: the rough-surface prior recovers
+// Shape from shading (docs/sfs.md) on small data_synth renders: the rough-surface prior recovers
 // normals within a few degrees where a Lambertian prior, on the same images, does not.
 #include <cmath>
 #include <map>
@@ -85,7 +85,7 @@ void ExpectPriorBeatsLambert(const std::string& preset, double offaxis_deg, Boun
   EXPECT_GT(lambert.result.rms_relative_residual, material.result.rms_relative_residual);
 }
 
-// Issue 11 targets: <= 3 deg with the prior, lambert >= 3x worse, with the lamp collocated
+// Targets (docs/sfs.md): <= 3 deg with the prior, lambert >= 3x worse, with the lamp collocated
 // and 20 deg off axis. Measured on these 240x180 renders: material 0.20 / 0.43 / 0.29 / 0.49
 // deg (sphere, vase, sphere off-axis, vase off-axis), lambert 24 / 16 / 9.0 / 16 deg.
 TEST(SfsTest, SphereCollocated) { ExpectPriorBeatsLambert("sfs-sphere", 0, {3.0, 3.0}); }

@@ -101,9 +101,10 @@ ErrorStats CompareWithVCavity(double rho, double ti_from, double ti_to, double t
   return e;
 }
 
-// Issue 3's acceptance bound: the paper's functional approximation (eq. 27-29) against the
-// numerical integral (eq. 25) over theta_i, theta_r in [0, 70] deg, phi in {0, pi/2, pi},
-// sigma in {10, 20, 30, 40} deg, albedo 0.9: max <= 0.08 and RMS <= 0.04 (units albedo/pi).
+// The acceptance bound (docs/models/oren-nayar.md): the paper's functional approximation (eq.
+// 27-29) against the numerical integral (eq. 25) over theta_i, theta_r in [0, 70] deg, phi in {0,
+// pi/2, pi}, sigma in {10, 20, 30, 40} deg, albedo 0.9: max <= 0.08 and RMS <= 0.04 (units
+// albedo/pi).
 TEST(OrenNayar, FunctionalApproximationMatchesVCavityUpTo70Deg) {
   const ErrorStats e = CompareWithVCavity<OrenNayar>(0.9, 0, 70, 70, 5);
   std::printf("oren-nayar vs vcavity, angles <= 70 deg: max %.4f rms %.4f (albedo/pi, %d pts)\n",
