@@ -1,5 +1,6 @@
 // gonio bench: speed against accuracy of every model and fit, and stability sweeps towards the
 // failure regions (docs/bench.md).
+#include <filesystem>
 #include <iostream>
 
 #include <spdlog/spdlog.h>
@@ -7,6 +8,7 @@
 #include "apps/cli_util.h"
 #include "apps/commands.h"
 #include "bench/bench_lib.h"
+#include "bench/bench_pipeline.h"
 #include "common/error.h"
 
 namespace gonio::cli {
@@ -14,7 +16,7 @@ namespace {
 
 struct BenchArgs {
   std::string out;
-  bool quick = false, smoke = false, stability = false, sfs = false;
+  bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   int threads = 0;
 };
 
@@ -23,6 +25,14 @@ void RunBench(const BenchArgs& args) {
   opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
   opt.threads = args.threads;
   opt.Check();
+  if (args.pipeline) {
+    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
+    const bench::PipelineBenchReport rep = bench::RunPipelineBench(opt, work);
+    bench::WritePipelineBenchOutputs(args.out, rep);
+    std::filesystem::remove_all(work);
+    PrintJson(rep.ToJson());
+    return;
+  }
   if (args.sfs) {
     const bench::SfsBenchReport rep = bench::RunSfsBench(opt);
     bench::WriteSfsBenchOutputs(args.out, rep);
@@ -82,6 +92,10 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--smoke", args->smoke, "tiny sizes for CI smoke tests (seconds)");
   auto* stability = cmd->add_flag("--stability", args->stability,
                                   "run the stability sweeps instead of the timings");
+  cmd->add_flag("--pipeline", args->pipeline,
+                "stage times of the whole chain, --models auto vs the right model, fit time vs "
+                "observations (pipeline_bench.json + charts)")
+      ->excludes(stability);
   cmd->add_flag("--sfs", args->sfs,
                 "shape from shading instead: solve time vs normal error of solver configurations "
                 "and robustness curves (sfs_bench.json + charts)")

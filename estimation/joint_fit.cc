@@ -553,6 +553,53 @@ void CheckEnoughResiduals(const ObservationSet& data, const std::vector<std::str
   }
 }
 
+// The largest relative difference between two fits' predicted radiance over the sample
+// observations `use`: how far apart the two models are where the data were taken.
+double MaxRelativeDifference(const JointFitResult& a, const JointFitResult& b,
+                             const ObservationSet& data, const std::vector<size_t>& use) {
+  double worst = 0;
+  for (size_t i : use) {
+    const Observation& o = data.observations[i];
+    if (o.white) continue;
+    Angles<double> ga, gb;
+    double ea = 0, eb = 0;
+    if (!ObservationGeometry(o, a, &ga, &ea) || !ObservationGeometry(o, b, &gb, &eb)) continue;
+    const double la = a.material.Predict({ga.theta_i, ga.theta_r, ga.phi, 0, 1}) * a.intensity * ea;
+    const double lb = b.material.Predict({gb.theta_i, gb.theta_r, gb.phi, 0, 1}) * b.intensity * eb;
+    const double scale = std::max({std::abs(la), std::abs(lb), 1e-300});
+    if (std::isfinite(la) && std::isfinite(lb)) worst = std::max(worst, std::abs(la - lb) / scale);
+  }
+  return worst;
+}
+
+// Practical significance: a richer model chosen by the criterion wins only if its prediction
+// differs from the best simpler model's somewhere in the observed domain by more than the
+// relative noise floor (the calibration uncertainty the fit assumes); otherwise the simpler
+// model is chosen and the reason says so.
+void ApplyPracticalSignificance(const ObservationSet& data, const std::vector<size_t>& use,
+                                const JointFitOptions& o, JointSelectionResult* out) {
+  const int chosen = out->selection.selected;
+  const auto& rich = out->fits[chosen];
+  int simpler = -1;
+  for (int k = 0; k < static_cast<int>(out->fits.size()); ++k) {
+    const auto& c = out->fits[k].material;
+    if (!c.converged || c.n_params >= rich.material.n_params) continue;
+    if (simpler < 0 || out->selection.CriterionValue(c) <
+                           out->selection.CriterionValue(out->fits[simpler].material)) {
+      simpler = k;
+    }
+  }
+  if (simpler < 0) return;
+  const double diff = MaxRelativeDifference(rich, out->fits[simpler], data, use);
+  if (diff > o.relative_noise_floor) return;
+  out->selection.selected = simpler;
+  out->selection.reason = fmt::format(
+      "{} is chosen: {} (preferred by {}) differs from it by at most {:.2f}% over the observed "
+      "geometry, below the {:.1f}% calibration floor (practical significance)",
+      out->fits[simpler].material.model, rich.material.model, ToString(o.criterion), 100 * diff,
+      100 * o.relative_noise_floor);
+}
+
 }  // namespace
 
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
@@ -601,6 +648,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   ModelSelectionOptions sel;
   sel.criterion = options.criterion;
   ChooseSimplestAdequate(sel, &out.selection);
+  ApplyPracticalSignificance(data, use, options, &out);
   out.selection.reason += stopped;
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,

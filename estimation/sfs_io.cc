@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -150,6 +151,28 @@ void SetAnchorDepth(const SfsInputPaths& paths, bool have_material, SfsInput* in
 
 }  // namespace
 
+namespace {
+
+// Clipped pixels carry no shading: a mask with more than 0.1% of its pixels at the white level
+// (light.json's "white_level", else the container's maximum) is refused, not solved into a
+// wrong shape.
+void CheckNotSaturated(const cv::Mat& image, const cv::Mat& mask, const SfsInputPaths& paths) {
+  if (image.depth() != CV_8U && image.depth() != CV_16U) return;
+  double white = image.depth() == CV_8U ? 255 : 65535;
+  if (!paths.light_json.empty()) white = ReadJsonFile(paths.light_json).value("white_level", white);
+  const int in_mask = cv::countNonZero(mask);
+  const int clipped = cv::countNonZero((image >= white) & mask);
+  if (in_mask > 0 && clipped > 0.001 * in_mask) {
+    throw InputError(
+        fmt::format("{}: {:.1f}% of the object's pixels are saturated (at {}): "
+                    "shape from shading needs unclipped shading; shoot a shorter "
+                    "exposure",
+                    paths.image.string(), 100.0 * clipped / in_mask, white));
+  }
+}
+
+}  // namespace
+
 SfsInput LoadSfsInput(const SfsInputPaths& paths, const std::string& reflectance) {
   SfsInput in;
   SfsProblem& pr = in.problem;
@@ -168,6 +191,7 @@ SfsInput LoadSfsInput(const SfsInputPaths& paths, const std::string& reflectance
   pr.radiance = (pr.radiance - in.black_level) * in.radiance_per_dn;
   cv::max(pr.radiance, 0.0, pr.radiance);
   pr.mask = mask > 127;
+  CheckNotSaturated(image, pr.mask, paths);
 
   const bool have_material = !paths.material.empty() && fs::exists(paths.material);
   pr.absolute = in.absolute && have_material && reflectance == "material";

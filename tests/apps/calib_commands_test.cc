@@ -123,8 +123,10 @@ TEST(LocateCli, PhotoSessionPosesAndSkipsABlankFrame) {
   WritePhotoBoard(session / "board.json");
   fs::create_symlink(kPhoto, session / "frame_0000.jpg");
   cv::imwrite((session / "frame_0001.png").string(), cv::Mat(3872, 2592, CV_8UC1, cv::Scalar(128)));
+  // A whole session (exposures too): locate checks session.json as extract and run do.
   WriteFile(session / "session.json", R"({"format": "gonio-session", "version": 1,
-    "board": "board.json", "frames": [{"file": "frame_0000.jpg"}, {"file": "frame_0001.png"}]})");
+    "board": "board.json", "frames": [{"file": "frame_0000.jpg", "exposure_s": 0.01},
+                                      {"file": "frame_0001.png", "exposure_s": 0.01}]})");
   // The photo's focal length is unknown: the single-view estimate of
   // tests/calib/locate_test.cc (8281 px), principal point at the centre.
   WriteFile(dir.path() / "cam.cameramodel",

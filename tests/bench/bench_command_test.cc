@@ -55,3 +55,30 @@ TEST(BenchCli, MissingOutIsAnInputError) {
 
 }  // namespace
 }  // namespace gonio
+
+namespace gonio {
+namespace {
+
+// `gonio bench --pipeline --smoke`: the chain run with the staged search and with the one right
+// model in the same run; both must select the rendered material (oren-nayar) and the staged
+// search must stop before fitting every candidate. Times are reported, not asserted.
+TEST(BenchCli, PipelineSmokeWritesStageTimesAndRatio) {
+  testing::TempDir dir;
+  const auto r = testing::RunGonio("bench --pipeline --smoke --out " + dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "pipeline_bench.json");
+  ASSERT_GE(j["runs"].size(), 2u);
+  ASSERT_GE(j["fit_time_vs_observations"].size(), 2u);
+  EXPECT_EQ(j["runs"][0]["selected"], "oren-nayar");
+  EXPECT_EQ(j["runs"][1]["selected"], "oren-nayar");
+  EXPECT_LT(j["runs"][0]["candidates_fitted"].get<size_t>(), 17u);
+  EXPECT_GT(j["auto_over_right_model"].get<double>(), 0.0);
+  for (const auto& run : j["runs"]) EXPECT_GT(run["stages"]["fit_s"].get<double>(), 0.0);
+  for (const char* f : {"fit_time_vs_observations.png", "stage_times.svg"}) {
+    EXPECT_GT(std::filesystem::file_size(dir.path() / f), 1000u) << f;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "work"));
+}
+
+}  // namespace
+}  // namespace gonio

@@ -223,8 +223,10 @@ TEST_F(BadInputCli, FitCommandInputsAndOutputs) {
   std::string two, line;
   int data_lines = 0;
   while (std::getline(lines, line) && data_lines < 2) {
+    const bool header = line.empty() || line[0] == '#' || line.rfind("frame,", 0) == 0;
+    if (!header && line.find(",sample,") == std::string::npos) continue;  // white reference
     two += line + "\n";
-    if (!line.empty() && line[0] != '#' && line.rfind("frame,", 0) != 0) ++data_lines;
+    data_lines += !header;
   }
   WriteTextAtomically(work.path() / "two.csv", two);
   ExpectOneLineError(testing::RunGonio(fmt::format(
@@ -238,6 +240,25 @@ TEST_F(BadInputCli, FitCommandInputsAndOutputs) {
                          "--out {}",
                          (out / "observations.csv").string(), (work.path() / "far.json").string())),
                      "--light-init", "within");
+}
+
+// A saturated shape-from-shading image: refused, not solved into a wrong shape.
+TEST_F(BadInputCli, SaturatedSfsImageIsRefused) {
+  testing::TempDir work;
+  const fs::path in = work.path() / "sphere", out = work.path() / "sfs";
+  ASSERT_EQ(testing::RunGonio("synth --preset sfs-sphere --out " + in.string()).exit_code, 0);
+  cv::Mat image = cv::imread((in / "image.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(image.empty());
+  const double full = image.depth() == CV_8U ? 255 : 65535;
+  double max_value = 0;
+  cv::minMaxLoc(image, nullptr, &max_value);
+  cv::Mat bright;
+  image.convertTo(bright, image.type(), 2.0 * full / max_value);  // clips the brighter half
+  ASSERT_TRUE(cv::imwrite((in / "image.png").string(), bright));
+  ExpectOneLineError(
+      testing::RunGonio(fmt::format("sfs --input {} --out {}", in.string(), out.string())),
+      "image.png", "saturated");
+  EXPECT_FALSE(fs::exists(out / "sfs.json"));
 }
 
 // An interrupted run leaves nothing: SIGINT while it fits (the signal is sent once the log says
