@@ -95,6 +95,9 @@ struct OrenNayarFujii {
     info.description = "Fujii's improved Oren-Nayar (Cycles/MaterialX single scattering)";
     info.reference = "Fujii 2012 (improved Oren-Nayar); Blender Cycles bsdf_oren_nayar.h";
     info.cost_rank = 1;
+    // A renderer's function (for `gonio export`), not a physical model of the sample: fitted
+    // only when asked for by name, so `--models auto` selections stay those of the physics.
+    info.auto_candidate = false;
     return info;
   }
   template <typename T>
@@ -113,6 +116,7 @@ struct OrenNayarFujiiEc {
     info.description = "Fujii's Oren-Nayar with OpenPBR energy compensation (MaterialX)";
     info.reference = "OpenPBR Surface spec, diffuse; MaterialX mx_oren_nayar_compensated_diffuse";
     info.cost_rank = 2;
+    info.auto_candidate = false;  // as oren-nayar-fujii
     return info;
   }
   template <typename T>
