@@ -20,17 +20,10 @@ struct CyclesDiffuse {
   static constexpr int kNumParams = 2;
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
+    // Cycles' E_ms (1 - E_v)(1 - E_l) is the OpenPBR compensation lobe; the closure weight
+    // multiplies it by the colour once more.
     using namespace fujii_internal;
-    const T& c = p[0];
-    const T& sigma = p[1];
-    const T e_avg = AverageAlbedo(sigma);
-    T multi(0);
-    if (T(1) - e_avg > T(1e-12)) {
-      const T e_ms = c * c * e_avg / (T(1) - e_avg) / (T(1) - c * (T(1) - e_avg));
-      multi = c * e_ms * (T(1) - DirectionalAlbedo(sigma, a.theta_i)) *
-              (T(1) - DirectionalAlbedo(sigma, a.theta_r));
-    }
-    return T(kInvPi) * (c * SingleScatter(sigma, a) + multi);
+    return T(kInvPi) * p[0] * (SingleScatter(p[1], a) + Compensation(p[0], p[1], a));
   }
 };
 

@@ -79,6 +79,18 @@ T AverageAlbedo(const T& sigma) {
   return (T(1) + T(kC2) * sigma) / (T(1) + T(kC1) * sigma);
 }
 
+// The OpenPBR compensation lobe divided by 1/pi: rho_ms (1 - E_i)(1 - E_r) / (1 - E_avg).
+// At sigma = 0 the lobe is Lambert (E = E_avg = 1) and the 0/0 term is 0 (MaterialX clamps
+// the denominators to an epsilon for the same reason).
+template <typename T>
+T Compensation(const T& rho, const T& sigma, const Angles<T>& a) {
+  const T e_avg = AverageAlbedo(sigma);
+  if (!(T(1) - e_avg > T(1e-12))) return T(0);
+  const T rho_ms = rho * rho * e_avg / (T(1) - rho * (T(1) - e_avg));
+  return rho_ms * (T(1) - DirectionalAlbedo(sigma, a.theta_i)) *
+         (T(1) - DirectionalAlbedo(sigma, a.theta_r)) / (T(1) - e_avg);
+}
+
 inline std::vector<ParamInfo> Params(bool albedo_is_scale) {
   return {{"albedo", "1", 0.0, 1.0, 0.5, "rho (renderer colour)", albedo_is_scale},
           {"roughness", "1", 0.0, 1.0, 0.5, "Fujii's sigma (Blender Roughness)"}};
@@ -122,17 +134,7 @@ struct OrenNayarFujiiEc {
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
     using namespace fujii_internal;
-    const T& rho = p[0];
-    const T& sigma = p[1];
-    const T e_avg = AverageAlbedo(sigma);
-    const T rho_ms = rho * rho * e_avg / (T(1) - rho * (T(1) - e_avg));
-    const T loss_i = T(1) - DirectionalAlbedo(sigma, a.theta_i);
-    const T loss_r = T(1) - DirectionalAlbedo(sigma, a.theta_r);
-    // At sigma = 0 the lobe is Lambert: E = E_avg = 1 and the 0/0 term is 0 (MaterialX clamps
-    // the denominators to an epsilon for the same reason).
-    T multi(0);
-    if (T(1) - e_avg > T(1e-12)) multi = rho_ms * loss_i * loss_r / (T(1) - e_avg);
-    return T(kInvPi) * (rho * SingleScatter(sigma, a) + multi);
+    return T(kInvPi) * (p[0] * SingleScatter(p[1], a) + Compensation(p[0], p[1], a));
   }
 };
 
