@@ -104,7 +104,9 @@ std::string FittedMaterial::Report() const {
       s += fmt::format(" {} = ({:.4g}, {:.4g}, {:.4g})", info.params[k].name, channel_params[0][k],
                        channel_params[1][k], channel_params[2][k]);
     } else {
-      s += fmt::format(" {} = {:.4g} {}", info.params[k].name, params[k], info.params[k].unit);
+      const std::string& unit = info.params[k].unit;
+      s += fmt::format(" {} = {:.4g}{}", info.params[k].name, params[k],
+                       unit == "1" ? "" : " " + unit);
     }
   }
   return s;

@@ -160,6 +160,7 @@ RendererFit FitRenderer(RendererFunction function, const FittedMaterial& materia
   fit.function = function;
   const std::vector<Angles<double>> angles = DomainAngles(domain);
   fit.n_samples = angles.size();
+  fit.max_theta_deg = domain.max_theta_deg;
   Channels source;
   std::array<double, 3> mean{};
   for (int c = 0; c < 3; ++c) {
@@ -200,11 +201,16 @@ RendererFit FitRenderer(RendererFunction function, const FittedMaterial& materia
 }
 
 std::string RendererFit::Report() const {
+  const bool fujii = function == RendererFunction::kCyclesDiffuse ||
+                     function == RendererFunction::kMaterialxFujiiEc;
+  const std::string shape_text =
+      fujii ? fmt::format("roughness {:.6g}", shape)
+            : fmt::format("sigma {:.6g} rad ({:.4g} deg)", shape, RadToDeg(shape));
   return fmt::format(
-      "{}: shape {:.6g}, albedo ({:.6g}, {:.6g}, {:.6g}); |renderer - fitted| over {} "
-      "directions: rms {:.3g}%, max {:.3g}% of the mean f_r",
-      exact ? "exact conversion" : "least-squares fit", shape, albedo[0], albedo[1], albedo[2],
-      n_samples, 100 * rel_rms, 100 * rel_max);
+      "{}: {}, albedo ({:.6g}, {:.6g}, {:.6g}); |renderer - fitted| over {} directions "
+      "(theta_i, theta_r <= {:.4g} deg): rms {:.3g}%, max {:.3g}% of the mean f_r",
+      exact ? "exact conversion" : "least-squares fit", shape_text, albedo[0], albedo[1], albedo[2],
+      n_samples, max_theta_deg, 100 * rel_rms, 100 * rel_max);
 }
 
 }  // namespace gonio

@@ -40,6 +40,7 @@ struct RendererFit {
   // |renderer - fitted| over the domain, relative to the mean fitted f_r of each channel.
   double rel_rms = 0.0, rel_max = 0.0;
   size_t n_samples = 0;
+  double max_theta_deg = 0;  // of the domain the error was measured on
   std::string Report() const;
 };
 

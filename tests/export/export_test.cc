@@ -251,6 +251,7 @@ TEST(Export, AstmTableHoldsTheModel) {
   }
 }
 
+// A fit-table fit.json (selected + candidates), or with `relative` a free-scale one.
 std::filesystem::path WriteFitJson(const std::filesystem::path& dir, bool relative) {
   nlohmann::json cand = {
       {"model", "oren-nayar"}, {"params", {{"albedo", 0.55}, {"sigma", 0.3}}}, {"converged", true}};
@@ -259,6 +260,39 @@ std::filesystem::path WriteFitJson(const std::filesystem::path& dir, bool relati
   const auto path = dir / (relative ? "rel.json" : "fit.json");
   WriteJsonAtomically(path, j);
   return path;
+}
+
+// The layout of `gonio fit` (the demo's fit.json): the "final" block wins over the candidates,
+// per-channel albedo, an absolute lamp.
+std::filesystem::path WriteJointFitJson(const std::filesystem::path& dir) {
+  const nlohmann::json cand = {
+      {"model", "oren-nayar"}, {"params", {{"albedo", 0.5}, {"sigma", 0.2}}}, {"converged", true}};
+  const nlohmann::json final_fit = {{"model", "oren-nayar"},
+                                    {"params", {{"albedo", 0.6}, {"sigma", 0.5236}}},
+                                    {"params_per_channel", {{"albedo", {0.62, 0.6, 0.58}}}},
+                                    {"converged", true}};
+  const nlohmann::json j = {{"selected", "oren-nayar"},
+                            {"candidates", {cand}},
+                            {"final", final_fit},
+                            {"light", {{"absolute", true}}}};
+  const auto path = dir / "joint.json";
+  WriteJsonAtomically(path, j);
+  return path;
+}
+
+TEST(ExportCli, JointFitUsesFinalBlockAndChannels) {
+  testing::TempDir dir;
+  const FittedMaterial m = ReadFitFile(WriteJointFitJson(dir.path()));
+  EXPECT_EQ(m.model, "oren-nayar");
+  EXPECT_DOUBLE_EQ(m.params[1], 0.5236);
+  EXPECT_TRUE(m.per_channel);
+  EXPECT_DOUBLE_EQ(m.channel_params[0][0], 0.62);
+  EXPECT_DOUBLE_EQ(m.channel_params[2][0], 0.58);
+  const auto out = dir.path() / "m.xml";
+  const auto r = testing::RunGonio("export --fit " + WriteJointFitJson(dir.path()).string() +
+                                   " --format mitsuba --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(ReadTextFile(out).find("value=\"0.62, 0.6, 0.58\""), std::string::npos);
 }
 
 TEST(ExportCli, EveryFormatFromFitJson) {
