@@ -28,6 +28,7 @@
 // | albedo    | 1    | [0, 1] | 0.5     | rho, Cycles' / MaterialX' colour             |
 // | roughness | 1    | [0, 1] | 0.5     | Fujii's sigma (Blender "Roughness")          |
 //
+// Both directions at the horizon are Invalid(): s/t diverges there (as tan(beta) of eq. 30).
 // Jets: the s > 0 test is a value branch; tan(theta)(1 - sin^3 theta) is rewritten as
 // sin cos (1 + sin + sin^2)/(1 + sin), finite at the horizon; no acos is needed (theta given).
 #pragma once
@@ -91,6 +92,15 @@ T Compensation(const T& rho, const T& sigma, const Angles<T>& a) {
          (T(1) - DirectionalAlbedo(sigma, a.theta_r)) / (T(1) - e_avg);
 }
 
+// Source and viewer both at the horizon: s/t = cos(phi) sin(alpha) tan(beta) for s > 0 grows
+// without bound there, as in the qualitative Oren-Nayar model (1e15 1/sr at 90/90 deg
+// backscatter; Cycles' "+ FLT_MIN" only moves the pole).
+inline const char* HorizonInvalid(const Angles<double>& a) {
+  return BothAtHorizon(a) ? "oren-nayar-fujii: s/t diverges with source and viewer both at the "
+                            "horizon"
+                          : nullptr;
+}
+
 inline std::vector<ParamInfo> Params(bool albedo_is_scale) {
   return {{"albedo", "1", 0.0, 1.0, 0.5, "rho (renderer colour)", albedo_is_scale},
           {"roughness", "1", 0.0, 1.0, 0.5, "Fujii's sigma (Blender Roughness)"}};
@@ -100,6 +110,9 @@ inline std::vector<ParamInfo> Params(bool albedo_is_scale) {
 
 struct OrenNayarFujii {
   static constexpr int kNumParams = 2;
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return fujii_internal::HorizonInvalid(a);
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "oren-nayar-fujii";
@@ -120,6 +133,9 @@ struct OrenNayarFujii {
 
 struct OrenNayarFujiiEc {
   static constexpr int kNumParams = 2;
+  static const char* Invalid(const double*, const Angles<double>& a) {
+    return fujii_internal::HorizonInvalid(a);
+  }
   static ModelInfo Info() {
     ModelInfo info;
     info.name = "oren-nayar-fujii-ec";

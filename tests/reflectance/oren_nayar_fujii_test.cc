@@ -10,6 +10,7 @@
 #include "common/math.h"
 #include "reflectance/lambert.h"
 #include "reflectance/oren_nayar_fujii.h"
+#include "reflectance/registry.h"
 #include "tests/reflectance/jet_finite_util.h"
 #include "tests/reflectance/model_test_util.h"
 
@@ -128,6 +129,23 @@ TEST(OrenNayarFujii, FiniteNonNegativeAndJets) {
   }
   testing::ExpectJetFiniteOnEdges<OrenNayarFujii>({0.6, 0.4});
   testing::ExpectJetFiniteOnEdges<OrenNayarFujiiEc>({0.6, 0.4});
+}
+
+// s/t = cos(phi) sin(alpha) tan(beta) diverges with both directions at the horizon (1e15 1/sr
+// at 90/90 deg): the registry reports it instead of returning the pole; just inside, the value
+// is finite.
+TEST(OrenNayarFujii, BothAtHorizonIsAnExplicitError) {
+  for (const std::string model : {"oren-nayar-fujii", "oren-nayar-fujii-ec"}) {
+    double v = 0;
+    EXPECT_NE(EvaluateChecked(model, {0.5, 0.5}, Angles<double>{kHalfPi, kHalfPi, 0.0}, &v), "")
+        << model;
+    EXPECT_EQ(v, 0.0);
+    const double near = DegToRad(89.9);
+    EXPECT_EQ(EvaluateChecked(model, {0.5, 0.5}, Angles<double>{near, near, 0.0}, &v), "");
+    EXPECT_TRUE(std::isfinite(v) && v > 0 && v < 100) << model << " " << v;
+    // One direction at the horizon is fine: s/t stays below 1.
+    EXPECT_EQ(EvaluateChecked(model, {0.5, 0.5}, Angles<double>{kHalfPi, 0.7, 0.0}, &v), "");
+  }
 }
 
 }  // namespace
