@@ -8,6 +8,7 @@ namespace gonio::cli {
 
 void AddBrdfCommand(CLI::App& app);
 void AddFitTableCommand(CLI::App& app);
+void AddExportCommand(CLI::App& app);  // fitted material to renderers and BRDF tables
 void AddPhotometricCommand(CLI::App& app);
 // `gonio brdf texton`, added by AddBrdfCommand.
 void AddBrdfTextonCommand(CLI::App& brdf);

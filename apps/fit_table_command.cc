@@ -1,5 +1,6 @@
 // gonio fit-table: fit registry models to a measured BRDF table and choose the simplest model
 // the data supports.
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 
@@ -20,15 +21,20 @@ namespace {
 struct FitTableArgs {
   std::string table, sample, models = "auto", criterion = "bic", value_column = "brdf";
   std::string robust = "none", out, plot_dir;
+  std::string format = "auto", merl_channel = "mean";
+  std::vector<int> merl_stride = {3, 3, 6};
   bool relative = false, degrees = false;
   int threads = 0;
 };
 
-void RunFitTable(const FitTableArgs& args) {
+BrdfTable LoadCsvTable(const FitTableArgs& args) {
   const CsvTable csv = CsvTable::Read(args.table);
   BrdfTableOptions topt;
   topt.value_column = args.value_column;
   topt.degrees = args.degrees;
+  if (args.format == "astm" || (args.format == "auto" && IsAstmE1392Table(csv))) {
+    topt = AstmE1392Options(topt);
+  }
   const auto ids = SampleIds(csv);
   if (!args.sample.empty()) {
     topt.sample = args.sample;
@@ -38,7 +44,29 @@ void RunFitTable(const FitTableArgs& args) {
     throw InputError(args.table + ": holds " + std::to_string(ids.size()) +
                      " samples; choose one with --sample (" + list + ")");
   }
-  const BrdfTable table = LoadBrdfTable(csv, topt);
+  return LoadBrdfTable(csv, topt);
+}
+
+BrdfTable LoadTable(const FitTableArgs& args) {
+  if (args.format != "auto" && args.format != "csv" && args.format != "astm" &&
+      args.format != "merl") {
+    throw InputError("--format: '" + args.format + "' is not auto, csv, astm or merl");
+  }
+  const bool merl =
+      args.format == "merl" ||
+      (args.format == "auto" && std::filesystem::path(args.table).extension() == ".binary");
+  if (!merl) return LoadCsvTable(args);
+  MerlTableOptions mopt;
+  mopt.channel = ParseMerlChannel(args.merl_channel);
+  if (args.merl_stride.size() != 3) throw InputError("--merl-stride: give THETA_H,THETA_D,PHI_D");
+  mopt.stride_theta_h = args.merl_stride[0];
+  mopt.stride_theta_d = args.merl_stride[1];
+  mopt.stride_phi_d = args.merl_stride[2];
+  return LoadMerlBinary(args.table, mopt);
+}
+
+void RunFitTable(const FitTableArgs& args) {
+  const BrdfTable table = LoadTable(args);
 
   ModelSelectionOptions opt;
   if (args.models != "auto") opt.candidates = SplitComma(args.models);
@@ -73,8 +101,18 @@ void RunFitTable(const FitTableArgs& args) {
 void AddFitTableCommand(CLI::App& app) {
   auto args = std::make_shared<FitTableArgs>();
   auto* cmd = app.add_subcommand("fit-table", "Fit models to a measured BRDF table (CSV)");
-  cmd->add_option("--table", args->table, "CSV with theta_i,phi_i,theta_r,phi_r and brdf")
+  cmd->add_option("--table", args->table,
+                  "CSV with theta_i,phi_i,theta_r,phi_r and brdf, an ASTM E1392 table "
+                  "(theta_s,phi_s, degrees) or a MERL .binary file")
       ->required();
+  cmd->add_option("--format", args->format, "auto, csv, astm or merl")->capture_default_str();
+  cmd->add_option("--merl-channel", args->merl_channel, "MERL: red, green, blue or mean")
+      ->capture_default_str();
+  cmd->add_option("--merl-stride", args->merl_stride,
+                  "MERL: keep every Nth cell in theta_h, theta_d, phi_d")
+      ->delimiter(',')
+      ->expected(3)
+      ->capture_default_str();
   cmd->add_option("--sample", args->sample, "Keep rows whose 'sample' column equals this");
   cmd->add_option("--models", args->models, "auto, or a comma-separated list")
       ->capture_default_str();

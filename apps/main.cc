@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddBrdfCommand(app);
   gonio::cli::AddPipelineCommands(app);
   gonio::cli::AddFitTableCommand(app);
+  gonio::cli::AddExportCommand(app);
   gonio::cli::AddPhotometricCommand(app);
   gonio::cli::AddCaptureCommand(app);
   gonio::cli::AddMicrosimCommand(app);

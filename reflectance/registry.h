@@ -17,6 +17,7 @@
 #include "reflectance/model.h"
 #include "reflectance/oren_nayar.h"
 #include "reflectance/oren_nayar_facet.h"
+#include "reflectance/oren_nayar_fujii.h"
 #include "reflectance/oren_nayar_vcavity.h"
 #include "reflectance/pitted.h"
 #include "reflectance/torrance_sparrow.h"
@@ -26,6 +27,7 @@ namespace gonio {
 
 using AllModels =
     std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity, OrenNayarFacet,
+               OrenNayarFujii, OrenNayarFujiiEc,
                TorranceSparrow, TorranceSparrowF1, Tson, Pitted, PittedExact, PittedHemispherical,
                VanGinneken, VanGinnekenFresnel, LiTorranceFull, LiTorranceDd, LiTorranceDdUdf,
                LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
