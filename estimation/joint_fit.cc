@@ -205,6 +205,14 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
   if (light_ok) r->light_stddev = light_sd;
 }
 
+// The joint fit's residuals are divided by their noise model (pixel noise and the relative
+// floor): the covariance is scaled by at least 1 (estimation/uncertainty.h).
+UncertaintyOptions JointUncertaintyOptions(const JointFitOptions& o) {
+  UncertaintyOptions u = o.uncertainty;
+  u.min_residual_variance = std::max(u.min_residual_variance, 1.0);
+  return u;
+}
+
 // Uncertainty from the Jacobian of the plain residuals (no robust loss), free columns only
 // (estimation/uncertainty.h).
 template <typename M>
@@ -223,7 +231,7 @@ void AnalyzeJointUncertainty(const ModelInfo& info, const ObservationSet& data,
   for (const auto& c : cols) ranges.push_back(c.range);
   const std::vector<bool> check_fraction(cols.size(), true);
   const UncertaintyResult u =
-      AnalyzeUncertainty(J, ranges, 2 * cost, check_fraction, o.uncertainty);
+      AnalyzeUncertainty(J, ranges, 2 * cost, check_fraction, JointUncertaintyOptions(o));
   AssignUncertainty(u, cols, plain, info.num_params(), r);
 }
 

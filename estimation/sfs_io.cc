@@ -13,6 +13,7 @@
 #include "common/parse.h"
 #include "common/plot.h"
 #include "common/stats.h"
+#include "estimation/fit_file.h"
 #include "reflectance/registry.h"
 
 namespace fs = std::filesystem;
@@ -32,43 +33,6 @@ cv::Mat ReadImage(const fs::path& path, int flags, const std::string& what) {
 Eigen::Vector3d ParseLight(const std::string& s) {
   if (s == "collocated") return Eigen::Vector3d::Zero();
   return ParseVector3(s, "--light (X,Y,Z metres in the camera frame, or collocated)");
-}
-
-// The selected candidate of a fit.json, parameters in registry order (defaults for missing).
-void ReadMaterial(const fs::path& path, std::string* model, std::vector<double>* params) {
-  const json j = ReadJsonFile(path);
-  if (!j.contains("candidates") || !j["candidates"].is_array() || j["candidates"].empty()) {
-    throw InputError(path.string() + ": no 'candidates' array (fit.json layout)");
-  }
-  const std::string selected = j.contains("selected")
-                                   ? j["selected"].get<std::string>()
-                                   : j["candidates"][0].value("model", std::string());
-  const json* cand = nullptr;
-  for (const auto& c : j["candidates"]) {
-    if (c.value("model", std::string()) == selected) cand = &c;
-  }
-  if (!cand)
-    throw InputError(path.string() + ": selected model '" + selected + "' not in candidates");
-  const ModelInfo& info = FindModel(selected);
-  *model = selected;
-  params->clear();
-  for (const auto& p : info.params) params->push_back(p.default_value);
-  if (cand->contains("params")) {
-    const json& ps = (*cand)["params"];
-    if (!ps.is_object()) throw InputError(path.string() + ": 'params' is not an object");
-    for (auto it = ps.begin(); it != ps.end(); ++it) {
-      int k = -1;
-      for (int i = 0; i < info.num_params(); ++i) {
-        if (info.params[i].name == it.key()) k = i;
-      }
-      if (k < 0 || !it.value().is_number()) {
-        throw InputError(path.string() + ": parameter '" + it.key() + "' is not a number of " +
-                         selected);
-      }
-      (*params)[k] = it.value().get<double>();
-    }
-  }
-  CheckParams(info, *params);
 }
 
 }  // namespace
@@ -196,7 +160,13 @@ SfsInput LoadSfsInput(const SfsInputPaths& paths, const std::string& reflectance
   const bool have_material = !paths.material.empty() && fs::exists(paths.material);
   pr.absolute = in.absolute && have_material && reflectance == "material";
   if (have_material) {
-    ReadMaterial(paths.material, &pr.model, &pr.params);
+    // The fitted material (estimation/fit_file.h, the same reader gonio export uses); a
+    // relative fit is accepted: shape from shading with absolute radiometry says so itself.
+    ReadFitOptions ro;
+    ro.allow_relative = true;
+    const FittedMaterial m = ReadFitFile(paths.material, ro);
+    pr.model = m.model;
+    pr.params = m.params;
   } else if (reflectance == "lambert") {
     pr.model = "lambert";
     pr.params = {1.0};

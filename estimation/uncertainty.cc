@@ -1,5 +1,6 @@
 #include "estimation/uncertainty.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/SVD>
@@ -31,7 +32,13 @@ UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
   }
   out.rank = rank;
   const int dof = n - rank;
-  out.residual_variance = dof > 0 ? weighted_ssr / dof : 0.0;
+  // No residual degrees of freedom: the data fix the parameters exactly only in appearance;
+  // nothing can be said of their spread, so every parameter is undetermined (never +- 0).
+  if (dof <= 0) {
+    out.undetermined.assign(p, true);
+    return out;
+  }
+  out.residual_variance = std::max(weighted_ssr / dof, options.min_residual_variance);
 
   Eigen::MatrixXd cov_scaled = Eigen::MatrixXd::Zero(p, p);
   for (int j = 0; j < rank; ++j) {

@@ -19,6 +19,11 @@ struct UncertaintyOptions {
   double undetermined_fraction = 0.25;
   // A parameter loading with |v| above this on an unseen direction is undetermined.
   double null_loading = 0.3;
+  // Lower bound of the residual variance that scales the covariance. 0 for residuals in
+  // arbitrary units (table fits); 1 where residuals are already divided by their noise model
+  // (the joint fit): a fit cannot be more certain than its noise model says, so data that happen
+  // to fit exactly (zero variance) do not give +- 0.
+  double min_residual_variance = 0.0;
 };
 
 struct UncertaintyResult {

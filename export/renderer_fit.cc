@@ -105,12 +105,12 @@ using Channels = std::array<std::vector<double>, 3>;
 // and fit->albedo. NumericalError when no start gives a usable solution.
 void SolveRendererFit(const FittedMaterial& material, const std::vector<Angles<double>>& angles,
                       const Channels& source, const std::array<double, 3>& mean, RendererFit* fit) {
-  const bool albedo_is_scale = FindModel(material.model).params[0].is_scale;
+  const bool albedo_per_channel = FindModel(material.model).params[0].per_channel;
   double best_cost = INFINITY;
   for (double start : {0.1, 0.4, 0.8}) {
     std::array<double, 3> albedo;
     for (int c = 0; c < 3; ++c) {
-      albedo[c] = albedo_is_scale ? std::clamp(material.channel_params[c][0], 0.0, 1.0) : 0.5;
+      albedo[c] = albedo_per_channel ? std::clamp(material.channel_params[c][0], 0.0, 1.0) : 0.5;
     }
     double shape = start * ShapeMax(fit->function);
     ceres::Problem problem;

@@ -79,7 +79,7 @@ py::list Models() {
       params.append(
           py::dict(py::arg("name") = p.name, py::arg("unit") = p.unit, py::arg("min") = p.min,
                    py::arg("max") = p.max, py::arg("default") = p.default_value,
-                   py::arg("description") = p.description, py::arg("is_scale") = p.is_scale));
+                   py::arg("description") = p.description, py::arg("per_channel") = p.per_channel));
     }
     out.append(py::dict(py::arg("name") = m.name, py::arg("params") = params,
                         py::arg("description") = m.description, py::arg("reference") = m.reference,
@@ -153,7 +153,7 @@ py::dict FitTable(const Array& theta_i, const Array& theta_r, const Array& phi, 
   }
   ModelSelectionOptions opt;
   if (!models.is_none()) opt.candidates = models.cast<std::vector<std::string>>();
-  opt.criterion = criterion;
+  opt.criterion = ParseCriterion(criterion, "criterion");
   opt.threads = threads;
   opt.fit.relative_scale = relative;
   opt.Check();

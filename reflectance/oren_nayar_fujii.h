@@ -101,8 +101,8 @@ inline const char* HorizonInvalid(const Angles<double>& a) {
                           : nullptr;
 }
 
-inline std::vector<ParamInfo> Params(bool albedo_is_scale) {
-  return {{"albedo", "1", 0.0, 1.0, 0.5, "rho (renderer colour)", albedo_is_scale},
+inline std::vector<ParamInfo> Params(bool albedo_per_channel) {
+  return {{"albedo", "1", 0.0, 1.0, 0.5, "rho (renderer colour)", albedo_per_channel},
           {"roughness", "1", 0.0, 1.0, 0.5, "Fujii's sigma (Blender Roughness)"}};
 }
 

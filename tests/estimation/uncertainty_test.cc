@@ -1,5 +1,7 @@
 #include "estimation/uncertainty.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 #include <Eigen/LU>
 
@@ -40,6 +42,34 @@ TEST(Uncertainty, WideStddevRelativeToRangeIsUndetermined) {
   EXPECT_TRUE(u.undetermined[0]);
   const auto v = AnalyzeUncertainty(J, {1.0}, 1.0, {false}, {});
   EXPECT_FALSE(v.undetermined[0]);  // exempt (a free scale has no range)
+}
+
+}  // namespace
+}  // namespace gonio
+
+namespace gonio {
+namespace {
+
+// Degenerate fits never report +- 0: as many residuals as parameters leaves every parameter
+// undetermined; data that fit exactly (zero residuals) get the noise model's spread when the
+// residuals are in noise units (min_residual_variance 1), which for y = a + b x with unit
+// noise at x = 0, 1, 2 is sd(a) = sqrt(5/6), sd(b) = sqrt(1/2).
+TEST(Uncertainty, DegenerateFitsAreUndeterminedOrGetTheNoiseModelsSpread) {
+  Eigen::MatrixXd two(2, 2);
+  two << 1, 0, 1, 1;
+  const UncertaintyResult none = AnalyzeUncertainty(two, {1, 1}, 0.0, {false, false}, {});
+  EXPECT_TRUE(none.undetermined[0] && none.undetermined[1]);
+  EXPECT_FALSE(none.stddev[0].has_value());
+
+  Eigen::MatrixXd three(3, 2);
+  three << 1, 0, 1, 1, 1, 2;
+  UncertaintyOptions noise_units;
+  noise_units.min_residual_variance = 1.0;
+  const UncertaintyResult exact =
+      AnalyzeUncertainty(three, {1, 1}, 0.0, {false, false}, noise_units);
+  ASSERT_TRUE(exact.stddev[0] && exact.stddev[1]);
+  EXPECT_NEAR(*exact.stddev[0], std::sqrt(5.0 / 6.0), 1e-12);
+  EXPECT_NEAR(*exact.stddev[1], std::sqrt(0.5), 1e-12);
 }
 
 }  // namespace

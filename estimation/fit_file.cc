@@ -1,4 +1,4 @@
-#include "export/fit_file.h"
+#include "estimation/fit_file.h"
 
 #include <fmt/format.h>
 
@@ -100,7 +100,7 @@ std::string FittedMaterial::Report() const {
   const ModelInfo& info = FindModel(model);
   std::string s = model + ":";
   for (int k = 0; k < info.num_params(); ++k) {
-    if (per_channel && info.params[k].is_scale) {
+    if (per_channel && info.params[k].per_channel) {
       s += fmt::format(" {} = ({:.4g}, {:.4g}, {:.4g})", info.params[k].name, channel_params[0][k],
                        channel_params[1][k], channel_params[2][k]);
     } else {
