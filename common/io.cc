@@ -73,6 +73,9 @@ nlohmann::json ReadJsonFile(const fs::path& path) {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path.string() + ": not valid JSON (byte " + std::to_string(e.byte) + ")");
+  } catch (const nlohmann::json::out_of_range&) {
+    // The parser's own error for a number beyond double's range (e.g. 1e999).
+    throw InputError(path.string() + ": not valid JSON (a number is out of range)");
   }
 }
 
