@@ -18,13 +18,26 @@ const std::set<std::string> kFamilies = {"tag36h11",       "tag36h10",         "
                                          "tag16h5",        "tagCircle21h7",    "tagCircle49h12",
                                          "tagCustom48h12", "tagStandard41h12", "tagStandard52h13"};
 
+// Bounds that keep every corner position finite and the corner list allocatable (no printed
+// board comes near them).
+constexpr double kMaxLengthM = 1000.0;
+constexpr long long kMaxGridPoints = 100000;
+
 double PositiveNumber(const nlohmann::json& j, const char* key, const std::string& what) {
   if (!j.contains(key)) throw InputError(what + ": missing key '" + key + "'");
   const auto& v = j.at(key);
-  if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
-    throw InputError(what + ": '" + key + "' must be a positive number of metres");
+  if (!v.is_number() || !(v.get<double>() > 0) || !(v.get<double>() <= kMaxLengthM)) {
+    throw InputError(what + ": '" + key + "' must be a positive number of metres (at most 1000)");
   }
   return v.get<double>();
+}
+
+void CheckGridSize(long long columns, long long rows, const std::string& what,
+                   const std::string& keys) {
+  if (columns * rows > kMaxGridPoints) {
+    throw InputError(fmt::format("{}: {} give {} x {} grid positions, more than {}", what, keys,
+                                 columns, rows, kMaxGridPoints));
+  }
 }
 
 int PositiveInt(const nlohmann::json& v, const std::string& what, const std::string& key) {
@@ -120,6 +133,7 @@ void Board::ReadChessboard(const nlohmann::json& j, const std::string& what) {
   if (inner_columns_ < 2 || inner_rows_ < 2) {
     throw InputError(what + ": 'inner_corners' must be at least [2, 2]");
   }
+  CheckGridSize(inner_columns_, inner_rows_, what, "'inner_corners'");
   square_size_ = PositiveNumber(j, "square_size", what);
   for (int r = 0; r < inner_rows_; ++r) {
     for (int c = 0; c < inner_columns_; ++c) {
@@ -151,6 +165,7 @@ void Board::ReadAprilTagGrid(const nlohmann::json& j, const std::string& what) {
   }
   columns_ = PositiveInt(j["columns"], what, "columns");
   rows_ = PositiveInt(j["rows"], what, "rows");
+  CheckGridSize(columns_, rows_, what, "'columns' and 'rows'");
   ReadTagIds(j, what);
   const double s = tag_size_;
   for (int k = 0; k < columns_ * rows_; ++k) {

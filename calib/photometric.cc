@@ -75,11 +75,26 @@ PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path&
   PhotometricCalibration p;
   if (!j.contains("response")) throw InputError(path.string() + ": missing key 'response'");
   p.response = ResponseResult::FromJson(j["response"], path.string());
-  p.read_noise_dn = j.value("read_noise_dn", 0.5);
+  // The noise terms enter a variance and a division (docs/formats.md): a wrong type or sign
+  // is bad input, never a NaN later.
+  if (j.contains("read_noise_dn")) {
+    const auto& v = j["read_noise_dn"];
+    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(path.string() + ": 'read_noise_dn' must be a number >= 0");
+    }
+    p.read_noise_dn = v.get<double>();
+  }
   if (j.contains("electrons_per_dn") && !j["electrons_per_dn"].is_null()) {
-    p.electrons_per_dn = j["electrons_per_dn"].get<double>();
+    const auto& v = j["electrons_per_dn"];
+    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(path.string() + ": 'electrons_per_dn' must be a number > 0 or null");
+    }
+    p.electrons_per_dn = v.get<double>();
   }
   if (j.contains("vignette") && !j["vignette"].is_null()) {
+    if (!j["vignette"].is_string()) {
+      throw InputError(path.string() + ": 'vignette' must be a file name or null");
+    }
     const auto file = path.parent_path() / j["vignette"].get<std::string>();
     p.vignette = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
     if (p.vignette.empty() || p.vignette.type() != CV_32F) {

@@ -84,7 +84,7 @@ CameraModel CameraModel::Read(const std::filesystem::path& path) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(cleaned);
-  } catch (const nlohmann::json::parse_error&) {
+  } catch (const nlohmann::json::exception&) {  // syntax, or a number out of range (1e999)
     throw InputError(path.string() + ": not a readable mrcal .cameramodel");
   }
   CameraModel m;

@@ -1,5 +1,6 @@
 #include "estimation/observations.h"
 
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -11,6 +12,25 @@
 #include "common/io.h"
 
 namespace gonio {
+namespace {
+
+// Frame indices size the list of frame files: bounded so that a file cannot make the reader
+// allocate without limit (no session comes near a million frames).
+constexpr int kMaxFrameIndex = 1000000;
+
+// A CSV cell that holds an integer in [lo, hi]; checked before the conversion to int, which
+// is undefined for values out of range.
+int IntegerCell(const CsvTable& csv, size_t row, size_t col, int lo, int hi,
+                const std::string& path, const char* name) {
+  const double v = csv.Number(row, col);
+  if (!(v >= lo && v <= hi) || v != std::floor(v)) {
+    throw InputError(fmt::format("{}: line {}: {} must be an integer in [{}, {}]", path,
+                                 csv.LineOf(row), name, lo, hi));
+  }
+  return static_cast<int>(v);
+}
+
+}  // namespace
 
 void WriteObservations(const std::filesystem::path& path, const ObservationSet& set) {
   std::string out;
@@ -53,10 +73,15 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
   {
     std::istringstream in(text);
     std::string line;
-    while (std::getline(in, line) && !line.empty() && line[0] == '#') {
+    for (int line_number = 1; std::getline(in, line) && !line.empty() && line[0] == '#';
+         ++line_number) {
       int f;
       char name[4096];
       if (std::sscanf(line.c_str(), "# frame %d %4095s", &f, name) == 2) {
+        if (f < 0 || f > kMaxFrameIndex) {
+          throw InputError(fmt::format("{}: line {}: frame index must be in [0, {}]", path.string(),
+                                       line_number, kMaxFrameIndex));
+        }
         if (f >= static_cast<int>(set.frame_files.size())) set.frame_files.resize(f + 1);
         set.frame_files[f] = name;
       }
@@ -77,7 +102,7 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
   }
   for (size_t r = 0; r < csv.num_rows(); ++r) {
     Observation o;
-    o.frame = static_cast<int>(csv.Number(r, col[0]));
+    o.frame = IntegerCell(csv, r, col[0], 0, kMaxFrameIndex, path.string(), "frame");
     o.px = csv.Number(r, col[1]);
     o.py = csv.Number(r, col[2]);
     o.p_in_board = {csv.Number(r, col[3]), csv.Number(r, col[4]), csv.Number(r, col[5])};
@@ -89,7 +114,7 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
           fmt::format("{}: line {}: region must be sample or white", path.string(), csv.LineOf(r)));
     }
     o.white = region == "white";
-    o.num_pixels = static_cast<int>(csv.Number(r, col[13]));
+    o.num_pixels = IntegerCell(csv, r, col[13], 1, INT_MAX, path.string(), "n");
     for (int c = 0; c < set.channels; ++c) {
       o.radiance.push_back(csv.Number(r, lc[c]));
       o.variance.push_back(csv.Number(r, vc[c]));
@@ -98,8 +123,6 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
             fmt::format("{}: line {}: negative variance", path.string(), csv.LineOf(r)));
       }
     }
-    if (o.frame < 0)
-      throw InputError(fmt::format("{}: line {}: negative frame", path.string(), csv.LineOf(r)));
     if (o.frame >= static_cast<int>(set.frame_files.size())) set.frame_files.resize(o.frame + 1);
     set.observations.push_back(std::move(o));
   }

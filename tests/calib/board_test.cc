@@ -81,5 +81,30 @@ TEST(Board, RejectsBadFiles) {
   EXPECT_EQ(ok.sample_region().size(), 3u);
 }
 
+// Found with the fuzz target (docs/testing.md): a grid too large to allocate (and whose
+// columns x rows overflowed int) or a length that puts corners at infinity is refused.
+TEST(Board, RejectsGridsTooLargeToHold) {
+  nlohmann::json j = Grid();
+  j["columns"] = 100000;
+  j["rows"] = 100000;
+  try {
+    Board::FromJson(j, "board.json");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "board.json: 'columns' and 'rows' give 100000 x 100000 grid positions, more than "
+                 "100000");
+  }
+  EXPECT_THROW(
+      Board::FromJson(
+          {{"type", "chessboard"}, {"inner_corners", {100000, 100000}}, {"square_size", 0.025}},
+          "cb"),
+      InputError);
+  nlohmann::json far = Grid();
+  far["tag_size"] = 1e300;
+  far["pitch"] = 1e307;
+  EXPECT_THROW(Board::FromJson(far, "b"), InputError);
+}
+
 }  // namespace
 }  // namespace gonio

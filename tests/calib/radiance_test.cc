@@ -2,6 +2,7 @@
 // response on data_synth's exposure-sweep preset, and `gonio photometric apply|hdr`.
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -9,8 +10,10 @@
 
 #include "calib/board.h"
 #include "calib/hdr.h"
+#include "calib/photometric.h"
 #include "calib/response.h"
 #include "common/error.h"
+#include "common/io.h"
 #include "common/math.h"
 #include "common/session.h"
 #include "tests/calib/photometric_test_util.h"
@@ -127,6 +130,34 @@ TEST(PhotometricSynthetic, ToRadianceOfPaperEqualsTruthRadiance) {
   EXPECT_LT(Percentile(ratio_nv, 0.5), 0.99);
   std::cout << "ToRadiance / truth on " << ratio.size() << " paper pixels: mean " << mean
             << ", spread " << spread << "\n";
+}
+
+// photometric.json's noise terms and vignette name with a wrong type or sign are bad input
+// naming the file and key (found with the fuzz target, docs/testing.md).
+TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {
+  testing::TempDir dir;
+  const fs::path path = dir.path() / "photometric.json";
+  PhotometricCalibration::Linear(12, 1, 64).Write(path);
+  const nlohmann::json good = ReadJsonFile(path);
+  EXPECT_DOUBLE_EQ(PhotometricCalibration::Read(path).read_noise_dn, 0.5);
+  const std::pair<nlohmann::json, std::string> cases[] = {
+      {{{"read_noise_dn", "abc"}}, "'read_noise_dn' must be a number >= 0"},
+      {{{"read_noise_dn", -3}}, "'read_noise_dn' must be a number >= 0"},
+      {{{"electrons_per_dn", "x"}}, "'electrons_per_dn' must be a number > 0 or null"},
+      {{{"electrons_per_dn", 0}}, "'electrons_per_dn' must be a number > 0 or null"},
+      {{{"vignette", 5}}, "'vignette' must be a file name or null"},
+  };
+  for (const auto& [edit, message] : cases) {
+    nlohmann::json j = good;
+    j.update(edit);
+    WriteJsonAtomically(path, j);
+    try {
+      PhotometricCalibration::Read(path);
+      ADD_FAILURE() << edit.dump();
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), path.string() + ": " + message);
+    }
+  }
 }
 
 class HdrSynthetic : public ::testing::Test {

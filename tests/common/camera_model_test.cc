@@ -61,6 +61,11 @@ TEST(CameraModel, BadFilesAreInputErrors) {
       dir.path() / "bad.cameramodel",
       "{'lensmodel': 'LENSMODEL_OPENCV8', 'intrinsics': [1,2,3], 'imagersize': [10, 10]}");
   EXPECT_THROW(CameraModel::Read(dir.path() / "bad.cameramodel"), InputError);
+  // A number beyond double's range (found by fuzzing: it escaped as nlohmann's out_of_range).
+  WriteTextAtomically(dir.path() / "huge.cameramodel",
+                      "{'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [1e999, 1, 1, 1], "
+                      "'imagersize': [10, 10]}");
+  EXPECT_THROW(CameraModel::Read(dir.path() / "huge.cameramodel"), InputError);
 }
 
 TEST(CameraModel, ReadsWhatMrcalWrites) {

@@ -43,6 +43,15 @@ TEST(Io, ReadErrorsNameTheFile) {
   }
   WriteTextAtomically(dir.path() / "bad.json", "{oops");
   EXPECT_THROW(ReadJsonFile(dir.path() / "bad.json"), InputError);
+  // A number beyond double's range is bad input too, not an internal error (found by fuzzing).
+  WriteTextAtomically(dir.path() / "huge.json", R"({"x": 1e999})");
+  try {
+    ReadJsonFile(dir.path() / "huge.json");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              (dir.path() / "huge.json").string() + ": not valid JSON (a number is out of range)");
+  }
 }
 
 }  // namespace
