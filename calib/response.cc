@@ -758,6 +758,10 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
   ResponseResult r;
   try {
     r.bit_depth = j.at("bit_depth").get<int>();
+    // Checked before any shift by it: 1 << 40 is undefined behaviour.
+    if (r.bit_depth < 8 || r.bit_depth > 16) {
+      throw InputError(source + ": bit_depth must be 8..16, not " + std::to_string(r.bit_depth));
+    }
     r.black_level = j.at("black_level").get<std::vector<double>>();
     r.inverse_response = j.at("inverse_response").get<std::vector<std::vector<double>>>();
     r.channels = static_cast<int>(r.inverse_response.size());

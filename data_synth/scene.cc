@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <set>
 #include <type_traits>
 
@@ -57,6 +58,23 @@ bool ExplicitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "ex
 struct ValueError {
   std::string message;
 };
+
+// An integer member takes only a JSON integer within its range: nlohmann would convert 2.5 or
+// -4.4e24 (the latter is undefined behaviour, found by fuzz/fuzz_scene).
+int ReadInt(const json& j) {
+  if (!j.is_number_integer()) throw ValueError{"not an integer"};
+  const long long v = j.get<long long>();
+  if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max()) {
+    throw ValueError{"integer out of range"};
+  }
+  return static_cast<int>(v);
+}
+void ReadValue(const json& j, int* out) { *out = ReadInt(j); }
+void ReadValue(const json& j, std::vector<int>* out) {
+  if (!j.is_array()) throw ValueError{"not a list of integers"};
+  out->clear();
+  for (const auto& e : j) out->push_back(ReadInt(e));
+}
 
 template <typename T>
 void ReadValue(const json& j, T* out) {
@@ -176,8 +194,9 @@ std::string RegionCheck(const std::array<double, 4>& r, const Scene& s) {
   const auto& b = s.board;
   if (!(r[2] > r[0] && r[3] > r[1])) return "need xmin < xmax, ymin < ymax";
   const auto ids = b.ResolvedIds();
-  if (ids.size() != static_cast<size_t>(b.columns * b.rows)) return "";  // board.ids reports it
-  const double q = b.tag_size / 8.0;                                     // quiet zone
+  if (ids.size() != static_cast<size_t>(1LL * b.columns * b.rows))
+    return "";                        // board.ids reports it
+  const double q = b.tag_size / 8.0;  // quiet zone
   for (int row = 0; row < b.rows; ++row) {
     for (int col = 0; col < b.columns; ++col) {
       const int id = ids[row * b.columns + col];
@@ -195,7 +214,7 @@ std::string RegionCheck(const std::array<double, 4>& r, const Scene& s) {
 std::string IdsCheck(const std::vector<int>&, const Scene& s) {
   const auto& b = s.board;
   const auto ids = b.ResolvedIds();
-  if (ids.size() != static_cast<size_t>(b.columns * b.rows)) {
+  if (ids.size() != static_cast<size_t>(1LL * b.columns * b.rows)) {
     return "needs columns * rows entries (-1 = no tag)";
   }
   std::set<int> unique;
@@ -302,11 +321,17 @@ void AddBoardFields(std::vector<Field>* f) {
            Must([](double v, const Scene& s) { return v >= s.board.tag_size * 10.0 / 8.0 - 1e-12; },
                 "must be >= 1.25 tag_size (white border of one bit cell between tags)"))
       .Add("columns", &B::columns,
-           Must([](int v, const Scene& s) { return v >= 0 && v * s.board.rows <= 10000; },
-                "must be >= 0 (at most 10000 tags)"))
+           Must(
+               [](int v, const Scene& s) {
+                 return v >= 0 && v <= 10000 && 1LL * v * s.board.rows <= 10000;
+               },
+               "must be >= 0 (at most 10000 tags)"))
       .Add("rows", &B::rows,
-           Must([](int v, const Scene& s) { return v >= 0 && v * s.board.columns <= 10000; },
-                "must be >= 0 (at most 10000 tags)"))
+           Must(
+               [](int v, const Scene& s) {
+                 return v >= 0 && v <= 10000 && 1LL * v * s.board.columns <= 10000;
+               },
+               "must be >= 0 (at most 10000 tags)"))
       .Add("ids", &B::ids, IdsCheck)
       .WriteAs([](const Scene& s) { return json(s.board.ResolvedIds()); })
       .Add("first_id", &B::first_id)
