@@ -79,8 +79,11 @@ nlohmann::json ReadJsonFile(const fs::path& path) {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path.string() + ": not valid JSON (byte " + std::to_string(e.byte) + ")");
+  } catch (const nlohmann::json::out_of_range&) {
+    // The parser's own error for a number beyond double's range (e.g. 1e999).
+    throw InputError(path.string() + ": not valid JSON (a number is out of range)");
   } catch (const nlohmann::json::exception& e) {
-    // e.g. a number beyond double's range (1e999): bad input, not an internal error.
+    // Any other parser error is bad input too, not an internal error.
     throw InputError(path.string() + ": unusable JSON (" + e.what() + ")");
   }
 }

@@ -171,7 +171,7 @@ TEST_F(BadInputCli, OverflowingNumberInJsonIsBadInput) {
   board.replace(colon + 1, end - colon - 1, " 1e999");
   WriteTextAtomically(s / "board.json", board);
   const fs::path out = work.path() / "out";
-  ExpectOneLineError(testing::RunGonio(Run(s, out)), "board.json", "unusable JSON");
+  ExpectOneLineError(testing::RunGonio(Run(s, out)), "board.json", "a number is out of range");
   ExpectNothingLeft(out);
 }
 
