@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <fstream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -62,12 +64,21 @@ TEST(CaptureCommand, AFileThatIsNoCameraExitsTwoWithOneLine) {
 TEST(CaptureCommand, ArgumentErrorsExitTwo) {
   testing::TempDir dir;
   const std::string out = " --out " + (dir.path() / "s").string();
-  EXPECT_EQ(RunGonio("capture" + out).exit_code, 2);  // no mode
-  EXPECT_EQ(RunGonio("capture --list-devices --device /dev/video0").exit_code, 2);
-  EXPECT_EQ(RunGonio("capture --device /dev/video99 --exposures 1ms,1ms" + out).exit_code, 2);
-  EXPECT_EQ(RunGonio("capture --device /dev/video99 --exposures 1ms --format H264" + out).exit_code,
-            2);
-  EXPECT_EQ(RunGonio("capture --device /dev/video99" + out).exit_code, 2);  // no exposures
+  // Each case fails for its own reason (arguments are checked before any device is opened),
+  // asserted by the message, not only by the exit code.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"capture" + out, "needs exactly one of --list-devices, --device"},
+      {"capture --list-devices --device /dev/video0", "needs exactly one of --list-devices"},
+      {"capture --device /dev/video99 --exposures 1ms,1ms" + out, "listed twice"},
+      {"capture --device /dev/video99 --exposures 1ms --format H264" + out,
+       "unknown pixel format 'H264'"},
+      {"capture --device /dev/video99" + out, "--device needs --exposures"}};
+  for (const auto& [args, says] : cases) {
+    const auto r = RunGonio(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_NE(r.err.find(says), std::string::npos) << args << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir.path() / "s"));
 }
 
 TEST(CaptureCommand, ImportsTheHdrSweepWithItsExposureList) {
