@@ -1,5 +1,6 @@
 #include "calib/locate.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <ceres/ceres.h>
@@ -75,21 +76,15 @@ void PoseOptions::Check() const {
   detector.Check();
 }
 
-BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
-                            const BoardObservation& obs, const PoseOptions& options) {
-  options.Check();
-  if (!board.is_chessboard() && static_cast<int>(obs.tag_ids.size()) < options.min_tags) {
-    throw InputError(fmt::format("{} tag(s) of the board found, {} needed", obs.tag_ids.size(),
-                                 options.min_tags));
-  }
-  const int n = static_cast<int>(obs.pixels.size());
-  if (n < options.min_points) {
-    throw InputError(fmt::format("{} board corner(s) found, {} needed", n, options.min_points));
-  }
-  // PnP on the undistorted corners: with normalized coordinates K = I and no distortion.
+namespace {
+
+// PnP on the undistorted corners (normalized coordinates: K = I, no distortion): the start
+// rotation R0 and translation (pose[3..5]; pose[0..2] = 0, a rotation around R0).
+void StartFromPnp(const CameraModel& camera, const Board& board, const BoardObservation& obs,
+                  Eigen::Matrix3d* R0, double* pose) {
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> normalized;
-  for (int i = 0; i < n; ++i) {
+  for (size_t i = 0; i < obs.pixels.size(); ++i) {
     const Eigen::Vector3d& p = board.Points()[obs.point_index[i]];
     object.emplace_back(p.x(), p.y(), p.z());
     const Eigen::Vector3d xy1 = camera.Unproject(obs.pixels[i]);
@@ -101,11 +96,16 @@ BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
     throw NumericalError("PnP found no board pose");
   }
   const double r0[3] = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2)};
-  Eigen::Matrix3d R0 = RotationFromVector(r0);
-  double pose[6] = {0, 0, 0, tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
+  *R0 = RotationFromVector(r0);
+  const double start[6] = {0, 0, 0, tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
+  std::copy(start, start + 6, pose);
+}
 
+// Ceres refinement of the reprojection error through the full lens model (Huber loss).
+void RefinePose(const CameraModel& camera, const Board& board, const BoardObservation& obs,
+                const Eigen::Matrix3d& R0, double huber_px, double* pose) {
   ceres::Problem problem;
-  AddResiduals(camera, board, obs, R0, options.huber_px, pose, &problem);
+  AddResiduals(camera, board, obs, R0, huber_px, pose, &problem);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.function_tolerance = 1e-14;
@@ -117,13 +117,67 @@ BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
   if (!summary.IsSolutionUsable()) {
     throw NumericalError("pose refinement failed: " + summary.message);
   }
+}
+
+// RMS and worst corner residual of `residuals` (x, y per corner); returns the sum of squares.
+double ResidualStatistics(const std::vector<double>& residuals, BoardPose* result) {
+  double sum2 = 0;
+  for (size_t i = 0; i + 1 < residuals.size(); i += 2) {
+    const double e2 = residuals[i] * residuals[i] + residuals[i + 1] * residuals[i + 1];
+    sum2 += e2;
+    result->worst_px = std::max(result->worst_px, std::sqrt(e2));
+  }
+  result->rms_px = std::sqrt(sum2 / std::max<size_t>(1, residuals.size() / 2));
+  return sum2;
+}
+
+// The pose covariance from Ceres (unit pixel noise), scaled by the noise variance the residuals
+// show, and its largest rotation and translation standard deviations.
+void PoseCovariance(ceres::Problem* at_solution, const double* centred, double sum2, int n,
+                    BoardPose* result) {
+  ceres::Covariance::Options cov_options;
+  cov_options.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance covariance(cov_options);
+  const std::vector<std::pair<const double*, const double*>> blocks = {{centred, centred}};
+  if (!covariance.Compute(blocks, at_solution)) {
+    throw NumericalError("the board pose covariance is singular (degenerate corner layout)");
+  }
+  Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov;
+  covariance.GetCovarianceBlock(centred, centred, cov.data());
+  const double sigma2 = (2 * n > 6) ? sum2 / (2 * n - 6) : 0.0;
+  result->covariance = cov * sigma2;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(
+      result->covariance.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tr(
+      result->covariance.bottomRightCorner<3, 3>());
+  result->rotation_sigma_deg = RadToDeg(std::sqrt(std::max(0.0, rot.eigenvalues().maxCoeff())));
+  result->translation_sigma_m = std::sqrt(std::max(0.0, tr.eigenvalues().maxCoeff()));
+}
+
+}  // namespace
+
+BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
+                            const BoardObservation& obs, const PoseOptions& options) {
+  options.Check();
+  if (!board.is_chessboard() && static_cast<int>(obs.tag_ids.size()) < options.min_tags) {
+    throw InputError(fmt::format("{} tag(s) of the board found, {} needed", obs.tag_ids.size(),
+                                 options.min_tags));
+  }
+  const int n = static_cast<int>(obs.pixels.size());
+  if (n < options.min_points) {
+    throw InputError(fmt::format("{} board corner(s) found, {} needed", n, options.min_points));
+  }
+  Eigen::Matrix3d R0;
+  double pose[6];
+  StartFromPnp(camera, board, obs, &R0, pose);
+  RefinePose(camera, board, obs, R0, options.huber_px, pose);
 
   // Re-centre on the solution (delta = 0) and evaluate residuals and covariance there.
   R0 = RotationFromVector(pose) * R0;
   double centred[6] = {0, 0, 0, pose[3], pose[4], pose[5]};
   ceres::Problem at_solution;
-  // Least-squares covariance at the robust solution, scaled below by the residuals' variance:
-  // the two agree with each other (Ceres' robustified Jacobian would not match that scale).
+  // Least-squares covariance at the robust solution, scaled by the residuals' variance: the
+  // two agree with each other (Ceres' robustified Jacobian would not match that scale).
   AddResiduals(camera, board, obs, R0, 0.0, centred, &at_solution);
   std::vector<double> residuals;
   double cost = 0;
@@ -136,37 +190,13 @@ BoardPose EstimateBoardPose(const CameraModel& camera, const Board& board,
   result.cam_from_board.t = Eigen::Vector3d(centred[3], centred[4], centred[5]);
   result.num_points = n;
   result.tag_ids = obs.tag_ids;
-  double sum2 = 0;
-  for (int i = 0; i < n; ++i) {
-    const double e2 =
-        residuals[2 * i] * residuals[2 * i] + residuals[2 * i + 1] * residuals[2 * i + 1];
-    sum2 += e2;
-    result.worst_px = std::max(result.worst_px, std::sqrt(e2));
-  }
-  result.rms_px = std::sqrt(sum2 / n);
+  const double sum2 = ResidualStatistics(residuals, &result);
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d p_in_cam = result.cam_from_board * board.Points()[obs.point_index[i]];
     if (!(p_in_cam.z() > 0))
       throw NumericalError("the refined board pose puts corners behind the camera");
   }
-
-  ceres::Covariance::Options cov_options;
-  cov_options.algorithm_type = ceres::DENSE_SVD;
-  ceres::Covariance covariance(cov_options);
-  const std::vector<std::pair<const double*, const double*>> blocks = {{centred, centred}};
-  if (!covariance.Compute(blocks, &at_solution)) {
-    throw NumericalError("the board pose covariance is singular (degenerate corner layout)");
-  }
-  Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov;
-  covariance.GetCovarianceBlock(centred, centred, cov.data());
-  // Ceres assumes unit pixel noise; scale by the noise variance the residuals show.
-  const double sigma2 = (2 * n > 6) ? sum2 / (2 * n - 6) : 0.0;
-  result.covariance = cov * sigma2;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(result.covariance.topLeftCorner<3, 3>());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tr(
-      result.covariance.bottomRightCorner<3, 3>());
-  result.rotation_sigma_deg = RadToDeg(std::sqrt(std::max(0.0, rot.eigenvalues().maxCoeff())));
-  result.translation_sigma_m = std::sqrt(std::max(0.0, tr.eigenvalues().maxCoeff()));
+  PoseCovariance(&at_solution, centred, sum2, n, &result);
   if (!result.cam_from_board.R.allFinite() || !result.cam_from_board.t.allFinite() ||
       !result.covariance.allFinite()) {
     throw NumericalError("the board pose solve gave non-finite values");

@@ -80,8 +80,8 @@ void WriteDng(const fs::path& path, const DngSpec& spec) {
   SetArray<float>(tif, TIFFTAG_BLACKLEVEL, {static_cast<float>(kBlack)});
   SetArray<uint32_t>(tif, TIFFTAG_WHITELEVEL, {static_cast<uint32_t>(kWhite)});
   // ExposureTime and ISO go in an EXIF IFD, as cameras write them; its offset is known only
-  // once it is written, so IFD0 first holds a placeholder and is rewritten (libtiff's own
-  // EXIF test does the same).
+  // once it is written, so IFD0's EXIFIFD tag is written as 0 first and set to the real
+  // offset afterwards (libtiff's own EXIF test does the same).
   if (spec.with_exposure) TIFFSetField(tif, TIFFTAG_EXIFIFD, uint64_t{0});
   std::vector<uint16_t> row(kWidth);
   for (int r = 0; r < kHeight; ++r) {
