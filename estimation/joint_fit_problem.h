@@ -243,4 +243,13 @@ double Predict(const Observation& obs, int c, const State& s, const ModelInfo& i
   return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e;
 }
 
+// Every `max_n`-th observation or so: a deterministic subsample of at most max_n.
+std::vector<size_t> Subsample(const ObservationSet& data, size_t max_n);
+
+// One registry model fitted jointly with the lamp (joint_fit.cc), for the model search
+// (joint_selection.cc).
+JointFitResult FitCandidate(const std::string& model, const ObservationSet& data,
+                            const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
+                            const JointFitOptions& options, bool cross_validate);
+
 }  // namespace gonio::joint_fit_internal
