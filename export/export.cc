@@ -9,9 +9,16 @@
 #include "common/io.h"
 #include "common/math.h"
 #include "common/provenance.h"
+#include "estimation/option_words.h"
 
 namespace gonio {
 namespace {
+
+// One word table for both directions (estimation/option_words.h).
+constexpr OptionWord<ExportFormat> kFormatWords[] = {
+    {ExportFormat::kMitsuba, "mitsuba"}, {ExportFormat::kPbrt3, "pbrt3"},
+    {ExportFormat::kBlender, "blender"}, {ExportFormat::kMaterialx, "materialx"},
+    {ExportFormat::kAstm, "astm"},       {ExportFormat::kMerl, "merl"}};
 
 std::string RendererName(RendererFunction f) {
   switch (f) {
@@ -103,30 +110,10 @@ void CheckAngles(const std::vector<double>& v, double max, const char* what) {
 }  // namespace
 
 ExportFormat ParseExportFormat(const std::string& s) {
-  for (ExportFormat f : {ExportFormat::kMitsuba, ExportFormat::kPbrt3, ExportFormat::kBlender,
-                         ExportFormat::kMaterialx, ExportFormat::kAstm, ExportFormat::kMerl}) {
-    if (FormatName(f) == s) return f;
-  }
-  throw InputError("--format: '" + s + "' is not mitsuba, pbrt3, blender, materialx, astm or merl");
+  return ParseOptionWord(kFormatWords, s, "--format");
 }
 
-std::string FormatName(ExportFormat f) {
-  switch (f) {
-    case ExportFormat::kMitsuba:
-      return "mitsuba";
-    case ExportFormat::kPbrt3:
-      return "pbrt3";
-    case ExportFormat::kBlender:
-      return "blender";
-    case ExportFormat::kMaterialx:
-      return "materialx";
-    case ExportFormat::kAstm:
-      return "astm";
-    case ExportFormat::kMerl:
-      return "merl";
-  }
-  return "";
-}
+std::string FormatName(ExportFormat f) { return OptionWordOf(kFormatWords, f); }
 
 std::optional<RendererFunction> RendererFunctionOf(ExportFormat f) {
   switch (f) {

@@ -87,8 +87,6 @@ std::vector<BoardObservation> DetectBoards(const RunInputs& in, const RunOptions
     }
     detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth), in.board,
                                      o.pose.detector, in.session.frames[i].file));
-    detections.back().width = raw.cols;
-    detections.back().height = raw.rows;
     cache->Keep(i, raw);
     progress.Step();
   }
