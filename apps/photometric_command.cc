@@ -174,6 +174,8 @@ void RunVignette(VignetteArgs& args) {
     const fs::path out(args.photometric_out);
     if (out.has_parent_path()) EnsureDirectory(out.parent_path());
     calib.vignette = r.map;
+    calib.relative_accuracy =
+        PhotometricCalibration::CombinedAccuracy(calib.response, r.rms_relative_residual);
     calib.Write(args.photometric_out);
   }
   std::cout << r.Report();
