@@ -12,6 +12,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
+#include "pipeline/observed_angles.h"
 #include "pipeline/report.h"
 
 namespace fs = std::filesystem;
@@ -187,6 +188,7 @@ std::string RunResult::Report() const {
   for (const auto& a : assumptions) s += "ASSUMED: " + a + "\n";
   if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings below)\n";
   s += fit.Report();
+  s += ObservedAnglesOf(fit.final_fit, observations).Report();
   for (const auto& m : checks.Messages()) s += "WARNING: " + m + "\n";
   s += fmt::format(
       "timing: detect {:.1f} s, calibrate {:.1f} s, locate {:.1f} s, extract {:.1f} s, fit "
@@ -200,6 +202,7 @@ nlohmann::json RunResult::ToJson() const {
   nlohmann::json j = fit.ToJson();
   j["assumptions"] = assumptions;
   j["checks"] = checks.ToJson();
+  j["observed_angles"] = ObservedAnglesOf(fit.final_fit, observations).ToJson();
   j["run_warnings"] = warnings;
   j["timing"] = timings.ToJson();
   j["frames_decoded"] = frames_decoded;
