@@ -31,6 +31,7 @@ using testing::RunGonio;
 struct Recovered {
   std::string model;
   double sigma_deg = NAN, albedo = NAN, lamp_error_m = NAN;
+  bool backscatter_only = false;  // fit.json observed_angles: what the geometry could measure
   std::string Report() const {
     return fmt::format("model {}, sigma {:.3f} deg, albedo {:.4f}, lamp {:.2f} mm off", model,
                        sigma_deg, albedo, 1e3 * lamp_error_m);
@@ -47,6 +48,7 @@ Recovered Judge(const fs::path& fit_json, const fs::path& truth_json) {
   if (p.contains("albedo")) r.albedo = p.at("albedo").get<double>();
   const auto lamp = f.at("light").at("position").get<std::vector<double>>();
   const auto lamp_true = truth.at("light").at("position_in_camera").get<std::vector<double>>();
+  r.backscatter_only = fit.at("observed_angles").at("backscatter_only").get<bool>();
   r.lamp_error_m =
       std::hypot(lamp[0] - lamp_true[0], lamp[1] - lamp_true[1], lamp[2] - lamp_true[2]);
   return r;
@@ -198,6 +200,7 @@ void CheckVariant(const std::string& preset) {
   EXPECT_NEAR(user.sigma_deg, 30.0, 1.0) << user.Report();
   EXPECT_NEAR(user.albedo / 0.6, 1.0, 0.02) << user.Report();
   EXPECT_LT(user.lamp_error_m, 0.002) << user.Report();
+  EXPECT_TRUE(user.backscatter_only) << "fit.json does not say the data are backscatter only";
   EXPECT_EQ(oracle.model, "oren-nayar") << oracle.Report();
   EXPECT_NEAR(oracle.sigma_deg, 30.0, 0.2) << oracle.Report();
   EXPECT_NEAR(oracle.albedo / 0.6, 1.0, 0.003) << oracle.Report();
