@@ -10,7 +10,9 @@
 // the regression of the residual of the beta = 0 fit on z = ln g with its pixel-cell and
 // board-cell means removed (two-way demeaning, alternating projections): z is the part of the
 // fall-off that neither V nor C can hold, and its RMS says whether the poses can tell at all
-// (the same board pose in every frame cannot). docs/photometric.md "A lamp on the camera".
+// (the same board pose in every frame cannot). The stage-1 V is the radial polynomial rather
+// than one value per cell, so the projection is approximate; what remains of the misfit is a
+// function of the pixel, which z is orthogonal to. docs/photometric.md "A lamp on the camera".
 #pragma once
 
 #include <cstdint>
