@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
+#include "pipeline/observed_angles.h"
 #include "pipeline/report.h"
 
 namespace fs = std::filesystem;
@@ -234,6 +235,7 @@ std::string RunResult::Report() const {
   } else {
     s += "calibration error: not propagated (the photometric calibration reports no accuracy)\n";
   }
+  s += ObservedAnglesOf(fit.final_fit, observations).Report();
   for (const auto& m : checks.Messages()) s += "WARNING: " + m + "\n";
   s += fmt::format(
       "timing: detect {:.1f} s, calibrate {:.1f} s, locate {:.1f} s, extract {:.1f} s, fit "
@@ -249,6 +251,7 @@ nlohmann::json RunResult::ToJson() const {
   j["noise_floor"] = {{"relative", noise_floor}, {"source", noise_floor_source}};
   j["calibration_error"] = calibration_error ? calibration_error->ToJson() : nlohmann::json();
   j["checks"] = checks.ToJson();
+  j["observed_angles"] = ObservedAnglesOf(fit.final_fit, observations).ToJson();
   j["run_warnings"] = warnings;
   j["timing"] = timings.ToJson();
   j["frames_decoded"] = frames_decoded;
