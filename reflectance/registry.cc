@@ -5,6 +5,7 @@
 #include "common/error.h"
 #include "common/math.h"
 #include "common/parallel.h"
+#include "reflectance/batch_kernels.h"
 
 namespace gonio {
 namespace {
@@ -14,6 +15,35 @@ struct HasInvalid : std::false_type {};
 template <typename M>
 struct HasInvalid<M, std::void_t<decltype(M::Invalid(nullptr, Angles<double>{}))>>
     : std::true_type {};
+
+// Angles where the vectorised kernels (compiled with -ffast-math) are trusted: finite, theta in
+// the closed hemisphere (the horizon tolerance of EvaluateChecked), phi finite.
+bool KernelDomain(double theta_i, double theta_r, double phi) {
+  const double kHorizon = kHalfPi + 1e-12;
+  return theta_i >= 0 && theta_i <= kHorizon && theta_r >= 0 && theta_r <= kHorizon &&
+         std::isfinite(phi);
+}
+
+// One contiguous chunk of EvaluateBatch: the vectorised kernel where the model has one, then
+// the scalar formula (IEEE flags, this file) for every entry outside KernelDomain or with a
+// non-finite result, so those are exactly what M::Evaluate gives.
+template <typename M>
+void EvaluateChunk(const double* p, const double* theta_i, const double* theta_r, const double* phi,
+                   size_t begin, size_t end, double* out) {
+  if constexpr (batch_internal::kHasVectorisedKernel<M>) {
+    batch_internal::VectorisedKernel<M>(p, theta_i + begin, theta_r + begin, phi + begin,
+                                        end - begin, out + begin);
+    for (size_t k = begin; k < end; ++k) {
+      if (!KernelDomain(theta_i[k], theta_r[k], phi[k]) || !std::isfinite(out[k])) {
+        out[k] = M::Evaluate(p, Angles<double>{theta_i[k], theta_r[k], phi[k]});
+      }
+    }
+  } else {
+    for (size_t k = begin; k < end; ++k) {
+      out[k] = M::Evaluate(p, Angles<double>{theta_i[k], theta_r[k], phi[k]});
+    }
+  }
+}
 
 }  // namespace
 
@@ -94,9 +124,7 @@ void EvaluateBatch(const std::string& model, const std::vector<double>& params,
     using M = typename decltype(tag)::type;
     const double* p = params.data();
     ParallelFor(n, threads, [&](size_t begin, size_t end) {
-      for (size_t k = begin; k < end; ++k) {
-        out[k] = M::Evaluate(p, Angles<double>{theta_i[k], theta_r[k], phi[k]});
-      }
+      EvaluateChunk<M>(p, theta_i, theta_r, phi, begin, end, out);
     });
   });
   if (!found) FindModel(model);
