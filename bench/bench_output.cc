@@ -187,6 +187,7 @@ nlohmann::json EvaluationJson(const std::vector<EvalRow>& eval) {
                   {"reference_note", r.reference_note},
                   {"ns_per_eval_1t", r.ns_per_eval_1t},
                   {"ns_per_eval_mt", r.ns_per_eval_mt},
+                  {"vectorised", r.vectorised},
                   {"batch_1t", r.batch},
                   {"batch_mt", r.batch_mt},
                   {"max_err", r.max_err},
@@ -195,6 +196,23 @@ nlohmann::json EvaluationJson(const std::vector<EvalRow>& eval) {
                   {"grid_skipped", r.grid_skipped}});
   }
   return ev;
+}
+
+nlohmann::json ReferenceLoopsJson(const std::vector<ReferenceLoopResult>& loops) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& r : loops) {
+    out.push_back({{"model", r.model},
+                   {"reference_formula", r.formula},
+                   {"ns_per_eval_reference", r.ns_reference},
+                   {"ns_per_eval_registry", r.ns_registry},
+                   {"ns_per_eval_scalar", r.ns_scalar},
+                   {"ratio_registry_over_reference", r.ratio},
+                   {"target_ratio", kReferenceRatioTarget},
+                   {"speedup_over_scalar", r.speedup_over_scalar},
+                   {"max_rel_diff", r.max_rel_diff},
+                   {"batch", r.batch}});
+  }
+  return out;
 }
 
 nlohmann::json FittingJson(const std::vector<FitRow>& fits) {
@@ -263,7 +281,8 @@ void FittingChart(const fs::path& dir, const std::vector<FitRow>& fits, double n
 }  // namespace
 
 void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
-                       const std::vector<EvalRow>& eval, const BaselineResult& baseline,
+                       const std::vector<EvalRow>& eval,
+                       const std::vector<ReferenceLoopResult>& reference_loops,
                        const std::vector<FitRow>& fits) {
   EnsureDirectory(dir);
   const BenchSizes s = SizesFor(options);
@@ -279,13 +298,7 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
                      " repetitions after warm-up, batches of uniform random angles"},
       {"param_error_unit", "|fitted - true| / registry range, determined parameters only"}};
   j["evaluation"] = EvaluationJson(eval);
-  j["baseline"] = {{"what", "hand-written loop of Oren-Nayar eq. 27-29, same run"},
-                   {"ns_per_eval_baseline", baseline.ns_per_eval_baseline},
-                   {"ns_per_eval_oren_nayar", baseline.ns_per_eval_oren_nayar},
-                   {"ratio_oren_nayar_over_baseline", baseline.ratio},
-                   {"target_ratio", 1.5},
-                   {"max_abs_diff", baseline.max_abs_diff},
-                   {"batch", baseline.batch}};
+  j["reference_loops"] = ReferenceLoopsJson(reference_loops);
   j["fitting"] = FittingJson(fits);
   j["pareto_evaluation"] = EvaluationChart(dir, eval);
   FittingChart(dir, fits, s.fit_noise);

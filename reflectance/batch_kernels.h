@@ -6,8 +6,8 @@
 // angles: -O3 -ffast-math (glibc's <math.h> then declares sin/cos/tan/exp/log as SIMD functions
 // and GCC calls libmvec's 4- or 8-wide versions) and, with GONIO_NATIVE_BATCH, -march=native
 // (reflectance/CMakeLists.txt, docs/bench.md "Batch evaluation"). -ffast-math assumes finite
-// values, so the callers must not rely on NaN/Inf inside: EvaluateBatch re-evaluates entries
-// with an angle outside the hemisphere, a non-finite angle or a non-finite result with the
+// values, so the kernels test angles and results on their bit patterns (integer operations,
+// which -ffast-math leaves alone) and EvaluateBatch re-evaluates the entries they flag with the
 // scalar formula (normal IEEE flags).
 #pragma once
 
@@ -38,9 +38,11 @@ inline constexpr bool kHasVectorisedKernel = InTuple<M, VectorisedModels>::value
 
 // out[k] = M::Evaluate(params, {theta_i[k], theta_r[k], phi[k]}) for k < n, to within the
 // accuracy of libmvec (a few ulp per function, tests/reflectance/batch_test.cc) for angles in
-// the closed hemisphere. Defined for the models of VectorisedModels only.
+// the closed hemisphere. Returns the number of entries the caller must re-evaluate with the
+// scalar formula: theta outside [0, pi/2 + 1e-12] (or -0, NaN), phi or the result not finite.
+// Defined for the models of VectorisedModels only.
 template <typename M>
-void VectorisedKernel(const double* params, const double* theta_i, const double* theta_r,
-                      const double* phi, size_t n, double* out);
+size_t VectorisedKernel(const double* params, const double* theta_i, const double* theta_r,
+                        const double* phi, size_t n, double* out);
 
 }  // namespace gonio::batch_internal

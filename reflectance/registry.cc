@@ -24,15 +24,17 @@ bool KernelDomain(double theta_i, double theta_r, double phi) {
          std::isfinite(phi);
 }
 
-// One contiguous chunk of EvaluateBatch: the vectorised kernel where the model has one, then
-// the scalar formula (IEEE flags, this file) for every entry outside KernelDomain or with a
-// non-finite result, so those are exactly what M::Evaluate gives.
+// One contiguous chunk of EvaluateBatch: the vectorised kernel where the model has one; when it
+// flags entries (batch_kernels.h), the scalar formula (IEEE flags, this file) for every entry
+// outside KernelDomain or with a non-finite result, so those are exactly what M::Evaluate gives.
 template <typename M>
 void EvaluateChunk(const double* p, const double* theta_i, const double* theta_r, const double* phi,
                    size_t begin, size_t end, double* out) {
   if constexpr (batch_internal::kHasVectorisedKernel<M>) {
-    batch_internal::VectorisedKernel<M>(p, theta_i + begin, theta_r + begin, phi + begin,
-                                        end - begin, out + begin);
+    if (batch_internal::VectorisedKernel<M>(p, theta_i + begin, theta_r + begin, phi + begin,
+                                            end - begin, out + begin) == 0) {
+      return;
+    }
     for (size_t k = begin; k < end; ++k) {
       if (!KernelDomain(theta_i[k], theta_r[k], phi[k]) || !std::isfinite(out[k])) {
         out[k] = M::Evaluate(p, Angles<double>{theta_i[k], theta_r[k], phi[k]});
@@ -128,6 +130,16 @@ void EvaluateBatch(const std::string& model, const std::vector<double>& params,
     });
   });
   if (!found) FindModel(model);
+}
+
+bool HasVectorisedBatch(const std::string& model) {
+  bool vectorised = false;
+  if (!VisitModel(model, [&](auto tag) {
+        vectorised = batch_internal::kHasVectorisedKernel<typename decltype(tag)::type>;
+      })) {
+    FindModel(model);  // throws the unknown-model error
+  }
+  return vectorised;
 }
 
 }  // namespace gonio

@@ -95,5 +95,7 @@ std::string EvaluateChecked(const std::string& model, const std::vector<double>&
 void EvaluateBatch(const std::string& model, const std::vector<double>& params,
                    const double* theta_i, const double* theta_r, const double* phi, size_t n,
                    double* out, int threads);
+// True when EvaluateBatch runs `model` through a vectorised kernel (batch_kernels.h).
+bool HasVectorisedBatch(const std::string& model);
 
 }  // namespace gonio
