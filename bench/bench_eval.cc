@@ -138,6 +138,12 @@ std::string MostExactReference(const std::string& model) {
   return ref;
 }
 
+std::string ReferenceChain(const std::string& model) {
+  const std::string ref = MostExactReference(model);
+  if (const HighOrderReference* high = FindHighOrder(ref)) return high->model;
+  return ref;
+}
+
 std::vector<double> MapParams(const std::string& model, const std::vector<double>& params,
                               const std::string& ref) {
   const HighOrderReference* high = FindHighOrder(ref);

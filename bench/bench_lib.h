@@ -85,6 +85,12 @@ inline constexpr double kReferenceRatioTarget = 1.5;
 // approximations). Empty for models without a reference.
 std::string MostExactReference(const std::string& model);
 
+// The chain of methods a model belongs to: the method its errors are finally measured against
+// (the last model of its reference chain; the model itself for a numerical model compared with
+// its own higher quadrature order). Models of one chain approximate the same physics, so their
+// (time, error) points form one Pareto front (eval_pareto). Empty without a reference.
+std::string ReferenceChain(const std::string& model);
+
 std::vector<EvalRow> RunEvaluationBench(const BenchSizes& sizes, int threads);
 std::vector<ReferenceLoopResult> RunReferenceLoops(const BenchSizes& sizes);
 

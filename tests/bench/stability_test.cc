@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "bench/bench_internal.h"
 #include "bench/bench_lib.h"
 #include "common/error.h"
 #include "common/math.h"
@@ -163,6 +164,64 @@ TEST(BenchReferences, ChainsEndAtTheMostExactMethod) {
   EXPECT_EQ(MostExactReference("lambert"), "");
   // The facet integral is its own reference at a higher quadrature order.
   EXPECT_NE(MostExactReference("oren-nayar-facet").find("oren-nayar-facet@"), std::string::npos);
+}
+
+// One front per chain of methods of the same physics (eval_pareto): the oren-nayar family ends
+// at the facet integral, pitted at pitted-exact; numerical models without a more exact one form
+// their own chain; closed forms without a reference are in none.
+TEST(BenchPareto, ChainsGroupMethodsOfTheSamePhysics) {
+  for (const char* m :
+       {"oren-nayar-qualitative", "oren-nayar", "oren-nayar-vcavity", "oren-nayar-facet"}) {
+    EXPECT_EQ(ReferenceChain(m), "oren-nayar-facet") << m;
+  }
+  EXPECT_EQ(ReferenceChain("pitted"), "pitted-exact");
+  EXPECT_EQ(ReferenceChain("pitted-exact"), "pitted-exact");
+  EXPECT_EQ(ReferenceChain("pitted-hemispherical"), "pitted-hemispherical");
+  EXPECT_EQ(ReferenceChain("van-ginneken"), "van-ginneken");
+  EXPECT_EQ(ReferenceChain("lambert"), "");
+  EXPECT_EQ(ReferenceChain("torrance-sparrow"), "");
+}
+
+// Labels of points closer than a line of text (the oren-nayar pair at 3 and 5 ns, or a cluster)
+// end up without overlaps, inside the plot.
+TEST(BenchPareto, LabelsOfClusteredPointsDoNotOverlap) {
+  const std::vector<double> px = {100, 104, 108, 112, 300, 302, 700};
+  const std::vector<double> py = {400, 398, 402, 396, 200, 203, 100};
+  const std::vector<std::string> text = {"oren-nayar-qualitative",
+                                         "oren-nayar",
+                                         "minnaert",
+                                         "lambert",
+                                         "van-ginneken (numerical)",
+                                         "van-ginneken-fresnel (numerical)",
+                                         "pitted"};
+  const double w = 800, h = 600;
+  const std::vector<PlacedLabel> placed = PlaceLabels(px, py, text, w, h);
+  ASSERT_EQ(placed.size(), px.size());
+  struct Rect {
+    double x0, y0, x1, y1;
+  };
+  std::vector<Rect> boxes;
+  for (size_t k = 0; k < placed.size(); ++k) {
+    const double lw = kLabelCharPx * text[k].size() + 4;
+    const double x0 = placed[k].gx * w - (placed[k].right_aligned ? lw : 0);
+    const double yc = placed[k].gy * h;
+    boxes.push_back({x0, yc - kLabelLinePx / 2, x0 + lw, yc + kLabelLinePx / 2});
+    EXPECT_GE(x0, 0) << text[k];
+    EXPECT_LE(x0 + lw, w) << text[k];
+  }
+  for (size_t a = 0; a < boxes.size(); ++a) {
+    for (size_t b = a + 1; b < boxes.size(); ++b) {
+      const bool overlap = boxes[a].x0 < boxes[b].x1 && boxes[b].x0 < boxes[a].x1 &&
+                           boxes[a].y0 < boxes[b].y1 && boxes[b].y0 < boxes[a].y1;
+      EXPECT_FALSE(overlap) << text[a] << " and " << text[b];
+    }
+    for (size_t p = 0; p < px.size(); ++p) {
+      const bool on_point =
+          px[p] + kPointPx / 2 > boxes[a].x0 && px[p] - kPointPx / 2 < boxes[a].x1 &&
+          py[p] + kPointPx / 2 > boxes[a].y0 && py[p] - kPointPx / 2 < boxes[a].y1;
+      EXPECT_FALSE(on_point) << text[a] << " covers point " << p;
+    }
+  }
 }
 
 TEST(BenchPareto, FrontKeepsOnlyUndominatedPoints) {
