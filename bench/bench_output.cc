@@ -82,15 +82,16 @@ std::vector<PlacedLabel> PlaceLabels(const std::vector<double>& px, const std::v
 
 namespace {
 
-// Log10 range of `v` padded by `lo`/`hi` of its span (at least one decade), as gnuplot bounds.
+// Log10 range of `v` padded by `lo`/`hi` of its span, widened to whole decades so both axes
+// carry labelled tics even when every point lies within one decade.
 std::pair<double, double> LogRange(const std::vector<double>& v, double lo, double hi) {
   double a = 1e300, b = -1e300;
   for (double x : v) {
     a = std::min(a, std::log10(x));
     b = std::max(b, std::log10(x));
   }
-  const double span = std::max(1.0, b - a);
-  return {a - lo * span, b + hi * span};
+  const double span = std::max(0.5, b - a);
+  return {std::floor(a - lo * span), std::ceil(b + hi * span)};
 }
 
 }  // namespace
