@@ -153,8 +153,9 @@ TEST(EvaluateBatch, VectorisedKernelsCoverTheClosedFormsTheyClaim) {
   static_assert(batch_internal::kHasVectorisedKernel<OrenNayarQualitative>);
   static_assert(batch_internal::kHasVectorisedKernel<Minnaert>);
   static_assert(!batch_internal::kHasVectorisedKernel<PittedExact>);
-  // A batch split over threads gives the same values as one thread (chunk edges).
-  const AngleArrays a = HemisphereAngles(1001);
+  // A batch split over threads gives the same values as one thread (chunk edges); kernels use
+  // a thread per 2^16 entries at most (registry.cc), so 3 threads need > 3 x 2^16.
+  const AngleArrays a = HemisphereAngles(3 * 65536 + 1001);
   const std::vector<double> p = {0.5, 0.35};
   std::vector<double> one(a.size()), two(a.size());
   EvaluateBatch("oren-nayar", p, a.ti.data(), a.tr.data(), a.ph.data(), a.size(), one.data(), 1);
