@@ -94,6 +94,56 @@ std::pair<double, double> LogRange(const std::vector<double>& v, double lo, doub
   return {std::floor(a - lo * span), std::ceil(b + hi * span)};
 }
 
+// gnuplot commands for log ranges fixed around the points (room for labels on the right), so
+// the label placement knows where every point lands in a plot_w x plot_h pixel area, and the
+// labels themselves with leader lines where PlaceLabels moved them away.
+std::string RangesAndLabels(const std::vector<double>& xs, const std::vector<double>& ys,
+                            const std::vector<std::string>& text, double plot_w, double plot_h) {
+  std::ostringstream out;
+  const auto [x0, x1] = LogRange(xs, 0.08, 0.35);
+  const auto [y0, y1] = LogRange(ys, 0.1, 0.1);
+  out << "set xrange [" << std::pow(10.0, x0) << ":" << std::pow(10.0, x1) << "]\nset yrange ["
+      << std::pow(10.0, y0) << ":" << std::pow(10.0, y1) << "]\n";
+  std::vector<double> px, py;
+  for (size_t k = 0; k < xs.size(); ++k) {
+    px.push_back((std::log10(xs[k]) - x0) / (x1 - x0) * plot_w);
+    py.push_back((std::log10(ys[k]) - y0) / (y1 - y0) * plot_h);
+  }
+  const std::vector<PlacedLabel> placed = PlaceLabels(px, py, text, plot_w, plot_h);
+  for (size_t k = 0; k < xs.size(); ++k) {
+    const PlacedLabel& p = placed[k];
+    out << "set label " << GnuplotQuote(text[k]) << " at graph " << p.gx << "," << p.gy
+        << (p.right_aligned ? " right" : " left") << " font ',8' noenhanced front\n";
+    if (p.leader) {
+      out << "set arrow from " << xs[k] << "," << ys[k] << " to graph " << p.gx << "," << p.gy
+          << " nohead lw 0.6 lc rgb '#999999'\n";
+    }
+  }
+  return out.str();
+}
+
+// The entries that cannot sit on the log axes, listed under the chart in lines of one label
+// each (so a long list stays on the canvas); empty when there are none.
+std::string Footnote(const std::vector<std::string>& left_out) {
+  if (left_out.empty()) return "";
+  std::vector<std::string> lines = {"not shown (error 0, no reference or failed):"};
+  for (const std::string& item : left_out) {
+    if (lines.back().size() + item.size() > 170) {
+      lines.back() += ",";
+      lines.push_back(item);
+    } else {
+      lines.back() += (lines.back().back() == ':' ? " " : ", ") + item;
+    }
+  }
+  std::ostringstream out;
+  out << "set bmargin " << 5 + lines.size() << "\n";
+  for (size_t i = 0; i < lines.size(); ++i) {
+    out << "set label " << GnuplotQuote(lines[i]) << " at screen 0.01, screen "
+        << 0.015 + 0.018 * static_cast<double>(lines.size() - 1 - i) << " font ',8' noenhanced\n";
+  }
+  return out.str();
+}
+
 }  // namespace
 
 void ParetoChart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
@@ -112,12 +162,12 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   spec.height = 800;
   // Points of one front key: their costs, errors (the front is computed per key).
   std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> fronts;
-  std::string left_out;
+  std::vector<std::string> left_out;
   std::map<std::string, PlotSeries> series;
   std::vector<size_t> shown;
   for (size_t k = 0; k < cost.size(); ++k) {
     if (!(err[k] > 0) || !(cost[k] > 0)) {
-      left_out += (left_out.empty() ? "" : ", ") + labels[k];
+      left_out.push_back(labels[k]);
       continue;
     }
     shown.push_back(k);
@@ -159,57 +209,19 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   std::ostringstream extra;
   extra << "set format y '%.0e'\nset key outside right top font ',9' noenhanced\n";
   if (!shown.empty()) {
-    // Fixed ranges (room for labels right of the points), so the label placement knows where
-    // every point lands; the plot area is the canvas less margins and the key, estimated.
+    // The plot area is the canvas less margins and the key, estimated.
+    const double plot_w = spec.width - 110.0 - 7.0 * static_cast<double>(longest_key) - 70.0;
+    const double plot_h = spec.height - 120.0 - (left_out.empty() ? 0.0 : 60.0);
     std::vector<double> xs, ys;
+    std::vector<std::string> text;
     for (size_t k : shown) {
       xs.push_back(cost[k]);
       ys.push_back(err[k]);
-    }
-    const auto [x0, x1] = LogRange(xs, 0.08, 0.35);
-    const auto [y0, y1] = LogRange(ys, 0.1, 0.1);
-    extra << "set xrange [" << std::pow(10.0, x0) << ":" << std::pow(10.0, x1) << "]\nset yrange ["
-          << std::pow(10.0, y0) << ":" << std::pow(10.0, y1) << "]\n";
-    const double plot_w = spec.width - 110.0 - 7.0 * static_cast<double>(longest_key) - 70.0;
-    const double plot_h = spec.height - 120.0 - (left_out.empty() ? 0.0 : 60.0);
-    std::vector<double> px, py;
-    std::vector<std::string> text;
-    for (size_t k : shown) {
-      px.push_back((std::log10(cost[k]) - x0) / (x1 - x0) * plot_w);
-      py.push_back((std::log10(err[k]) - y0) / (y1 - y0) * plot_h);
       text.push_back(labels[k]);
     }
-    const std::vector<PlacedLabel> placed = PlaceLabels(px, py, text, plot_w, plot_h);
-    for (size_t i = 0; i < shown.size(); ++i) {
-      const PlacedLabel& p = placed[i];
-      extra << "set label " << GnuplotQuote(text[i]) << " at graph " << p.gx << "," << p.gy
-            << (p.right_aligned ? " right" : " left") << " font ',8' noenhanced front\n";
-      if (p.leader) {
-        extra << "set arrow from " << cost[shown[i]] << "," << err[shown[i]] << " to graph " << p.gx
-              << "," << p.gy << " nohead lw 0.6 lc rgb '#999999'\n";
-      }
-    }
+    extra << RangesAndLabels(xs, ys, text, plot_w, plot_h);
   }
-  if (!left_out.empty()) {
-    // Wrapped at commas into lines of one label each, so a long list stays on the canvas.
-    std::vector<std::string> lines = {"not shown (error 0, no reference or failed):"};
-    std::istringstream items(left_out);
-    for (std::string item; std::getline(items, item, ',');) {
-      if (item.front() == ' ') item.erase(0, 1);
-      if (lines.back().size() + item.size() > 170) {
-        lines.back() += ",";
-        lines.push_back(item);
-      } else {
-        lines.back() += (lines.back().back() == ':' ? " " : ", ") + item;
-      }
-    }
-    extra << "set bmargin " << 5 + lines.size() << "\n";
-    for (size_t i = 0; i < lines.size(); ++i) {
-      extra << "set label " << GnuplotQuote(lines[i]) << " at screen 0.01, screen "
-            << 0.015 + 0.018 * static_cast<double>(lines.size() - 1 - i)
-            << " font ',8' noenhanced\n";
-    }
-  }
+  extra << Footnote(left_out);
   spec.extra = extra.str();
   if (spec.series.empty()) {
     // Nothing on a log axis (e.g. a smoke run without references): draw an empty frame.
