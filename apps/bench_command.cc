@@ -17,6 +17,7 @@ namespace {
 struct BenchArgs {
   std::string out;
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
+  bool evaluation = false;
   int threads = 0;
 };
 
@@ -68,14 +69,21 @@ void RunBench(const BenchArgs& args) {
     return;
   }
   const auto eval = bench::RunEvaluationBench(sizes, opt.threads);
-  const auto baseline = bench::RunBaseline(sizes);
-  const auto fits = bench::RunFittingBench(sizes);
-  bench::WriteBenchOutputs(args.out, opt, eval, baseline, fits);
-  spdlog::info("oren-nayar / hand-written baseline = {:.2f} (target <= 1.5)", baseline.ratio);
+  const auto loops = bench::RunReferenceLoops(sizes);
+  const auto fits = args.evaluation ? std::vector<bench::FitRow>{} : bench::RunFittingBench(sizes);
+  bench::WriteBenchOutputs(args.out, opt, eval, loops, fits);
+  nlohmann::json ratios;
+  for (const auto& r : loops) {
+    spdlog::info(
+        "{}: EvaluateBatch {:.2f} ns/eval, vectorised reference loop {:.2f}, ratio {:.2f} "
+        "(target <= {}), scalar loop {:.1f}",
+        r.model, r.ns_registry, r.ns_reference, r.ratio, bench::kReferenceRatioTarget, r.ns_scalar);
+    ratios[r.model] = r.ratio;
+  }
   PrintJson({{"out", args.out},
              {"models", eval.size()},
              {"fits", fits.size()},
-             {"baseline_ratio", baseline.ratio}});
+             {"ratio_registry_over_reference_loop", ratios}});
 }
 
 }  // namespace
@@ -99,6 +107,10 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--sfs", args->sfs,
                 "shape from shading instead: solve time vs normal error of solver configurations "
                 "and robustness curves (sfs_bench.json + charts)")
+      ->excludes(stability);
+  cmd->add_flag("--evaluation", args->evaluation,
+                "only the evaluation timings, errors and reference loops (bench.json without "
+                "fits)")
       ->excludes(stability);
   cmd->add_option("--threads", args->threads, "threads of the all-thread timings (0 = all)")
       ->check(CLI::NonNegativeNumber);

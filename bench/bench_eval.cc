@@ -1,4 +1,5 @@
-// Evaluation timings, errors against the most exact method, and the hand-written baseline.
+// Evaluation timings, errors against the most exact method, and the batch path against
+// independent vectorised loops of the same formulas (bench_reference_loops.h).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,6 +8,7 @@
 
 #include "bench/bench_internal.h"
 #include "bench/bench_lib.h"
+#include "bench/bench_reference_loops.h"
 #include "common/error.h"
 #include "common/log.h"
 #include "common/math.h"
@@ -136,6 +138,12 @@ std::string MostExactReference(const std::string& model) {
   return ref;
 }
 
+std::string ReferenceChain(const std::string& model) {
+  const std::string ref = MostExactReference(model);
+  if (const HighOrderReference* high = FindHighOrder(ref)) return high->model;
+  return ref;
+}
+
 std::vector<double> MapParams(const std::string& model, const std::vector<double>& params,
                               const std::string& ref) {
   const HighOrderReference* high = FindHighOrder(ref);
@@ -204,6 +212,7 @@ std::vector<EvalRow> RunEvaluationBench(const BenchSizes& s, int threads) {
     EvalRow row;
     row.model = info.name;
     row.method = info.method;
+    row.vectorised = HasVectorisedBatch(info.name);
     const std::vector<double> params = BenchParams(info);
     auto run = [&](int t) {
       return [&, t](size_t n) {
@@ -253,69 +262,88 @@ std::vector<EvalRow> RunEvaluationBench(const BenchSizes& s, int threads) {
   return rows;
 }
 
-// Oren & Nayar 1994 eq. 27-29 (the same maths as reflectance/oren_nayar.h OrenNayar), written
-// as a plain loop with every per-batch constant hoisted: the baseline the registry's batch path
-// is measured against.
-void OrenNayarBaselineLoop(double rho, double sigma, const double* ti, const double* tr,
-                           const double* ph, size_t n, double* out) {
-  const double s2 = sigma * sigma;
-  const double c1 = 1.0 - 0.5 * s2 / (s2 + 0.33);
-  const double g = s2 / (s2 + 0.09);
-  const double k2 = 0.45 * g;
-  const double k3 = 0.125 * g * (16.0 * kInvPi * kInvPi * kInvPi * kInvPi);
-  const double k_inter = 0.17 * rho * s2 / (s2 + 0.13);
-  const double k_out = rho * kInvPi;
-  const double two_over_pi = 2.0 * kInvPi;
-  for (size_t k = 0; k < n; ++k) {
-    const double alpha = std::max(ti[k], tr[k]), beta = std::min(ti[k], tr[k]);
-    const double cp = std::cos(ph[k]);
-    const double tb = two_over_pi * beta;
-    double c2 = std::sin(alpha);
-    if (cp < 0) c2 -= tb * tb * tb;
-    const double ab = alpha * beta;
-    const double direct = c1 + cp * k2 * c2 * std::tan(beta) +
-                          (1.0 - std::abs(cp)) * k3 * ab * ab * std::tan(0.5 * (alpha + beta));
-    out[k] = k_out * (direct + k_inter * (1.0 - cp * tb * tb));
+namespace {
+
+struct ReferenceLoopEntry {
+  const char* model;
+  const char* formula;
+  ReferenceLoopFn loop;
+};
+
+// Every vectorised closed form with an angle-dependent formula (lambert's batch is a constant
+// store) and its independent loop.
+const std::vector<ReferenceLoopEntry>& ReferenceLoopEntries() {
+  static const std::vector<ReferenceLoopEntry> entries = {
+      {"oren-nayar-qualitative", "Oren & Nayar 1994 eq. 30", OrenNayarQualitativeReferenceLoop},
+      {"oren-nayar", "Oren & Nayar 1994 eq. 27-29", OrenNayarReferenceLoop},
+      {"minnaert", "Minnaert 1941 (Oren & Nayar 1994 sec. 1)", MinnaertReferenceLoop},
+  };
+  return entries;
+}
+
+// n evaluations as passes over the first `block` entries of the arrays: the inputs and output
+// (32 bytes per entry) stay in L2, so the timing measures arithmetic, not memory bandwidth.
+constexpr size_t kReferenceBlock = 4096;
+void RunBlocked(size_t n, const std::function<void(size_t)>& pass) {
+  for (size_t done = 0; done < n; done += kReferenceBlock) {
+    pass(std::min(kReferenceBlock, n - done));
   }
 }
 
-BaselineResult RunBaseline(const BenchSizes& s) {
-  const AngleArrays a = RandomAngles(s.max_batch, 11);
-  std::vector<double> out_base(s.max_batch), out_reg(s.max_batch);
-  const std::vector<double> params = BenchParams(FindModel("oren-nayar"));
-  BaselineResult r;
-  // Interleave the two so machine load drifts hit both alike; keep the best of 3 medians.
-  r.ns_per_eval_baseline = 1e300;
-  r.ns_per_eval_oren_nayar = 1e300;
-  for (int round = 0; round < 3; ++round) {
-    size_t nb = 0, nr = 0;
-    r.ns_per_eval_baseline =
-        std::min(r.ns_per_eval_baseline, TimeNsPerEval(
-                                             [&](size_t n) {
-                                               OrenNayarBaselineLoop(
-                                                   params[0], params[1], a.ti.data(), a.tr.data(),
-                                                   a.ph.data(), n, out_base.data());
-                                             },
-                                             s, &nb));
-    r.ns_per_eval_oren_nayar =
-        std::min(r.ns_per_eval_oren_nayar, TimeNsPerEval(
-                                               [&](size_t n) {
-                                                 EvaluateBatch("oren-nayar", params, a.ti.data(),
-                                                               a.tr.data(), a.ph.data(), n,
-                                                               out_reg.data(), 1);
-                                               },
-                                               s, &nr));
-    r.batch = std::max(nb, nr);
+// M::Evaluate per entry with the library's normal flags: EvaluateBatch without a kernel.
+void ScalarLoop(const std::string& model, const std::vector<double>& params, const double* ti,
+                const double* tr, const double* ph, size_t n, double* out) {
+  VisitModel(model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    for (size_t k = 0; k < n; ++k)
+      out[k] = M::Evaluate(params.data(), Angles<double>{ti[k], tr[k], ph[k]});
+  });
+}
+
+}  // namespace
+
+std::vector<ReferenceLoopResult> RunReferenceLoops(const BenchSizes& s) {
+  const AngleArrays a = RandomAngles(kReferenceBlock, 11);
+  std::vector<double> out_ref(kReferenceBlock), out_reg(kReferenceBlock),
+      out_scalar(kReferenceBlock);
+  std::vector<ReferenceLoopResult> results;
+  for (const ReferenceLoopEntry& e : ReferenceLoopEntries()) {
+    const std::vector<double> params = BenchParams(FindModel(e.model));
+    ReferenceLoopResult r;
+    r.model = e.model;
+    r.formula = e.formula;
+    const std::vector<std::pair<double*, std::function<void(size_t)>>> runs = {
+        {&r.ns_reference,
+         [&](size_t n) {
+           e.loop(params.data(), a.ti.data(), a.tr.data(), a.ph.data(), n, out_ref.data());
+         }},
+        {&r.ns_registry,
+         [&](size_t n) {
+           EvaluateBatch(e.model, params, a.ti.data(), a.tr.data(), a.ph.data(), n, out_reg.data(),
+                         1);
+         }},
+        {&r.ns_scalar, [&](size_t n) {
+           ScalarLoop(e.model, params, a.ti.data(), a.tr.data(), a.ph.data(), n, out_scalar.data());
+         }}};
+    // Interleave the three so machine load drifts hit all alike; keep the best of 3 medians.
+    for (auto& run : runs) *run.first = 1e300;
+    for (int round = 0; round < 3; ++round) {
+      for (auto& [ns, pass] : runs) {
+        size_t batch = 0;
+        *ns = std::min(*ns, TimeNsPerEval([&](size_t n) { RunBlocked(n, pass); }, s, &batch));
+        r.batch = std::max(r.batch, batch);
+      }
+    }
+    r.ratio = r.ns_registry / r.ns_reference;
+    r.speedup_over_scalar = r.ns_scalar / r.ns_registry;
+    const double unit = ErrorUnit(FindModel(e.model), params);
+    for (size_t k = 0; k < kReferenceBlock; ++k) {
+      r.max_rel_diff = std::max(
+          r.max_rel_diff, std::abs(out_reg[k] - out_ref[k]) / std::max(std::abs(out_ref[k]), unit));
+    }
+    results.push_back(r);
   }
-  r.ratio = r.ns_per_eval_oren_nayar / r.ns_per_eval_baseline;
-  const size_t n = std::min<size_t>(r.batch, s.max_batch);
-  OrenNayarBaselineLoop(params[0], params[1], a.ti.data(), a.tr.data(), a.ph.data(), n,
-                        out_base.data());
-  EvaluateBatch("oren-nayar", params, a.ti.data(), a.tr.data(), a.ph.data(), n, out_reg.data(), 1);
-  for (size_t k = 0; k < n; ++k) {
-    r.max_abs_diff = std::max(r.max_abs_diff, std::abs(out_base[k] - out_reg[k]));
-  }
-  return r;
+  return results;
 }
 
 }  // namespace gonio::bench

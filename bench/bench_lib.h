@@ -57,27 +57,42 @@ struct EvalRow {
   std::string reference;       // model name of the reference, "<model>@<order>" or empty
   std::string reference_note;  // "reference chain", "same model, higher quadrature", ...
   double ns_per_eval_1t = 0, ns_per_eval_mt = 0;
+  bool vectorised = false;          // EvaluateBatch runs a vectorised kernel (HasVectorisedBatch)
   size_t batch = 0, batch_mt = 0;   // evaluations per timed repetition (1t, mt)
   double max_err = 0, rms_err = 0;  // albedo/pi units; 0 with reference "" ("no reference")
   size_t grid_points = 0, grid_skipped = 0;  // points where model or reference is undefined
 };
 
-// The hand-written loop of Oren-Nayar eq. 27-29 against the registry model, same run.
-struct BaselineResult {
-  double ns_per_eval_baseline = 0;    // hand-written loop, 1 thread
-  double ns_per_eval_oren_nayar = 0;  // EvaluateBatch("oren-nayar"), 1 thread
-  double ratio = 0;                   // oren-nayar / baseline (target <= 1.5)
-  double max_abs_diff = 0;            // the two agree to rounding (1/sr)
-  size_t batch = 0;
+// The registry's batch path against an independent loop of the same formula compiled with the
+// same flags (bench_reference_loops.h), and against the scalar loop it replaced; same run,
+// 1 thread, passes over 4096 L2-resident random angles (theta 0..80 deg, phi 0..180 deg).
+struct ReferenceLoopResult {
+  std::string model;
+  std::string formula;             // where the reference loop's formula comes from
+  double ns_reference = 0;         // the independent vectorised loop
+  double ns_registry = 0;          // EvaluateBatch(model, ..., 1 thread)
+  double ns_scalar = 0;            // M::Evaluate per entry, normal flags (EvaluateBatch's path
+                                   // for models without a kernel)
+  double ratio = 0;                // ns_registry / ns_reference (target <= 1.5)
+  double speedup_over_scalar = 0;  // ns_scalar / ns_registry
+  double max_rel_diff = 0;         // max |registry - reference| / max(|reference|, albedo/pi)
+  size_t batch = 0;                // evaluations per timed repetition
 };
+inline constexpr double kReferenceRatioTarget = 1.5;
 
 // The reference chain of a model: follows ModelInfo.reference_model, plus the
 // oren-nayar-vcavity -> oren-nayar-facet step (the facet integral has no eq. 44/48
 // approximations). Empty for models without a reference.
 std::string MostExactReference(const std::string& model);
 
+// The chain of methods a model belongs to: the method its errors are finally measured against
+// (the last model of its reference chain; the model itself for a numerical model compared with
+// its own higher quadrature order). Models of one chain approximate the same physics, so their
+// (time, error) points form one Pareto front (eval_pareto). Empty without a reference.
+std::string ReferenceChain(const std::string& model);
+
 std::vector<EvalRow> RunEvaluationBench(const BenchSizes& sizes, int threads);
-BaselineResult RunBaseline(const BenchSizes& sizes);
+std::vector<ReferenceLoopResult> RunReferenceLoops(const BenchSizes& sizes);
 
 // ----- fitting --------------------------------------------------------------------------------
 
@@ -215,7 +230,8 @@ SfsBenchReport RunSfsBench(const BenchOptions& options, const SfsBenchPlan& plan
 
 // bench.json + eval_pareto.{png,svg} + fit_pareto.{png,svg} in `dir`.
 void WriteBenchOutputs(const std::filesystem::path& dir, const BenchOptions& options,
-                       const std::vector<EvalRow>& eval, const BaselineResult& baseline,
+                       const std::vector<EvalRow>& eval,
+                       const std::vector<ReferenceLoopResult>& reference_loops,
                        const std::vector<FitRow>& fits);
 // stability.json + stability_models.{png,svg} + stability_fits.{png,svg} in `dir`.
 void WriteStabilityOutputs(const std::filesystem::path& dir, const BenchOptions& options,

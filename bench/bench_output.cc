@@ -22,12 +22,137 @@ void RenderBoth(const PlotSpec& spec, const fs::path& stem) {
   RenderPlot(spec, fs::path(stem).replace_extension(".svg"));
 }
 
+namespace {
+
+struct Box {
+  double x0, y0, x1, y1;
+  double Overlap(const Box& o) const {
+    const double w = std::min(x1, o.x1) - std::max(x0, o.x0);
+    const double h = std::min(y1, o.y1) - std::max(y0, o.y0);
+    return w > 0 && h > 0 ? w * h : 0.0;
+  }
+};
+
+}  // namespace
+
+// Each label (left to right) tries the spot right of its point, then left of it, then both
+// shifted up and down by whole lines, and takes the first one that overlaps no label placed
+// before, no point and stays inside the plot; with none free, the one with the least overlap.
+std::vector<PlacedLabel> PlaceLabels(const std::vector<double>& px, const std::vector<double>& py,
+                                     const std::vector<std::string>& text, double width_px,
+                                     double height_px) {
+  std::vector<Box> taken;
+  for (size_t k = 0; k < px.size(); ++k) {
+    taken.push_back(
+        {px[k] - kPointPx / 2, py[k] - kPointPx / 2, px[k] + kPointPx / 2, py[k] + kPointPx / 2});
+  }
+  std::vector<size_t> order(px.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return px[a] < px[b]; });
+  const Box plot{0, 0, width_px, height_px};
+  std::vector<PlacedLabel> placed(px.size());
+  for (size_t k : order) {
+    const double w = kLabelCharPx * static_cast<double>(text[k].size()) + 4, h = kLabelLinePx;
+    double best_cost = 1e300;
+    for (int shift : {0, 1, -1, 2, -2, 3, -3, 4, -4, 5, -5}) {
+      for (bool right_aligned : {false, true}) {
+        const double gap = kPointPx / 2 + 3;
+        const double x0 = right_aligned ? px[k] - gap - w : px[k] + gap;
+        const double yc = py[k] + shift * kLabelLinePx;
+        const Box box{x0, yc - h / 2, x0 + w, yc + h / 2};
+        double cost = box.Overlap(plot) < w * h - 1e-9 ? w * h - box.Overlap(plot) : 0.0;
+        for (size_t j = 0; j < taken.size(); ++j) {
+          if (j != k) cost += box.Overlap(taken[j]);
+        }
+        if (cost < best_cost) {
+          best_cost = cost;
+          placed[k] = {(right_aligned ? x0 + w : x0) / width_px, yc / height_px, right_aligned,
+                       std::abs(shift) >= 2};
+        }
+        if (cost == 0) break;
+      }
+      if (best_cost == 0) break;
+    }
+    const PlacedLabel& p = placed[k];
+    const double x0 = p.gx * width_px - (p.right_aligned ? w : 0);
+    taken.push_back({x0, p.gy * height_px - h / 2, x0 + w, p.gy * height_px + h / 2});
+  }
+  return placed;
+}
+
+namespace {
+
+// Log10 range of `v` padded by `lo`/`hi` of its span, widened to whole decades so both axes
+// carry labelled tics even when every point lies within one decade.
+std::pair<double, double> LogRange(const std::vector<double>& v, double lo, double hi) {
+  double a = 1e300, b = -1e300;
+  for (double x : v) {
+    a = std::min(a, std::log10(x));
+    b = std::max(b, std::log10(x));
+  }
+  const double span = std::max(0.5, b - a);
+  return {std::floor(a - lo * span), std::ceil(b + hi * span)};
+}
+
+// gnuplot commands for log ranges fixed around the points (room for labels on the right), so
+// the label placement knows where every point lands in a plot_w x plot_h pixel area, and the
+// labels themselves with leader lines where PlaceLabels moved them away.
+std::string RangesAndLabels(const std::vector<double>& xs, const std::vector<double>& ys,
+                            const std::vector<std::string>& text, double plot_w, double plot_h) {
+  std::ostringstream out;
+  const auto [x0, x1] = LogRange(xs, 0.08, 0.35);
+  const auto [y0, y1] = LogRange(ys, 0.1, 0.1);
+  out << "set xrange [" << std::pow(10.0, x0) << ":" << std::pow(10.0, x1) << "]\nset yrange ["
+      << std::pow(10.0, y0) << ":" << std::pow(10.0, y1) << "]\n";
+  std::vector<double> px, py;
+  for (size_t k = 0; k < xs.size(); ++k) {
+    px.push_back((std::log10(xs[k]) - x0) / (x1 - x0) * plot_w);
+    py.push_back((std::log10(ys[k]) - y0) / (y1 - y0) * plot_h);
+  }
+  const std::vector<PlacedLabel> placed = PlaceLabels(px, py, text, plot_w, plot_h);
+  for (size_t k = 0; k < xs.size(); ++k) {
+    const PlacedLabel& p = placed[k];
+    out << "set label " << GnuplotQuote(text[k]) << " at graph " << p.gx << "," << p.gy
+        << (p.right_aligned ? " right" : " left") << " font ',8' noenhanced front\n";
+    if (p.leader) {
+      out << "set arrow from " << xs[k] << "," << ys[k] << " to graph " << p.gx << "," << p.gy
+          << " nohead lw 0.6 lc rgb '#999999'\n";
+    }
+  }
+  return out.str();
+}
+
+// The entries that cannot sit on the log axes, listed under the chart in lines of one label
+// each (so a long list stays on the canvas); empty when there are none.
+std::string Footnote(const std::vector<std::string>& left_out) {
+  if (left_out.empty()) return "";
+  std::vector<std::string> lines = {"not shown (error 0, no reference or failed):"};
+  for (const std::string& item : left_out) {
+    if (lines.back().size() + item.size() > 170) {
+      lines.back() += ",";
+      lines.push_back(item);
+    } else {
+      lines.back() += (lines.back().back() == ':' ? " " : ", ") + item;
+    }
+  }
+  std::ostringstream out;
+  out << "set bmargin " << 5 + lines.size() << "\n";
+  for (size_t i = 0; i < lines.size(); ++i) {
+    out << "set label " << GnuplotQuote(lines[i]) << " at screen 0.01, screen "
+        << 0.015 + 0.018 * static_cast<double>(lines.size() - 1 - i) << " font ',8' noenhanced\n";
+  }
+  return out.str();
+}
+
+}  // namespace
+
 void ParetoChart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
                  const std::vector<std::string>& labels, const std::vector<std::string>& group,
                  const std::vector<double>& cost, const std::vector<double>& err,
                  const fs::path& stem, const std::string& style,
                  const std::vector<std::string>& front_key,
-                 const std::map<std::string, std::string>& group_style) {
+                 const std::map<std::string, std::string>& group_style,
+                 const std::map<std::string, std::string>& front_style) {
   PlotSpec spec;
   spec.title = title;
   spec.xlabel = xlabel;
@@ -37,15 +162,15 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   spec.height = 800;
   // Points of one front key: their costs, errors (the front is computed per key).
   std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> fronts;
-  std::string left_out;
+  std::vector<std::string> left_out;
   std::map<std::string, PlotSeries> series;
-  std::ostringstream extra;
-  extra << "set format y '%.0e'\n";
+  std::vector<size_t> shown;
   for (size_t k = 0; k < cost.size(); ++k) {
     if (!(err[k] > 0) || !(cost[k] > 0)) {
-      left_out += (left_out.empty() ? "" : ", ") + labels[k];
+      left_out.push_back(labels[k]);
       continue;
     }
+    shown.push_back(k);
     PlotSeries& s = series[group[k]];
     s.label = group[k];
     const auto gs = group_style.find(group[k]);
@@ -57,27 +182,46 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
       fronts[key].first.push_back(cost[k]);
       fronts[key].second.push_back(err[k]);
     }
-    extra << "set label " << GnuplotQuote(labels[k]) << " at " << cost[k] << "," << err[k]
-          << " offset 0.6,0.4 font ',8' noenhanced\n";
   }
   for (auto& [name, s] : series) spec.series.push_back(s);
+  size_t longest_key = 0;
+  for (const auto& s : spec.series) longest_key = std::max(longest_key, s.label.size());
   int dash = 2;  // one dash pattern per front
   for (const auto& [key, ce] : fronts) {
     PlotSeries front;
-    front.label = key.empty() ? "Pareto front" : "Pareto front: " + key;
-    front.style = "lines lw 2 dt " + std::to_string(dash) + " lc rgb '#444444'";
+    const auto fs_it = front_style.find(key);
+    // A front in its own style shares the colour of its points, whose key entry names it.
+    front.label = fs_it != front_style.end() ? ""
+                  : key.empty()              ? "Pareto front"
+                                             : "Pareto front: " + key;
+    front.style = fs_it != front_style.end()
+                      ? fs_it->second
+                      : "lines lw 2 dt " + std::to_string(dash) + " lc rgb '#444444'";
     dash = dash % 5 + 2;
     for (size_t k : ParetoFront(ce.first, ce.second)) {
       front.x.push_back(ce.first[k]);
       front.y.push_back(ce.second[k]);
     }
-    if (!front.x.empty()) spec.series.push_back(front);
+    longest_key = std::max(longest_key, front.label.size());
+    // One point is trivially its own front: no line.
+    if (front.x.size() >= 2) spec.series.push_back(front);
   }
-  if (!left_out.empty()) {
-    extra << "set bmargin 6\nset label "
-          << GnuplotQuote("not shown (error 0, no reference or failed): " + left_out)
-          << " at screen 0.01, screen 0.02 font ',8' noenhanced\n";
+  std::ostringstream extra;
+  extra << "set format y '%.0e'\nset key outside right top font ',9' noenhanced\n";
+  if (!shown.empty()) {
+    // The plot area is the canvas less margins and the key, estimated.
+    const double plot_w = spec.width - 110.0 - 7.0 * static_cast<double>(longest_key) - 70.0;
+    const double plot_h = spec.height - 120.0 - (left_out.empty() ? 0.0 : 60.0);
+    std::vector<double> xs, ys;
+    std::vector<std::string> text;
+    for (size_t k : shown) {
+      xs.push_back(cost[k]);
+      ys.push_back(err[k]);
+      text.push_back(labels[k]);
+    }
+    extra << RangesAndLabels(xs, ys, text, plot_w, plot_h);
   }
+  extra << Footnote(left_out);
   spec.extra = extra.str();
   if (spec.series.empty()) {
     // Nothing on a log axis (e.g. a smoke run without references): draw an empty frame.
@@ -187,6 +331,7 @@ nlohmann::json EvaluationJson(const std::vector<EvalRow>& eval) {
                   {"reference_note", r.reference_note},
                   {"ns_per_eval_1t", r.ns_per_eval_1t},
                   {"ns_per_eval_mt", r.ns_per_eval_mt},
+                  {"vectorised", r.vectorised},
                   {"batch_1t", r.batch},
                   {"batch_mt", r.batch_mt},
                   {"max_err", r.max_err},
@@ -195,6 +340,23 @@ nlohmann::json EvaluationJson(const std::vector<EvalRow>& eval) {
                   {"grid_skipped", r.grid_skipped}});
   }
   return ev;
+}
+
+nlohmann::json ReferenceLoopsJson(const std::vector<ReferenceLoopResult>& loops) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& r : loops) {
+    out.push_back({{"model", r.model},
+                   {"reference_formula", r.formula},
+                   {"ns_per_eval_reference", r.ns_reference},
+                   {"ns_per_eval_registry", r.ns_registry},
+                   {"ns_per_eval_scalar", r.ns_scalar},
+                   {"ratio_registry_over_reference", r.ratio},
+                   {"target_ratio", kReferenceRatioTarget},
+                   {"speedup_over_scalar", r.speedup_over_scalar},
+                   {"max_rel_diff", r.max_rel_diff},
+                   {"batch", r.batch}});
+  }
+  return out;
 }
 
 nlohmann::json FittingJson(const std::vector<FitRow>& fits) {
@@ -216,32 +378,50 @@ nlohmann::json FittingJson(const std::vector<FitRow>& fits) {
   return fj;
 }
 
-// eval_pareto.{png,svg}: time against max error of every model with a reference; returns the
-// models on the Pareto front.
+// eval_pareto.{png,svg}: time against max error of every model with a reference, one colour
+// and one Pareto front per reference chain (ReferenceChain: methods of the same physics; a front
+// across chains would trade one physics for another). Returns, per chain, the models on its
+// front ordered by time.
 nlohmann::json EvaluationChart(const fs::path& dir, const std::vector<EvalRow>& eval) {
-  std::vector<std::string> labels, groups;
+  std::vector<std::string> labels, groups, chains;
   std::vector<double> cost, err;
   for (const auto& r : eval) {
-    labels.push_back(r.model);
-    groups.push_back(r.method);
+    const std::string chain = r.reference.empty() ? "" : ReferenceChain(r.model);
+    labels.push_back(r.model + (r.method == "closed-form" ? "" : " (" + r.method + ")"));
+    groups.push_back(chain.empty() ? "no reference" : "chain: " + chain);
+    chains.push_back(chain);
     cost.push_back(r.ns_per_eval_1t);
     err.push_back(r.reference.empty() ? 0.0 : r.max_err);
   }
-  nlohmann::json front = nlohmann::json::array();
-  std::vector<double> c, e;
-  std::vector<size_t> idx;
-  for (size_t k = 0; k < cost.size(); ++k) {
-    if (err[k] > 0) {
-      c.push_back(cost[k]);
-      e.push_back(err[k]);
-      idx.push_back(k);
+  const std::vector<std::string> palette = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
+                                            "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
+  std::map<std::string, std::string> point_style, front_style;
+  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> by_chain;
+  std::map<std::string, std::vector<size_t>> members;
+  for (size_t k = 0; k < eval.size(); ++k) {
+    if (chains[k].empty() || !(err[k] > 0) || !(cost[k] > 0)) continue;
+    if (!front_style.count(chains[k])) {
+      const std::string colour = palette[front_style.size() % palette.size()];
+      front_style[chains[k]] = "lines lw 2 dt 2 lc rgb '" + colour + "'";
+      point_style[groups[k]] = "points pt 7 ps 1.4 lc rgb '" + colour + "'";
     }
+    by_chain[chains[k]].first.push_back(cost[k]);
+    by_chain[chains[k]].second.push_back(err[k]);
+    members[chains[k]].push_back(k);
   }
-  for (size_t k : ParetoFront(c, e)) front.push_back(labels[idx[k]]);
-  ParetoChart("Evaluation: time vs max error against the most exact method",
-              "ns per evaluation (1 thread, log)", "max error over grid [albedo/pi] (log)", labels,
-              groups, cost, err, dir / "eval_pareto");
-  return front;
+  nlohmann::json fronts = nlohmann::json::object();
+  for (const auto& [chain, ce] : by_chain) {
+    nlohmann::json front = nlohmann::json::array();
+    for (size_t k : ParetoFront(ce.first, ce.second))
+      front.push_back(eval[members[chain][k]].model);
+    fronts[chain] = front;
+  }
+  ParetoChart(
+      "Evaluation: time vs max error against the most exact method of each chain "
+      "(dashed: the chain's Pareto front)",
+      "ns per evaluation (1 thread, log)", "max error over grid [albedo/pi] (log)", labels, groups,
+      cost, err, dir / "eval_pareto", "points pt 7 ps 1.4", chains, point_style, front_style);
+  return fronts;
 }
 
 // fit_pareto.{png,svg}: fit time against parameter error per model and sample count.
@@ -263,7 +443,8 @@ void FittingChart(const fs::path& dir, const std::vector<FitRow>& fits, double n
 }  // namespace
 
 void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
-                       const std::vector<EvalRow>& eval, const BaselineResult& baseline,
+                       const std::vector<EvalRow>& eval,
+                       const std::vector<ReferenceLoopResult>& reference_loops,
                        const std::vector<FitRow>& fits) {
   EnsureDirectory(dir);
   const BenchSizes s = SizesFor(options);
@@ -279,13 +460,7 @@ void WriteBenchOutputs(const fs::path& dir, const BenchOptions& options,
                      " repetitions after warm-up, batches of uniform random angles"},
       {"param_error_unit", "|fitted - true| / registry range, determined parameters only"}};
   j["evaluation"] = EvaluationJson(eval);
-  j["baseline"] = {{"what", "hand-written loop of Oren-Nayar eq. 27-29, same run"},
-                   {"ns_per_eval_baseline", baseline.ns_per_eval_baseline},
-                   {"ns_per_eval_oren_nayar", baseline.ns_per_eval_oren_nayar},
-                   {"ratio_oren_nayar_over_baseline", baseline.ratio},
-                   {"target_ratio", 1.5},
-                   {"max_abs_diff", baseline.max_abs_diff},
-                   {"batch", baseline.batch}};
+  j["reference_loops"] = ReferenceLoopsJson(reference_loops);
   j["fitting"] = FittingJson(fits);
   j["pareto_evaluation"] = EvaluationChart(dir, eval);
   FittingChart(dir, fits, s.fit_noise);

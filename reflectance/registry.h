@@ -27,10 +27,9 @@ namespace gonio {
 
 using AllModels =
     std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarVCavity, OrenNayarFacet,
-               OrenNayarFujii, OrenNayarFujiiEc,
-               TorranceSparrow, TorranceSparrowF1, Tson, Pitted, PittedExact, PittedHemispherical,
-               VanGinneken, VanGinnekenFresnel, LiTorranceFull, LiTorranceDd, LiTorranceDdUdf,
-               LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
+               OrenNayarFujii, OrenNayarFujiiEc, TorranceSparrow, TorranceSparrowF1, Tson, Pitted,
+               PittedExact, PittedHemispherical, VanGinneken, VanGinnekenFresnel, LiTorranceFull,
+               LiTorranceDd, LiTorranceDdUdf, LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
 
 template <typename M>
 struct ModelTag {
@@ -88,9 +87,15 @@ std::string EvaluateChecked(const std::string& model, const std::vector<double>&
 
 // Batch evaluation over structure-of-arrays angles with `threads` threads (<= 0: all cores).
 // Out-of-domain entries are evaluated as the model's formula gives them; use EvaluateChecked
-// for per-row validity.
+// for per-row validity. The closed forms of batch_internal::VectorisedModels (lambert,
+// minnaert, oren-nayar, oren-nayar-qualitative) run a loop vectorised across angles
+// (batch_kernels.h): inside the closed hemisphere their values equal M::Evaluate to a relative
+// 1e-14 (libmvec's sin/cos/tan/exp/log, tests/reflectance/batch_test.cc); entries with an angle
+// outside it or not finite, or a non-finite result, are M::Evaluate exactly.
 void EvaluateBatch(const std::string& model, const std::vector<double>& params,
                    const double* theta_i, const double* theta_r, const double* phi, size_t n,
                    double* out, int threads);
+// True when EvaluateBatch runs `model` through a vectorised kernel (batch_kernels.h).
+bool HasVectorisedBatch(const std::string& model);
 
 }  // namespace gonio

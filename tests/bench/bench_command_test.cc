@@ -18,7 +18,7 @@ TEST(BenchCli, SmokeRunWritesBenchJsonAndCharts) {
   const auto r = RunGonio("bench --smoke --threads 2 --out " + dir.path().string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = ReadJsonFile(dir.path() / "bench.json");
-  ASSERT_TRUE(j.contains("evaluation") && j.contains("fitting") && j.contains("baseline"));
+  ASSERT_TRUE(j.contains("evaluation") && j.contains("fitting") && j.contains("reference_loops"));
   ASSERT_GE(j["evaluation"].size(), 10u);
   for (const auto& row : j["evaluation"]) {
     for (const char* key :
@@ -28,7 +28,11 @@ TEST(BenchCli, SmokeRunWritesBenchJsonAndCharts) {
     EXPECT_GT(row["ns_per_eval_1t"].get<double>(), 0.0) << row["model"];
     EXPECT_GE(row["max_err"].get<double>(), 0.0);
   }
-  EXPECT_GT(j["baseline"]["ratio_oren_nayar_over_baseline"].get<double>(), 0.0);
+  ASSERT_EQ(j["reference_loops"].size(), 3u);
+  for (const auto& loop : j["reference_loops"]) {
+    EXPECT_GT(loop["ratio_registry_over_reference"].get<double>(), 0.0) << loop["model"];
+    EXPECT_LT(loop["max_rel_diff"].get<double>(), 1e-12) << loop["model"];
+  }
   ASSERT_FALSE(j["fitting"].empty());
   for (const char* f : {"eval_pareto.png", "eval_pareto.svg", "fit_pareto.png", "fit_pareto.svg"}) {
     EXPECT_GT(std::filesystem::file_size(dir.path() / f), 1000u) << f;

@@ -1,5 +1,7 @@
 #include "reflectance/registry.h"
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -46,7 +48,7 @@ TEST(Registry, EvaluateCheckedRejectsBelowHorizon) {
 }
 
 // Every registered model: finite, non-negative values over the whole hemisphere up to
-// 89.9 deg at default parameters, and batch evaluation identical to single evaluation.
+// 89.9 deg at default parameters, and batch evaluation equal to single evaluation.
 TEST(Registry, EveryModelFiniteNonNegativeAndBatchMatchesSingle) {
   for (const auto& m : RegisteredModels()) {
     std::vector<double> p;
@@ -68,7 +70,11 @@ TEST(Registry, EveryModelFiniteNonNegativeAndBatchMatchesSingle) {
     }
     std::vector<double> batch(ti.size());
     EvaluateBatch(m.name, p, ti.data(), tr.data(), ph.data(), ti.size(), batch.data(), 2);
-    for (size_t k = 0; k < batch.size(); ++k) EXPECT_DOUBLE_EQ(batch[k], single[k]) << m.name;
+    // The vectorised kernels use libmvec (within 4 ulp per function): the bound measured and
+    // argued in batch_test.cc, loosened for tan(89.9 deg) = 573.
+    for (size_t k = 0; k < batch.size(); ++k) {
+      EXPECT_NEAR(batch[k], single[k], 1e-12 * std::max(std::abs(single[k]), kInvPi)) << m.name;
+    }
   }
 }
 

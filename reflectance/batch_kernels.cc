@@ -1,0 +1,60 @@
+// The vectorised batch loops (batch_kernels.h). This file is compiled with -O3 -ffast-math and,
+// with GONIO_NATIVE_BATCH, -march=native (reflectance/CMakeLists.txt): no floating-point test
+// for NaN or Inf works here (-ffast-math assumes neither occurs), so entries are flagged on their
+// bit patterns and EvaluateBatch (registry.cc, IEEE flags) re-evaluates them.
+#include "reflectance/batch_kernels.h"
+
+#include <cstdint>
+#include <cstring>
+
+#include "common/math.h"
+
+namespace gonio::batch_internal {
+
+namespace {
+
+// Floating-point compares cannot test for NaN/Inf here (-ffast-math lets GCC assume neither),
+// integer operations on the bits can: an IEEE double is Inf or NaN exactly when its exponent
+// bits are all set, and for theta the unsigned order of the bits is the numeric order of the
+// non-negative doubles, with -0, negatives and NaN above every positive finite value.
+inline uint64_t Bits(double x) {
+  uint64_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+constexpr uint64_t kExponentBits = 0x7ff0000000000000ull;
+inline bool NotFinite(double x) { return (Bits(x) & kExponentBits) == kExponentBits; }
+
+}  // namespace
+
+// flatten inlines M::Evaluate and its helpers into the loop, so this file emits no out-of-line
+// copy of a header function compiled with -ffast-math that the linker could pick for the
+// normally compiled callers (EvaluateChecked, the Jet fits use other instantiations anyway).
+template <typename M>
+__attribute__((flatten)) size_t VectorisedKernel(const double* params, const double* theta_i,
+                                                 const double* theta_r, const double* phi, size_t n,
+                                                 double* out) {
+  // The horizon tolerance of EvaluateChecked (registry.cc).
+  const uint64_t horizon = Bits(kHalfPi + 1e-12);
+  size_t flagged = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double value = M::Evaluate(params, Angles<double>{theta_i[k], theta_r[k], phi[k]});
+    out[k] = value;
+    flagged += (Bits(theta_i[k]) > horizon) | (Bits(theta_r[k]) > horizon) | NotFinite(phi[k]) |
+               NotFinite(value);
+  }
+  return flagged;
+}
+
+template size_t VectorisedKernel<Lambert>(const double*, const double*, const double*,
+                                          const double*, size_t, double*);
+template size_t VectorisedKernel<Minnaert>(const double*, const double*, const double*,
+                                           const double*, size_t, double*);
+template size_t VectorisedKernel<OrenNayarQualitative>(const double*, const double*, const double*,
+                                                       const double*, size_t, double*);
+template size_t VectorisedKernel<OrenNayar>(const double*, const double*, const double*,
+                                            const double*, size_t, double*);
+static_assert(std::tuple_size_v<VectorisedModels> == 4,
+              "instantiate VectorisedKernel for every model of VectorisedModels");
+
+}  // namespace gonio::batch_internal
