@@ -113,6 +113,10 @@ struct PlanCoverage {
   std::string Report() const;
   nlohmann::json ToJson() const;
 };
+
+// The coverage of `planned` by the located frames of a run, into result->plan_coverage(_report).
+void AddPlanCoverage(const std::vector<Rigid3d>& planned, const Board& board, RunResult* result);
+
 PlanCoverage CompareWithPlan(const std::vector<Rigid3d>& planned,
                              const std::vector<Rigid3d>& achieved, const Eigen::Vector3d& target,
                              double max_angle_deg = 10);

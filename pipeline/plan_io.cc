@@ -290,4 +290,12 @@ nlohmann::json PlanCoverage::ToJson() const {
           {"views", views}};
 }
 
+void AddPlanCoverage(const std::vector<Rigid3d>& planned, const Board& board, RunResult* result) {
+  std::vector<Rigid3d> achieved;
+  for (const auto& f : result->poses.frames) achieved.push_back(f.pose.cam_from_board);
+  const PlanCoverage c = CompareWithPlan(planned, achieved, SampleCentre(board));
+  result->plan_coverage = c.ToJson();
+  result->plan_coverage_report = c.Report();
+}
+
 }  // namespace gonio
