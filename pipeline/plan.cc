@@ -61,22 +61,22 @@ struct Region {
 // The pixel range the regions' corners project to.
 void RegionBounds(const std::vector<Region>& regions, const Rigid3d& cam_from_board,
                   const CameraModel& camera, int patch, int* u0, int* u1, int* v0, int* v1) {
-  double umin = camera.width, umax = 0, vmin = camera.height, vmax = 0;
+  std::vector<cv::Point2f> corners;
   for (const auto& r : regions) {
     for (const auto& q : r.contour) {
       const Eigen::Vector3d p_in_cam = cam_from_board * Eigen::Vector3d(q.x, q.y, 0.0);
       if (p_in_cam.z() <= 0) continue;
       const Eigen::Vector2d px = camera.Project(p_in_cam);
-      umin = std::min(umin, px.x());
-      umax = std::max(umax, px.x());
-      vmin = std::min(vmin, px.y());
-      vmax = std::max(vmax, px.y());
+      corners.emplace_back(std::clamp<double>(px.x(), -1, camera.width),
+                           std::clamp<double>(px.y(), -1, camera.height));
     }
   }
-  *u0 = std::max(0, static_cast<int>(umin));
-  *u1 = std::min(camera.width - patch, static_cast<int>(umax));
-  *v0 = std::max(0, static_cast<int>(vmin));
-  *v1 = std::min(camera.height - patch, static_cast<int>(vmax));
+  const cv::Rect box = corners.empty() ? cv::Rect() : cv::boundingRect(corners);
+  *u0 = std::max(0, box.x);
+  *u1 = std::min(camera.width - patch, box.x + box.width);
+  *v0 = std::max(0, box.y);
+  *v1 = std::min(camera.height - patch, box.y + box.height);
+  if (corners.empty()) *u1 = *v1 = -1;
 }
 
 // Variance of one pixel's relative exposure X: shot noise, read noise and quantization through
