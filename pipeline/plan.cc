@@ -104,6 +104,10 @@ void PlanOptions::Check() const {
   hypothesis.Check();
   fit.Check();
   extract.Check();
+  if (hypothesis.light_frame == LightFrame::kBoard && !(hypothesis.light.z() < 0)) {
+    throw InputError(
+        "--lamp: z must be negative (the lamp in front of the board, docs/conventions.md)");
+  }
   if (views < 1 || views > 200) throw InputError("--views must be in [1, 200]");
   if (white_albedo && !(*white_albedo > 0 && *white_albedo <= 1)) {
     throw InputError("--white-albedo must be in (0, 1]");

@@ -39,6 +39,11 @@ nlohmann::json ViewJson(const PlannedView& v) {
           {"saturated_patches", v.saturated}};
 }
 
+// A number for the report, or what its absence means (never "inf" or "nan").
+std::string Figure(double v, const char* otherwise) {
+  return std::isfinite(v) ? fmt::format("{:.4g}", v) : std::string(otherwise);
+}
+
 // One line per parameter: predicted scatter and the fit's reported stddev, plan vs orbit.
 std::string PredictionTable(const PredictedUncertainty& plan, const PredictedUncertainty& orbit) {
   std::string s = fmt::format("  {:<12} {:>14} {:>14} {:>14}\n", "parameter", "plan scatter",
@@ -46,12 +51,12 @@ std::string PredictionTable(const PredictedUncertainty& plan, const PredictedUnc
   for (size_t k = 0; k < plan.names.size(); ++k) {
     const int j = orbit.Index(plan.names[k]);
     const double o = j >= 0 ? orbit.scatter[j] : INFINITY;
-    s += fmt::format(
-        "  {:<12} {:>14.4g} {:>14.4g} {:>14}\n", plan.names[k], plan.scatter[k], o,
-        plan.reported[k] ? fmt::format("{:.4g}", *plan.reported[k]) : std::string("undetermined"));
+    s += fmt::format("  {:<12} {:>14} {:>14} {:>14}\n", plan.names[k],
+                     Figure(plan.scatter[k], "unseen"), Figure(o, "unseen"),
+                     Figure(plan.reported[k].value_or(NAN), "undetermined"));
   }
-  s += fmt::format("  {:<12} {:>14.4g} {:>14.4g}\n", "lamp (m)", plan.LampScatter(),
-                   orbit.LampScatter());
+  s += fmt::format("  {:<12} {:>14} {:>14}\n", "lamp (m)", Figure(plan.LampScatter(), "unseen"),
+                   Figure(orbit.LampScatter(), "unseen"));
   return s;
 }
 
@@ -172,8 +177,8 @@ std::string PlanResult::Report() const {
   s += "predicted standard deviations (scatter: pixel noise only; reported: what the fit will "
        "say, with its 1% floor):\n";
   s += PredictionTable(plan_prediction, orbit_prediction);
-  s += fmt::format("criterion: plan {:.4g}, default orbit {:.4g} (lower is better)\n",
-                   plan_criterion, orbit_criterion);
+  s += fmt::format("criterion: plan {}, default orbit {} (lower is better)\n",
+                   Figure(plan_criterion, "unusable"), Figure(orbit_criterion, "unusable"));
   return s;
 }
 
@@ -271,8 +276,9 @@ std::string PlanCoverage::Report() const {
     const bool ok =
         nearest_angle_deg[i] <= max_angle_deg && std::abs(nearest_distance_ratio[i] - 1) <= 0.15;
     if (!ok) {
-      s += fmt::format("  view {}: nearest frame {:.1f} deg away, {:.0f}% of the distance\n", i + 1,
-                       nearest_angle_deg[i], 100 * nearest_distance_ratio[i]);
+      s += fmt::format("  view {}: nearest frame {} deg away, {} x the distance\n", i + 1,
+                       Figure(nearest_angle_deg[i], "(none located)"),
+                       Figure(nearest_distance_ratio[i], "-"));
     }
   }
   return s;

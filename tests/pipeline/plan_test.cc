@@ -208,6 +208,7 @@ TEST_F(PlanCli, BadInputIsOneLineNamingTheOption) {
   const std::string material = "--material oren-nayar:sigma=0.5,albedo=0.6";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"--lamp 1,2 " + material, "--lamp"},
+      {"--lamp 0.1,0.1,0.5 " + material, "--lamp"},
       {"--lamp 0,0,-0.5 --material oren-nayar:sigma=9", "--material"},
       {"--lamp 0,0,-0.5 --material glass", "--material"},
       {"--lamp 0,0,-0.5 " + material + " --views 0", "--views"},
