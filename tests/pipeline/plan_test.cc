@@ -108,6 +108,23 @@ TEST_F(Plan, CoverageOfAPlanAgainstTheFramesTaken) {
   EXPECT_EQ(CompareWithPlan(planned, half, centre).covered, 4u);
 }
 
+// Patches whose expected exposure would clip are dropped, as the extraction drops saturated
+// pixels: at 2.5x the exposure the brightest part of the sample (towards the lamp's mirror
+// direction and the white reference) is lost, the rest stays.
+TEST_F(Plan, SaturatingPatchesAreDropped) {
+  const Rigid3d pose = DefaultOrbit(board_, 8)[1];
+  const PlannedView normal = PredictView(pose, scene_.camera, board_, options_);
+  PlanOptions bright = options_;
+  bright.exposure_s = 2.5 * options_.exposure_s;
+  const PlannedView over = PredictView(pose, scene_.camera, board_, bright);
+  fmt::print("patches {} -> {}, saturated {} -> {}\n", normal.patches, over.patches,
+             normal.saturated, over.saturated);
+  EXPECT_EQ(normal.saturated, 0u);
+  EXPECT_GT(over.saturated, 0u);
+  EXPECT_GT(over.patches, 0u);
+  EXPECT_LT(over.patches, normal.patches);
+}
+
 // `gonio run --plan`: the coverage lands in the run's report and fit.json.
 TEST_F(Plan, RunReportsTheCoverageOfItsPlan) {
   const std::vector<Rigid3d> orbit = DefaultOrbit(board_, 8);
