@@ -29,13 +29,6 @@ Eigen::Vector3d Centroid(const std::vector<Eigen::Vector2d>& poly) {
   return c / static_cast<double>(std::max<size_t>(1, poly.size()));
 }
 
-// The lamp in the board frame for a camera pose (a flash moves with the camera).
-Eigen::Vector3d LampInBoard(const DesignHypothesis& h, const Rigid3d& cam_from_board) {
-  if (h.light_frame == LightFrame::kBoard) return h.light;
-  const Rigid3d board_from_cam = cam_from_board.Inverse();
-  return board_from_cam.R * h.light + board_from_cam.t;
-}
-
 // The camera sees every tag corner and the whole sample region, 2% inside the image.
 bool Reachable(const Rigid3d& cam_from_board, const CameraModel& camera, const Board& board) {
   std::vector<Eigen::Vector3d> points = board.Points();
@@ -206,7 +199,9 @@ PlannedView PredictView(const Rigid3d& cam_from_board, const CameraModel& camera
     }
   }
   view.patches = static_cast<size_t>(weight * set.observations.size());
-  const double light_range = (LampInBoard(o.hypothesis, cam_from_board) - target).norm();
+  // The lamp columns' scale as the fit sets it: the fitted lamp vector (in its own frame) minus a
+  // sample point (joint_fit.cc AnalyzeJointUncertainty).
+  const double light_range = (o.hypothesis.light - target).norm();
   view.information = ObservationInformation(set, weights, o.hypothesis, light_range, o.fit);
   return view;
 }
