@@ -60,14 +60,13 @@ std::string PredictionTable(const PredictedUncertainty& plan, const PredictedUnc
   return s;
 }
 
-// Angles at the sample centre for a pose: (theta_i, theta_r, phi) in degrees.
-Angles<double> CentreAngles(const PlannedView& v, const DesignHypothesis& h,
-                            const Eigen::Vector3d& centre) {
+// (theta_i, theta_r, phi) at board point `p` for a pose, radians.
+Angles<double> AnglesAt(const PlannedView& v, const DesignHypothesis& h, const Eigen::Vector3d& p) {
   const Rigid3d board_from_cam = v.cam_from_board.Inverse();
   const Eigen::Vector3d lamp = h.light_frame == LightFrame::kBoard
                                    ? h.light
                                    : Eigen::Vector3d(board_from_cam.R * h.light + board_from_cam.t);
-  const Eigen::Vector3d l = lamp - centre, c = board_from_cam.t - centre;
+  const Eigen::Vector3d l = lamp - p, c = board_from_cam.t - p;
   const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {c.x(), -c.y(), -c.z()};
   return AnglesFromDirections(ls, vs);
 }
@@ -125,24 +124,37 @@ void PlotTopView(const PlanResult& r, const Board& board, const fs::path& out) {
   RenderPlot(spec, out);
 }
 
+// The viewing directions in the sample's frame relative to the lamp: theta_r as the radius,
+// phi (0 = back towards the lamp) as the angle, colour theta_i; one point per view at the sample
+// centre and at each corner of the sample region, so each view shows the spread it covers.
 void PlotCoverage(const PlanResult& r, const Board& board, const fs::path& out) {
   PlotSpec spec;
-  spec.title = "(theta_i, theta_r) at the sample centre; colour: phi (deg)";
-  spec.xlabel = "theta_i (deg)";
-  spec.ylabel = "theta_r (deg)";
-  const Eigen::Vector3d centre = SampleCentre(board);
-  std::string e = "set cbrange [0:180]\nset palette defined (0 'blue', 90 'green', 180 'red')\n";
+  spec.title = "theta_r (radius, deg), phi (angle; 0: the lamp's side), theta_i (colour)";
+  spec.xlabel = "theta_r cos(phi) (deg)";
+  spec.ylabel = "theta_r sin(phi) (deg)";
+  spec.width = 900;
+  spec.height = 560;
+  std::vector<Eigen::Vector3d> points = {SampleCentre(board)};
+  for (const auto& q : board.sample_region()) points.emplace_back(q.x(), q.y(), 0.0);
+  std::string e =
+      "set size ratio -1\nset xrange [-90:90]\nset yrange [-5:90]\nset cbrange [0:90]\n"
+      "set cblabel 'theta_i (deg)'\nset palette defined (0 'blue', 45 'green', 90 'red')\n"
+      "set object circle at 0,0 size 90 fs empty border lc rgb '#a0a0a0'\n"
+      "set object circle at 0,0 size 45 fs empty border lc rgb '#d0d0d0'\n";
   for (const auto* views : {&r.plan, &r.orbit}) {
     e += views == &r.plan ? "$plan << EOD\n" : "$orbit << EOD\n";
     for (const auto& v : *views) {
-      const Angles<double> a = CentreAngles(v, r.options.hypothesis, centre);
-      e += fmt::format("{:.3f} {:.3f} {:.3f}\n", RadToDeg(a.theta_i), RadToDeg(a.theta_r),
-                       RadToDeg(std::abs(a.phi)));
+      for (const auto& p : points) {
+        const Angles<double> a = AnglesAt(v, r.options.hypothesis, p);
+        const double tr = RadToDeg(a.theta_r);
+        e += fmt::format("{:.3f} {:.3f} {:.3f}\n", tr * std::cos(a.phi), tr * std::sin(a.phi),
+                         RadToDeg(a.theta_i));
+      }
     }
     e += "EOD\n";
   }
-  e += "plot $plan using 1:2:3 with points pt 7 ps 2 lc palette title 'plan', $orbit using "
-       "1:2:3 with points pt 6 ps 2 lc palette title 'default orbit'\n";
+  e += "plot $plan using 1:2:3 with points pt 7 ps 1.5 lc palette title 'plan', $orbit using "
+       "1:2:3 with points pt 6 ps 1.5 lc palette title 'default orbit'\n";
   spec.extra = e;
   RenderPlot(spec, out);
 }
@@ -155,7 +167,7 @@ std::string PlanCsv(const PlanResult& r, const Board& board) {
   for (size_t i = 0; i < r.plan.size(); ++i) {
     const PlannedView& v = r.plan[i];
     const Eigen::Vector3d c = v.cam_from_board.Inverse().t;
-    const Angles<double> a = CentreAngles(v, r.options.hypothesis, centre);
+    const Angles<double> a = AnglesAt(v, r.options.hypothesis, centre);
     s += fmt::format("{},{:.1f},{:.1f},{:.3f},{:.4f},{:.4f},{:.4f},{:.1f},{:.1f},{:.1f},{},{}\n",
                      i + 1, v.polar_deg, v.azimuth_deg, v.distance_m, c.x(), c.y(), -c.z(),
                      RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(std::abs(a.phi)), v.patches,
