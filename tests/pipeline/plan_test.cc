@@ -96,6 +96,18 @@ TEST_F(Plan, PlannedPosesBeatTheDefaultOrbit) {
   EXPECT_LT(r.plan_prediction.LampScatter(), r.orbit_prediction.LampScatter());
 }
 
+// A-optimal: the smallest sum of range-scaled variances, also below the orbit's.
+TEST_F(Plan, AOptimalPlanHasASmallerTraceThanTheOrbit) {
+  PlanOptions o = options_;
+  o.criterion = DesignCriterion::kA;
+  const PlanResult r = MakePlan(board_, scene_.camera, o);
+  const double plan_trace = LogDetAndTrace(r.plan_prediction, r).second;
+  const double orbit_trace = LogDetAndTrace(r.orbit_prediction, r).second;
+  fmt::print("A-optimal: trace plan {:.4g}, orbit {:.4g}\n", plan_trace, orbit_trace);
+  EXPECT_LT(r.plan_criterion, r.orbit_criterion);
+  EXPECT_LT(plan_trace, orbit_trace);
+}
+
 TEST_F(Plan, CoverageOfAPlanAgainstTheFramesTaken) {
   const PlanResult r = MakePlan(board_, scene_.camera, options_);
   std::vector<Rigid3d> planned, orbit;
