@@ -60,6 +60,11 @@ void PrintJson(const nlohmann::json& j) { std::cout << j.dump(2) << std::endl; }
 
 void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {
   namespace fs = std::filesystem;
+  // Before any work: a run that ends at a missing folder has wasted its time.
+  const fs::path parent = fs::path(out).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent)) {
+    throw InputError(out + ": output folder " + parent.string() + " does not exist");
+  }
   for (const auto& in : inputs) {
     if (in.empty()) continue;
     std::error_code ec;

@@ -27,8 +27,9 @@ std::vector<std::string> SplitComma(const std::string& text);
 using gonio::ParseNumber;   // common/parse.h
 using gonio::ParseVector3;  // common/parse.h
 
-// InputError naming `out` when it is one of `inputs` (the same file by path or inode): a
-// command must never replace what it reads.
+// InputError naming `out` when its folder does not exist (checked before the work starts) or
+// when it is one of `inputs` (the same file by path or inode): a command must never replace
+// what it reads.
 void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs);
 
 }  // namespace gonio::cli

@@ -117,12 +117,27 @@ void WriteImage(const fs::path& path, const cv::Mat& m) {
 
 struct VignetteArgs {
   std::string session, camera, board, poses, response, out, photometric_out, model = "map";
+  std::string light_frame = "board";
   VignetteOptions options;
 };
+
+// A lamp that moves with the camera lights the board differently in every pose: the method's
+// view-independent board texture does not exist and V would hold the lamp's fall-off.
+constexpr const char* kVignetteAlternatives =
+    "calibrate vignetting from a flat field (gonio synth --preset flat-field renders one) or a "
+    "separate session with the lamp fixed to the board";
 
 void RunVignette(VignetteArgs& args) {
   args.options.model = args.model;
   args.options.Check();
+  if (args.light_frame == "camera") {
+    throw InputError(std::string("--light-frame camera: a lamp that moves with the camera would "
+                                 "put its fall-off into the vignetting; ") +
+                     kVignetteAlternatives);
+  }
+  if (args.light_frame != "board") {
+    throw InputError("--light-frame: '" + args.light_frame + "' is not one of board, camera");
+  }
   const Session session = ReadSession(args.session);
   const CameraModel camera = CameraModel::Read(args.camera);
   const PaperRegion board = PaperRegion::Read(args.board);
@@ -147,7 +162,12 @@ void RunVignette(VignetteArgs& args) {
     throw InputError(args.poses + ": no pose for any frame of " + args.session);
   }
   spdlog::info("vignetting from {} frames", frames.size());
-  const VignetteResult r = CalibrateVignette(camera, board, calib, frames, args.options);
+  VignetteResult r;
+  try {
+    r = CalibrateVignette(camera, board, calib, frames, args.options);
+  } catch (const InputError& e) {
+    throw InputError(args.session + ": " + e.what());  // which session the frames came from
+  }
   WriteImage(args.out, r.map);
   // Visualisation: V in [0.5, 1] stretched to 8 bits.
   cv::Mat vis;
@@ -168,12 +188,20 @@ void RunVignette(VignetteArgs& args) {
                       {"samples", r.samples},
                       {"rms_relative_residual", r.rms_relative_residual},
                       {"map_vs_radial_rms", r.map_vs_radial_rms},
+                      {"lamp_test",
+                       {{"camera_lamp_exponent", r.lamp_test.exponent},
+                        {"camera_lamp_exponent_stddev", r.lamp_test.exponent_stddev},
+                        {"unexplained_rms", r.lamp_test.unexplained_rms},
+                        {"detectable", r.lamp_test.detectable},
+                        {"partly_camera_fixed", r.lamp_test.partly_camera_fixed}}},
                       {"note", r.note}};
   WriteJsonAtomically(fs::path(args.out).replace_extension(".json"), j);
   if (!args.photometric_out.empty()) {
     const fs::path out(args.photometric_out);
     if (out.has_parent_path()) EnsureDirectory(out.parent_path());
     calib.vignette = r.map;
+    calib.relative_accuracy =
+        PhotometricCalibration::CombinedAccuracy(calib.response, r.rms_relative_residual);
     calib.Write(args.photometric_out);
   }
   std::cout << r.Report();
@@ -281,6 +309,9 @@ void AddPhotometricCommand(CLI::App& app) {
   vig->add_option("--photometric-out", vargs->photometric_out,
                   "Write photometric.json (response + vignetting)");
   vig->add_option("--model", vargs->model, "map (grid, radial fill-in) or radial")
+      ->capture_default_str();
+  vig->add_option("--light-frame", vargs->light_frame,
+                  "board (lamp fixed to the board) or camera (refused: use a flat field)")
       ->capture_default_str();
   vig->add_option("--cell-px", vargs->options.cell_px, "Vignette grid cell, pixels")
       ->capture_default_str();

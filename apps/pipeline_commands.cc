@@ -52,7 +52,7 @@ void RunExtract(const ExtractArgs& a) {
 // The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
 struct FitArgs {
   std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
-  std::string robust = "huber", white_albedo;
+  std::string robust = "huber", white_albedo, noise_floor;
   bool grey = false;
   int threads = 0;
 };
@@ -67,6 +67,9 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_option("--light-init", a->light_init, "X,Y,Z start in the light frame, metres");
   cmd->add_option("--white-albedo", a->white_albedo, "Known albedo of the white reference");
   cmd->add_flag("--grey", a->grey, "One albedo for all channels");
+  cmd->add_option("--noise-floor", a->noise_floor,
+                  "Relative calibration uncertainty in each radiance, e.g. 0.01 (default: "
+                  "photometric.json's relative_accuracy for run, else 0.01)");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }
@@ -87,6 +90,13 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
       throw InputError("--white-albedo: " + a.white_albedo + " is not an albedo in (0, 1]");
     }
     o.white_albedo = w;
+  }
+  if (!a.noise_floor.empty()) {
+    const double f = ParseNumber(a.noise_floor, "--noise-floor");
+    if (!(f >= 0 && f < 1)) {
+      throw InputError("--noise-floor: " + a.noise_floor + " is not a fraction in [0, 1)");
+    }
+    o.relative_noise_floor = f;
   }
   o.per_channel = !a.grey;
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
@@ -119,6 +129,7 @@ struct RunArgs {
 void RunRun(const RunArgs& a) {
   RunOptions o;
   o.fit = ToJointFitOptions(a.fit);
+  o.noise_floor_from_calibration = a.fit.noise_floor.empty();
   o.extract.patch = a.patch;
   o.extract.threads = a.fit.threads;
   o.Check();

@@ -70,6 +70,11 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
   }
 }
 
+double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
+                                                double vignette_rms_relative) {
+  return std::hypot(response.median_ratio_error, vignette_rms_relative);
+}
+
 PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path& path) {
   const nlohmann::json j = ReadJsonFile(path);
   PhotometricCalibration p;
@@ -90,6 +95,13 @@ PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path&
       throw InputError(path.string() + ": 'electrons_per_dn' must be a number > 0 or null");
     }
     p.electrons_per_dn = v.get<double>();
+  }
+  if (j.contains("relative_accuracy") && !j["relative_accuracy"].is_null()) {
+    const auto& v = j["relative_accuracy"];
+    if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() < 1)) {
+      throw InputError(path.string() + ": 'relative_accuracy' must be a number in [0, 1) or null");
+    }
+    p.relative_accuracy = v.get<double>();
   }
   if (j.contains("vignette") && !j["vignette"].is_null()) {
     if (!j["vignette"].is_string()) {
@@ -125,6 +137,8 @@ void PhotometricCalibration::Write(const std::filesystem::path& path) const {
   j["response"] = response.ToJson();
   j["read_noise_dn"] = read_noise_dn;
   j["electrons_per_dn"] = electrons_per_dn ? nlohmann::json(*electrons_per_dn) : nlohmann::json();
+  j["relative_accuracy"] =
+      relative_accuracy ? nlohmann::json(*relative_accuracy) : nlohmann::json();
   if (!vignette.empty()) {
     const std::string name = path.stem().string() + "_vignette.tiff";
     WriteAtomically(path.parent_path() / name, [&](const std::filesystem::path& tmp) {

@@ -22,6 +22,15 @@ struct PhotometricCalibration {
   cv::Mat vignette;  // CV_32F, image size, V(pixel) (1 = no fall-off); empty: none
   double read_noise_dn = 0.5;
   std::optional<double> electrons_per_dn;  // shot noise when known
+  // The calibration's own 1-sigma relative radiance error (response and vignetting combined,
+  // docs/formats.md), when the commands that made it measured one. The joint fit takes it as
+  // its relative noise floor (docs/pipeline.md); unknown for a calibration written by hand or
+  // by the renderer.
+  std::optional<double> relative_accuracy;
+
+  // sqrt(response^2 + vignetting^2): the response's worst neighbouring-pair ratio error and the
+  // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
+  static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);
 
   // A linear camera with the given black level and no vignetting (bit_depth 8..16).
   static PhotometricCalibration Linear(int bit_depth, int channels, double black_level);

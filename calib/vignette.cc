@@ -24,9 +24,10 @@ namespace gonio {
 namespace {
 
 struct Sample {
-  int32_t ray;    // index into the sampled-pixel table
-  int32_t acell;  // board texture cell
-  float value;    // linearized value / (exposure * gain), channels averaged
+  int32_t ray;       // index into the sampled-pixel table
+  int32_t acell;     // board texture cell
+  float value;       // linearized value / (exposure * gain), channels averaged
+  float ln_falloff;  // ln(cos(theta) / d^2) of a lamp at the camera centre (vignette_lamp.h)
 };
 
 struct SampledPixel {
@@ -86,7 +87,7 @@ PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& opti
 // A paper pixel of one frame: the board point it sees and its exposure-normalized value.
 struct PaperPixel {
   int32_t ray;
-  float bx, by, value;
+  float bx, by, value, ln_falloff;
 };
 
 // The paper pixels of one frame (ray / board-plane intersection, channels averaged).
@@ -114,8 +115,12 @@ std::vector<PaperPixel> FramePaperPixels(const VignetteFrame& f,
     const float* v = radiance.ptr<float>(xy.y) + xy.x * ch;
     double sum = 0;
     for (int c = 0; c < ch; ++c) sum += v[c];
+    // A lamp at the camera centre: distance s |ray|, incidence cos = |n . ray| / |ray|.
+    const double ray_norm = grid.pixels[i].ray.norm();
+    const double ln_falloff = std::log(std::abs(nd) / ray_norm) - 2 * std::log(s * ray_norm);
     out.push_back({static_cast<int32_t>(i), static_cast<float>(p_in_board.x()),
-                   static_cast<float>(p_in_board.y()), static_cast<float>(sum / ch)});
+                   static_cast<float>(p_in_board.y()), static_cast<float>(sum / ch),
+                   static_cast<float>(ln_falloff)});
   }
   return out;
 }
@@ -176,7 +181,7 @@ SampleSet BinOnTextureGrid(const std::vector<std::vector<PaperPixel>>& per_frame
     for (const auto& s : v) {
       const int ix = std::min(nx - 1, static_cast<int>((s.bx - bx0) / cell));
       const int iy = std::min(ny - 1, static_cast<int>((s.by - by0) / cell));
-      set.samples.push_back({s.ray, iy * nx + ix, s.value});
+      set.samples.push_back({s.ray, iy * nx + ix, s.value, s.ln_falloff});
       ++set.cell_count[grid.pixels[s.ray].vcell];
     }
   }
@@ -465,6 +470,24 @@ void FinishMap(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
   result->map = VignetteImage(camera, grid, result->radial, ratio, options.cell_px);
 }
 
+// The lamp test (vignette_lamp.h) on the residuals of the radial fit with texture C; InputError
+// when the paper's brightness follows a lamp that moves with the camera: V would hold its
+// fall-off.
+CameraLampTest CheckLampFixedToBoard(const std::vector<Sample>& samples, const PixelGrid& grid,
+                                     const std::array<double, 3>& v, const std::vector<double>& C) {
+  std::vector<LampTestSample> test;
+  test.reserve(samples.size());
+  for (const Sample& s : samples) {
+    const SampledPixel& p = grid.pixels[s.ray];
+    const double pred = RadialVignettingAtR2(v, p.r2) * C[s.acell];
+    if (!(s.value > 0) || !(pred > 0)) continue;
+    test.push_back({p.vcell, s.acell, s.ln_falloff, static_cast<float>(std::log(s.value / pred))});
+  }
+  const CameraLampTest t = TestCameraFixedLamp(test, grid.gw * grid.gh, static_cast<int>(C.size()));
+  if (t.camera_fixed) throw InputError(t.Refusal());
+  return t;
+}
+
 // InputError for fewer than two distinct poses or a frame of another size than the camera's.
 void CheckFrames(const CameraModel& camera, const std::vector<VignetteFrame>& frames, int poses) {
   if (poses < 2) {
@@ -544,6 +567,7 @@ std::string VignetteResult::Report() const {
   if (model_used == "map") s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
   s += "\n";
   if (!note.empty()) s += note + "\n";
+  s += lamp_test.Report() + "\n";
   double vmin = 0, vmax = 0;
   if (!map.empty()) cv::minMaxLoc(map, &vmin, &vmax);
   s += fmt::format("V ranges over [{:.3f}, {:.3f}]\n", vmin, vmax);
@@ -576,6 +600,7 @@ VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& p
   SolveTexture(
       set.samples, [&](const Sample& s) { return RadialVignettingAtR2(v, grid.pixels[s.ray].r2); },
       &C);
+  result.lamp_test = CheckLampFixedToBoard(set.samples, grid, v, C);
   if (result.model_used == "map") {
     FinishMap(camera, grid, std::move(set), v, std::move(C), options, &result);
   } else {

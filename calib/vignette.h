@@ -12,7 +12,9 @@
 // vignette grid over the image refines it locally. Tags (black ink) and a margin around them,
 // and the sample region, are left out; so are saturated and dark pixels. Where the board covers
 // too little of the image the radial polynomial is the answer (order limited by the radius the
-// data reach). V is 1 at the principal point.
+// data reach). V is 1 at the principal point. A lamp that moves with the camera breaks the
+// model (its fall-off would go into V): such sessions are detected and refused
+// (calib/vignette_lamp.h).
 // docs/photometric.md has the measurements behind these choices.
 #pragma once
 
@@ -24,6 +26,7 @@
 
 #include "calib/board.h"
 #include "calib/photometric.h"
+#include "calib/vignette_lamp.h"
 #include "common/camera_model.h"
 #include "common/geometry.h"
 
@@ -65,11 +68,15 @@ struct VignetteResult {
   // 99th percentile of the samples' r (distance to the principal point / half-diagonal): the
   // radial fit is extrapolated beyond it.
   double covered_radius = 0;
+  // Whether the paper's brightness follows a lamp on the camera (vignette_lamp.h); a session
+  // where it does is refused.
+  CameraLampTest lamp_test;
   std::string Report() const;
 };
 
-// InputError when fewer than two distinct poses are given, sizes do not match the camera, or
-// no usable paper pixel is found.
+// InputError when fewer than two distinct poses are given, sizes do not match the camera, no
+// usable paper pixel is found, or the paper's brightness follows a lamp that moves with the
+// camera (the TUM model's C would not be view-independent; V would hold the lamp's fall-off).
 VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& paper,
                                  const PhotometricCalibration& response_only,
                                  const std::vector<VignetteFrame>& frames,

@@ -137,7 +137,8 @@ struct PresetOptions {
   double sfs_light_offaxis_deg = 0.0;
 };
 
-// "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps".
+// "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps", "flash",
+// "flash-8bit".
 Scene PresetScene(const std::string& name, const PresetOptions& options = {});
 const std::vector<std::string>& PresetNames();
 

@@ -9,7 +9,7 @@
 namespace gonio {
 
 // The data_synth truth's photometric chain as a calibration: D = black + f(X) (max - black),
-// f(x) = x^(1/gamma) or linear, V = 1 + v1 r^2 + v2 r^4 + v3 r^6.
+// f(x) = x^(1/gamma), sRGB or linear, V = 1 + v1 r^2 + v2 r^4 + v3 r^6.
 PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width,
                                                  int height) {
   const auto& p = truth.at("photometric");
@@ -19,13 +19,15 @@ PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, in
   PhotometricCalibration cal = PhotometricCalibration::Linear(bits, 1, black);
   const std::string type = p.at("response").at("type").get<std::string>();
   const double gamma = type == "gamma" ? p.at("response").at("gamma").get<double>() : 1.0;
-  if (type != "gamma" && type != "linear") {
-    throw InputError("demo: truth response '" + type + "' is not gamma or linear");
+  if (type != "gamma" && type != "linear" && type != "srgb") {
+    throw InputError("demo: truth response '" + type + "' is not gamma, srgb or linear");
   }
   auto& table = cal.response.inverse_response[0];
   for (size_t z = 0; z < table.size(); ++z) {
     const double u = std::clamp((z - black) / (maxv - black), 0.0, 1.0);
-    table[z] = std::pow(u, gamma);
+    // The inverse of data_synth's sRGB curve (IEC 61966-2-1), as truth.json spells it.
+    const double srgb = u <= 0.04045 ? u / 12.92 : std::pow((u + 0.055) / 1.055, 2.4);
+    table[z] = type == "srgb" ? srgb : std::pow(u, gamma);
   }
   cal.response.saturation_level = {maxv};
   const auto& v = p.at("vignetting");

@@ -9,7 +9,7 @@
 
 namespace gonio {
 
-// InputError for a response type other than gamma or linear.
+// InputError for a response type other than gamma, srgb or linear.
 PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, int width,
                                                  int height);
 

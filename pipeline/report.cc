@@ -12,6 +12,7 @@
 #include "common/io.h"
 #include "common/math.h"
 #include "common/plot.h"
+#include "pipeline/observed_angles.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
@@ -225,6 +226,12 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
     h << "<p style='color:#b00;border:2px solid #b00;padding:6px'>" << Escape(a) << "</p>";
   }
   h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
+  // What the geometry could measure: a lamp beside the lens sees the backscatter diagonal only.
+  const ObservedAngles angles = ObservedAnglesOf(f, data);
+  h << "<p" << (angles.backscatter_only ? " style='color:#b00'" : "") << "><b>Observed:</b>";
+  std::istringstream angle_lines(angles.Report());
+  for (std::string line; std::getline(angle_lines, line);) h << " " << Escape(line) << "<br>";
+  h << "</p>";
   h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th></tr>";
   for (size_t k = 0; k < f.material.params.size(); ++k) {
     const auto& sd = f.material.stddev[k];

@@ -1,7 +1,9 @@
 #include "pipeline/run.h"
 
 #include <unistd.h>
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
 
 #include <fmt/format.h>
@@ -12,6 +14,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
+#include "pipeline/observed_angles.h"
 #include "pipeline/report.h"
 
 namespace fs = std::filesystem;
@@ -124,6 +127,41 @@ ObservationSet ExtractAll(const RunInputs& in, const RunOptions& o, const RunRes
   return extractor.Finish(in.session.dir.string());
 }
 
+// The fit's relative noise floor: the photometric calibration's own accuracy when it reports
+// one (never below kMinNoiseFloor: paper reflectance uniformity and shutter repeatability are
+// not known better than that on a printed bench), else the option's value.
+JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResult* r) {
+  JointFitOptions fit = o.fit;
+  if (o.noise_floor_from_calibration && in.photometric.relative_accuracy) {
+    fit.relative_noise_floor =
+        std::max(*in.photometric.relative_accuracy, RunOptions::kMinNoiseFloor);
+    r->noise_floor_source = in.photometric_source;
+  } else {
+    r->noise_floor_source = o.noise_floor_from_calibration ? "default" : "--noise-floor";
+  }
+  r->noise_floor = fit.relative_noise_floor;
+  return fit;
+}
+
+// The calibration's own error into the reported uncertainty (estimation/calibration_error.h),
+// when photometric.json says how accurate it is: response.json's worst-pair ratio error for
+// the response, and the rest of relative_accuracy for the vignetting.
+void PropagateCalibration(const RunInputs& in, const RunOptions& o,
+                          const JointFitOptions& fit_options, RunResult* r) {
+  const auto& accuracy = in.photometric.relative_accuracy;
+  if (!accuracy || o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
+  CalibrationErrorModel e;
+  e.response_ratio_error = std::min(in.photometric.response.median_ratio_error, *accuracy);
+  e.vignette_rms =
+      std::sqrt(*accuracy * *accuracy - e.response_ratio_error * e.response_ratio_error);
+  e.principal_point = {r->camera.intrinsics[2], r->camera.intrinsics[3]};
+  e.radius_px = 0.5 * std::hypot(r->camera.width, r->camera.height);
+  spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);
+  r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
+                                                   e, o.calibration_error);
+  AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
+}
+
 }  // namespace
 
 void RunOptions::Check() const {
@@ -132,6 +170,7 @@ void RunOptions::Check() const {
   extract.Check();
   fit.Check();
   checks.Check();
+  if (calibration_error.draws != 0) calibration_error.Check();
   if (frame_cache_mb > (size_t{1} << 22)) throw InputError("--frame-cache-mb: at most 4 TiB");
 }
 
@@ -170,11 +209,14 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   r.frames_decoded = cache.decodes();
   r.timings.extract_s = clock.Lap();
 
-  spdlog::info("[3/4] fitting {} observations", r.observations.observations.size());
-  r.fit = FitAndSelect(r.observations, o.fit);
+  const JointFitOptions fit_options = FitOptionsFor(in, o, &r);
+  spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
+               r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
+  r.fit = FitAndSelect(r.observations, fit_options);
+  PropagateCalibration(in, o, fit_options, &r);
   r.timings.fit_s = clock.Lap();
   for (const auto& w : r.fit.final_fit.warnings) r.warnings.push_back(w);
-  r.checks = CheckFit(r.fit, r.observations, o.fit, in.session.dir.string(), o.checks);
+  r.checks = CheckFit(r.fit, r.observations, fit_options, in.session.dir.string(), o.checks);
   for (const auto& m : r.checks.Messages()) {
     r.warnings.push_back(m);
     spdlog::warn("{}", m);
@@ -187,6 +229,13 @@ std::string RunResult::Report() const {
   for (const auto& a : assumptions) s += "ASSUMED: " + a + "\n";
   if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings below)\n";
   s += fit.Report();
+  s += fmt::format("relative noise floor: {:.2f}% ({})\n", 100 * noise_floor, noise_floor_source);
+  if (calibration_error) {
+    s += calibration_error->Report();
+  } else {
+    s += "calibration error: not propagated (the photometric calibration reports no accuracy)\n";
+  }
+  s += ObservedAnglesOf(fit.final_fit, observations).Report();
   for (const auto& m : checks.Messages()) s += "WARNING: " + m + "\n";
   s += plan_coverage_report;
   s += fmt::format(
@@ -200,7 +249,10 @@ std::string RunResult::Report() const {
 nlohmann::json RunResult::ToJson() const {
   nlohmann::json j = fit.ToJson();
   j["assumptions"] = assumptions;
+  j["noise_floor"] = {{"relative", noise_floor}, {"source", noise_floor_source}};
+  j["calibration_error"] = calibration_error ? calibration_error->ToJson() : nlohmann::json();
   j["checks"] = checks.ToJson();
+  j["observed_angles"] = ObservedAnglesOf(fit.final_fit, observations).ToJson();
   j["run_warnings"] = warnings;
   j["timing"] = timings.ToJson();
   j["frames_decoded"] = frames_decoded;

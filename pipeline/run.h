@@ -23,6 +23,7 @@
 #include "calib/photometric.h"
 #include "common/camera_model.h"
 #include "common/session.h"
+#include "estimation/calibration_error.h"
 #include "estimation/extract.h"
 #include "estimation/joint_fit.h"
 #include "estimation/observations.h"
@@ -65,6 +66,14 @@ struct RunOptions {
   // larger than this decodes the frames that did not fit again (counted in RunResult).
   size_t frame_cache_mb = 2048;
   FitChecksOptions checks;
+  // The joint fit's relative noise floor (the calibration uncertainty it assumes, docs/
+  // pipeline.md) is taken from photometric.json's `relative_accuracy` when it has one (never
+  // below kMinNoiseFloor); false keeps fit.relative_noise_floor as given (`--noise-floor`).
+  bool noise_floor_from_calibration = true;
+  static constexpr double kMinNoiseFloor = 0.002;
+  // When photometric.json reports its accuracy, the calibration's error is propagated into
+  // the reported uncertainty by this many refits (estimation/calibration_error.h); 0: off.
+  CalibrationPropagationOptions calibration_error;
   RunOptions() { extract.patch = 4; }
   void Check() const;  // InputError naming the option
 };
@@ -82,7 +91,11 @@ struct RunResult {
   JointSelectionResult fit;
   FitChecks checks;                      // goodness of fit, bounds, per-frame consistency
   std::vector<std::string> assumptions;  // from RunInputs
-  std::vector<std::string> warnings;     // frames skipped, fit warnings
+  double noise_floor = 0;                // the relative floor the fit used
+  // The calibration part of the uncertainty (already added to fit.final_fit's), when measured.
+  std::optional<CalibrationPropagation> calibration_error;
+  std::string noise_floor_source;     // "photometric.json", "--noise-floor" or "default"
+  std::vector<std::string> warnings;  // frames skipped, fit warnings
   RunTimings timings;
   size_t frames_decoded = 0;   // image decodes over the whole run
   size_t boards_detected = 0;  // board detections over the whole run

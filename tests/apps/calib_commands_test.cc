@@ -91,6 +91,18 @@ TEST(CalibrateCli, RefusesASingleView) {
   EXPECT_FALSE(fs::exists(dir.path() / "cam.cameramodel"));
 }
 
+// A missing output folder is found before detection and calibration, not after them.
+TEST(CalibrateCli, MissingOutputFolderIsRefusedFirst) {
+  testing::TempDir dir;
+  WritePhotoBoard(dir.path() / "board.json");
+  const fs::path out = dir.path() / "no-such-folder" / "cam.cameramodel";
+  const auto r = RunGonio("calibrate --images " + Q(kPhoto) + " --board " +
+                          Q(dir.path() / "board.json") + " --out " + Q(out));
+  ExpectOneLineError(r, "output folder " + out.parent_path().string() + " does not exist");
+  EXPECT_EQ(r.err.find("info detect"), std::string::npos) << r.err;  // no detection was run
+  EXPECT_FALSE(fs::exists(out.parent_path()));
+}
+
 TEST(CalibrateCli, CornersVnlToAModelMrcalReads) {
   testing::TempDir dir;
   WriteFile(dir.path() / "board.json",

@@ -140,12 +140,20 @@ TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {
   PhotometricCalibration::Linear(12, 1, 64).Write(path);
   const nlohmann::json good = ReadJsonFile(path);
   EXPECT_DOUBLE_EQ(PhotometricCalibration::Read(path).read_noise_dn, 0.5);
+  EXPECT_FALSE(PhotometricCalibration::Read(path).relative_accuracy.has_value());
+  PhotometricCalibration with_accuracy = PhotometricCalibration::Linear(12, 1, 64);
+  with_accuracy.relative_accuracy = 0.004;
+  with_accuracy.Write(path);
+  EXPECT_DOUBLE_EQ(PhotometricCalibration::Read(path).relative_accuracy.value(), 0.004);
   const std::pair<nlohmann::json, std::string> cases[] = {
       {{{"read_noise_dn", "abc"}}, "'read_noise_dn' must be a number >= 0"},
       {{{"read_noise_dn", -3}}, "'read_noise_dn' must be a number >= 0"},
       {{{"electrons_per_dn", "x"}}, "'electrons_per_dn' must be a number > 0 or null"},
       {{{"electrons_per_dn", 0}}, "'electrons_per_dn' must be a number > 0 or null"},
       {{{"vignette", 5}}, "'vignette' must be a file name or null"},
+      {{{"relative_accuracy", "x"}}, "'relative_accuracy' must be a number in [0, 1) or null"},
+      {{{"relative_accuracy", -0.1}}, "'relative_accuracy' must be a number in [0, 1) or null"},
+      {{{"relative_accuracy", 1.5}}, "'relative_accuracy' must be a number in [0, 1) or null"},
   };
   for (const auto& [edit, message] : cases) {
     nlohmann::json j = good;

@@ -11,58 +11,13 @@
 #include "common/error.h"
 #include "common/math.h"
 #include "reflectance/oren_nayar.h"
+#include "tests/estimation/synthetic_observations.h"
 
 namespace gonio {
 namespace {
 
-const Eigen::Vector3d kSampleCentre(0.155, 0.095, 0.0);
-// Lamp 0.5 m from the sample, 35 deg off its normal (-z of the board).
-const Eigen::Vector3d kLight =
-    kSampleCentre + 0.5 * Eigen::Vector3d(-std::sin(DegToRad(35)), 0.0, -std::cos(DegToRad(35)));
-
-// Oren-Nayar (sigma 30 deg, albedo 0.6 / 0.5 / 0.4 per channel) seen from `views` cameras on
-// rings around the sample, 1% noise; the three left columns of each frame are white reference
-// (albedo 0.8) when `with_white`.
-ObservationSet Synthesize(int views, int channels, bool with_white) {
-  const double albedo[3] = {0.6, 0.5, 0.4}, sigma = DegToRad(30), white = 0.8;
-  std::mt19937 rng(5);
-  std::normal_distribution<double> gauss(0, 1);
-  ObservationSet set;
-  set.channels = channels;
-  const double rings[] = {15, 32, 48, 62};
-  for (int f = 0; f < views; ++f) {
-    const double polar = DegToRad(rings[f % 4]), az = 2 * kPi * f / views + 0.3;
-    const Eigen::Vector3d cam =
-        kSampleCentre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
-                                               std::sin(polar) * std::sin(az), -std::cos(polar));
-    set.frame_files.push_back(fmt::format("view_{}", f));
-    for (int iy = 0; iy < 5; ++iy) {
-      for (int ix = 0; ix < 10; ++ix) {
-        Observation o;
-        o.frame = f;
-        o.white = ix < 3;
-        o.p_in_board = o.white ? Eigen::Vector3d(0.04 + 0.01 * ix, 0.045 + 0.016 * iy, 0)
-                               : Eigen::Vector3d(0.08 + 0.015 * (ix - 3), 0.045 + 0.016 * iy, 0);
-        o.camera_in_board = cam;
-        o.board_from_cam_aa = Eigen::Vector3d::Zero();
-        const Eigen::Vector3d l = kLight - o.p_in_board, v = cam - o.p_in_board;
-        const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
-        const double e = ls[2] / std::pow(l.norm(), 3);
-        for (int c = 0; c < channels; ++c) {
-          const double params[2] = {albedo[c], sigma};
-          const double f_r =
-              o.white ? white * kInvPi : OrenNayar::Evaluate(params, AnglesFromDirections(ls, vs));
-          const double radiance = f_r * e;
-          o.radiance.push_back(radiance * (1 + 0.01 * gauss(rng)));
-          o.variance.push_back(std::pow(0.01 * radiance, 2));
-        }
-        // Drawn either way, so both sets see the same noise on the sample.
-        if (with_white || !o.white) set.observations.push_back(o);
-      }
-    }
-  }
-  return set;
-}
+using testing_obs::kLight;
+using testing_obs::Synthesize;
 
 size_t CountWhite(const ObservationSet& set) {
   size_t n = 0;

@@ -199,7 +199,7 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
 // oren-nayar with a sigma of a few hundredths of a degree that changes no pixel beyond noise.
 // A 5 deg roughness changes the radiance by at most about 3.5% (rms 0.9%): at the default 1%
 // calibration floor lambert explains it (measured, docs/pipeline.md); with a calibration good
-// to 0.1% (the floor lowered accordingly) oren-nayar must be selected.
+// to 0.2% (the floor taken from photometric.json) oren-nayar must be selected.
 TEST(Pipeline, SelectionTakesNoMoreModelThanTheSceneNeeds) {
   synth::Scene flat = SmallScene("lambert", {{"albedo", 0.6}});
   flat.photometric.full_well_e *= 1e4;
@@ -219,10 +219,26 @@ TEST(Pipeline, SelectionTakesNoMoreModelThanTheSceneNeeds) {
   synth::RenderBoardSession(rough, b.path(), 0);
   const RunResult r_default_floor = RunSession(b.path(), o, 4);
   EXPECT_EQ(r_default_floor.fit.final_fit.material.model, "lambert");
-  o.relative_noise_floor = 0.001;
-  const RunResult r_rough = RunSession(b.path(), o, 4);
+  EXPECT_EQ(r_default_floor.noise_floor_source, "default");
+  EXPECT_DOUBLE_EQ(r_default_floor.noise_floor, 0.01);
+  // The floor follows the calibration's reported accuracy (photometric.json), clamped at
+  // RunOptions::kMinNoiseFloor: a calibration claiming 0.05% is taken as 0.2%.
+  RunInputs in = LoadRunInputs(b.path(), "", "");
+  in.photometric.relative_accuracy = 0.0005;
+  RunOptions ro;
+  ro.fit = o;
+  ro.extract.patch = 4;
+  const RunResult r_rough = gonio::Run(in, ro);
+  EXPECT_DOUBLE_EQ(r_rough.noise_floor, RunOptions::kMinNoiseFloor);
+  EXPECT_EQ(r_rough.noise_floor_source, (b.path() / "photometric.json").string());
   ASSERT_EQ(r_rough.fit.final_fit.material.model, "oren-nayar") << r_rough.Report();
   EXPECT_NEAR(RadToDeg(Param(r_rough.fit.final_fit, "sigma")), 5.0, 1.5);
+  // An explicit floor (`--noise-floor`) wins over the calibration's.
+  ro.noise_floor_from_calibration = false;
+  ro.fit.relative_noise_floor = 0.01;
+  const RunResult r_explicit = gonio::Run(in, ro);
+  EXPECT_EQ(r_explicit.noise_floor_source, "--noise-floor");
+  EXPECT_EQ(r_explicit.fit.final_fit.material.model, "lambert");
 }
 
 // Half the frames from another scene (the lamp moved halfway through): the common fit lands
