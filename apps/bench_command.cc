@@ -9,6 +9,7 @@
 #include "apps/commands.h"
 #include "bench/bench_lib.h"
 #include "bench/bench_pipeline.h"
+#include "bench/bench_plan.h"
 #include "common/error.h"
 
 namespace gonio::cli {
@@ -18,6 +19,7 @@ struct BenchArgs {
   std::string out;
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   bool evaluation = false;
+  bool plan = false;
   int threads = 0;
 };
 
@@ -30,6 +32,14 @@ void RunBench(const BenchArgs& args) {
     const std::filesystem::path work = std::filesystem::path(args.out) / "work";
     const bench::PipelineBenchReport rep = bench::RunPipelineBench(opt, work);
     bench::WritePipelineBenchOutputs(args.out, rep);
+    std::filesystem::remove_all(work);
+    PrintJson(rep.ToJson());
+    return;
+  }
+  if (args.plan) {
+    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
+    const bench::PlanBenchReport rep = bench::RunPlanBench(opt, work);
+    bench::WritePlanBenchOutputs(args.out, rep);
     std::filesystem::remove_all(work);
     PrintJson(rep.ToJson());
     return;
@@ -103,6 +113,10 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--pipeline", args->pipeline,
                 "stage times of the whole chain, --models auto vs the right model, fit time vs "
                 "observations (pipeline_bench.json + charts)")
+      ->excludes(stability);
+  cmd->add_flag("--plan", args->plan,
+                "gonio plan's predicted scatter against the scatter measured on sessions "
+                "rendered from the plan and from the default orbit (plan_bench.json + chart)")
       ->excludes(stability);
   cmd->add_flag("--sfs", args->sfs,
                 "shape from shading instead: solve time vs normal error of solver configurations "

@@ -20,6 +20,7 @@ void AddSynthCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);  // speed vs accuracy, stability sweeps
 
 void AddPipelineCommands(CLI::App& app);
+void AddPlanCommand(CLI::App& app);  // camera poses from the predicted uncertainty
 void AddSfsCommand(CLI::App& app);
 
 }  // namespace gonio::cli

@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
 
   gonio::cli::AddBrdfCommand(app);
   gonio::cli::AddPipelineCommands(app);
+  gonio::cli::AddPlanCommand(app);
   gonio::cli::AddFitTableCommand(app);
   gonio::cli::AddExportCommand(app);
   gonio::cli::AddPhotometricCommand(app);

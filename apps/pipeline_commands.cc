@@ -15,6 +15,7 @@
 #include "estimation/extract.h"
 #include "estimation/joint_fit.h"
 #include "pipeline/demo.h"
+#include "pipeline/plan.h"
 #include "pipeline/run.h"
 
 namespace fs = std::filesystem;
@@ -119,7 +120,7 @@ void RunFit(const FitArgs& a, const std::string& observations, const std::string
 }
 
 struct RunArgs {
-  std::string session, out, camera, photometric;
+  std::string session, out, camera, photometric, plan;
   int patch = 4;
   bool assume_linear = false;
   FitArgs fit;
@@ -134,7 +135,10 @@ void RunRun(const RunArgs& a) {
   o.Check();
   const RunInputs in = LoadRunInputs(a.session, a.camera, a.photometric, a.assume_linear);
   CheckRunOutput(a.out, in);
+  std::vector<Rigid3d> planned;
+  if (!a.plan.empty()) planned = ReadPlanPoses(a.plan);
   RunResult r = Run(in, o);
+  if (!planned.empty()) AddPlanCoverage(planned, in.board, &r);
   WriteRunOutputs(r, in, a.out);
   std::cout << r.Report();
 }
@@ -188,6 +192,8 @@ void AddPipelineCommands(CLI::App& app) {
                   "photometric.json (default: SESSION's; else see --assume-linear)");
   run->add_flag("--assume-linear", ra->assume_linear,
                 "Without a photometric calibration, accept a linear camera (recorded in fit.json)");
+  run->add_option("--plan", ra->plan,
+                  "plan.json of gonio plan: report how well the frames cover the planned poses");
   run->add_option("--patch", ra->patch, "Extraction patch size")->capture_default_str();
   AddFitArgs(run, &ra->fit);
   run->callback([ra] { RunRun(*ra); });

@@ -116,14 +116,9 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
   return r;
 }
 
-// One free column of the Jacobian: the entry `index` of parameter block `block`, its range
-// (the scale of AnalyzeUncertainty's range-scaled Jacobian) and the name it is reported by.
-struct FreeColumn {
-  double* block;
-  int index;
-  double range;
-  std::string name;
-};
+}  // namespace
+
+namespace joint_fit_internal {
 
 // The free columns of `s`'s problem: shared, then per-channel parameters (channel c > 0 named
 // "albedo[c]"), lamp x, y, z (range: its distance) and intensity. `blocks` receives the
@@ -183,6 +178,14 @@ Eigen::MatrixXd FreeJacobian(ceres::Problem* problem, const std::vector<double*>
   }
   return J;
 }
+
+}  // namespace joint_fit_internal
+
+namespace {
+
+using joint_fit_internal::FreeColumn;
+using joint_fit_internal::FreeColumns;
+using joint_fit_internal::FreeJacobian;
 
 // Standard deviations and undetermined directions into `r`: the lamp's, the intensity's and
 // the material's (channel 0 stands for the per-channel parameters). `s` holds the blocks the

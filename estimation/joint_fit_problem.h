@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -242,6 +243,26 @@ double Predict(const Observation& obs, int c, const State& s, const ModelInfo& i
   for (int k = 0; k < M::kNumParams; ++k) p[k] = info.params[k].per_channel ? ch[k] : s.shared[k];
   return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e;
 }
+
+// One free column of the Jacobian: the entry `index` of parameter block `block`, its range
+// (the scale of AnalyzeUncertainty's range-scaled Jacobian) and the name it is reported by.
+struct FreeColumn {
+  double* block;
+  int index;
+  double range;
+  std::string name;
+};
+
+// The free columns of `s`'s problem: shared, then per-channel parameters (channel c > 0 named
+// "albedo[c]"), lamp x, y, z (range: its distance) and intensity. `blocks` receives the
+// parameter blocks in evaluation order.
+std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem& problem, State* s,
+                                    double light_distance, std::vector<double*>* blocks);
+
+// The Jacobian of the problem's residuals restricted to `cols` (one row per residual, in the
+// order they were added); `cost` is half the sum of squared residuals.
+Eigen::MatrixXd FreeJacobian(ceres::Problem* problem, const std::vector<double*>& blocks,
+                             const std::vector<FreeColumn>& cols, double* cost);
 
 // Every `max_n`-th observation or so: a deterministic subsample of at most max_n.
 std::vector<size_t> Subsample(const ObservationSet& data, size_t max_n);

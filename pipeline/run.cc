@@ -237,6 +237,7 @@ std::string RunResult::Report() const {
   }
   s += ObservedAnglesOf(fit.final_fit, observations).Report();
   for (const auto& m : checks.Messages()) s += "WARNING: " + m + "\n";
+  s += plan_coverage_report;
   s += fmt::format(
       "timing: detect {:.1f} s, calibrate {:.1f} s, locate {:.1f} s, extract {:.1f} s, fit "
       "{:.1f} s, report {:.1f} s ({} frames decoded, {} board detections)\n",
@@ -256,6 +257,7 @@ nlohmann::json RunResult::ToJson() const {
   j["timing"] = timings.ToJson();
   j["frames_decoded"] = frames_decoded;
   j["camera_calibrated_from_session"] = calibration.has_value();
+  if (!plan_coverage.is_null()) j["plan_coverage"] = plan_coverage;
   return j;
 }
 

@@ -99,6 +99,10 @@ struct RunResult {
   RunTimings timings;
   size_t frames_decoded = 0;   // image decodes over the whole run
   size_t boards_detected = 0;  // board detections over the whole run
+  // The frames against a plan (`gonio run --plan`, pipeline/plan.h CompareWithPlan): its
+  // report lines and fit.json "plan_coverage"; empty and null without a plan.
+  std::string plan_coverage_report;
+  nlohmann::json plan_coverage;
 
   std::string Report() const;     // the fit's report plus warnings and timings
   nlohmann::json ToJson() const;  // fit.json (docs/formats.md)
