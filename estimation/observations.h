@@ -29,6 +29,8 @@ struct ObservationSet {
   std::vector<Observation> observations;
   // Counts of pixels left out, by reason (saturated, dark, tag, outside).
   std::vector<std::pair<std::string, size_t>> excluded;
+  // Frames whose lamp-off partner's radiance was subtracted (the room's light removed).
+  size_t lamp_off_frames = 0;
 };
 
 // observations.csv (docs/formats.md). InputError naming the file and line on bad content.
