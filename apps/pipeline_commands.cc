@@ -51,7 +51,7 @@ void RunExtract(const ExtractArgs& a) {
 // The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
 struct FitArgs {
   std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
-  std::string robust = "huber", white_albedo;
+  std::string robust = "huber", white_albedo, ambient = "none";
   bool grey = false;
   int threads = 0;
 };
@@ -67,6 +67,11 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_option("--white-albedo", a->white_albedo, "Known albedo of the white reference");
   cmd->add_flag("--grey", a->grey, "One albedo for all channels");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
+  cmd->add_option("--ambient", a->ambient,
+                  "none, or fit: a constant ambient radiance per channel on the sample and an "
+                  "ambient irradiance on the white reference (when the session has no lamp-off "
+                  "frames; docs/pipeline.md)")
+      ->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }
 
@@ -89,6 +94,7 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
   }
   o.per_channel = !a.grey;
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
+  o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
   o.threads = a.threads;
   o.Check();
   return o;

@@ -68,8 +68,10 @@ struct SampleRadianceResidual {
   double inv_sigma;
   LightFrame light_frame;
   std::array<bool, 16> per_channel;
+  // ambient: this channel's ambient radiance of the sample (0 and constant unless fitted).
   template <typename T>
-  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity, T* r) const {
+  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity,
+                  const T* ambient, T* r) const {
     T lb[3], ls[3], vs[3];
     LightInBoard(*o, light_frame, light, lb);
     const T e = Geometry(*o, lb, ls, vs);
@@ -77,7 +79,7 @@ struct SampleRadianceResidual {
     for (int k = 0; k < M::kNumParams; ++k) p[k] = per_channel[k] ? chan[k] : shared[k];
     T f = T(0);
     if (ls[2] > T(0)) f = M::Evaluate(p, AnglesFromDirections(ls, vs));
-    const T model = e > T(0) ? f * intensity[0] * e : T(0);
+    const T model = (e > T(0) ? f * intensity[0] * e : T(0)) + ambient[0];
     r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
     return true;
   }
@@ -88,12 +90,15 @@ struct WhiteRadianceResidual {
   int channel;
   double inv_sigma, white_albedo;
   LightFrame light_frame;
+  // ambient_irradiance: this channel's ambient irradiance E_a (0 and constant unless fitted);
+  // the Lambertian reference reflects A_w / pi of it.
   template <typename T>
-  bool operator()(const T* light, const T* intensity, T* r) const {
+  bool operator()(const T* light, const T* intensity, const T* ambient_irradiance, T* r) const {
     T lb[3], ls[3], vs[3];
     LightInBoard(*o, light_frame, light, lb);
     const T e = Geometry(*o, lb, ls, vs);
-    const T model = e > T(0) ? T(white_albedo * kInvPi) * intensity[0] * e : T(0);
+    const T model =
+        T(white_albedo * kInvPi) * ((e > T(0) ? intensity[0] * e : T(0)) + ambient_irradiance[0]);
     r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
     return true;
   }
@@ -135,6 +140,9 @@ struct State {
   std::vector<std::vector<double>> chan;  // per channel (one when options.per_channel is off)
   Eigen::Vector3d light;
   double intensity = 1;
+  // Per channel: the sample's ambient radiance and the ambient irradiance on the white
+  // reference (docs/pipeline.md "Ambient light"); zero and held constant unless fitted.
+  std::vector<double> ambient_sample, ambient_irradiance;
   double cost = INFINITY;
   bool usable = false;
 };
@@ -153,23 +161,33 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
       const double inv_sigma = 1.0 / Sigma(obs, c, o.relative_noise_floor);
       if (obs.white) {
         problem->AddResidualBlock(
-            new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1>(
+            new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1, 1>(
                 new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.light_frame}),
-            loss, s->light.data(), &s->intensity);
+            loss, s->light.data(), &s->intensity, &s->ambient_irradiance[c]);
       } else {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
-                                            M::kNumParams, 3, 1>(
+                                            M::kNumParams, 3, 1, 1>(
                 new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.light_frame, per_channel}),
-            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity);
+            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity,
+            &s->ambient_sample[c]);
       }
     }
   }
 }
 
-// Registry bounds on every parameter, the intensity positive, and manifolds that hold the
-// entries of each block that belong to the other block constant.
-inline void ConstrainParameters(const ModelInfo& info, State* s, ceres::Problem* problem) {
+// Registry bounds on every parameter, the intensity positive, the ambient terms held at zero
+// unless fitted, and manifolds that hold the entries of each block that belong to the other
+// block constant.
+inline void ConstrainParameters(const ModelInfo& info, const JointFitOptions& o, State* s,
+                                ceres::Problem* problem) {
+  for (auto* ambient : {&s->ambient_sample, &s->ambient_irradiance}) {
+    for (double& a : *ambient) {
+      if (o.ambient != AmbientTerm::kFit && problem->HasParameterBlock(&a)) {
+        problem->SetParameterBlockConstant(&a);
+      }
+    }
+  }
   const int n = info.num_params();
   std::vector<int> channel_idx, shared_idx;
   for (int k = 0; k < n; ++k) (info.params[k].per_channel ? channel_idx : shared_idx).push_back(k);
@@ -208,7 +226,7 @@ template <typename M>
 void BuildProblem(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
                   const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
   AddResiduals<M>(data, use, info, o, s, plain, problem);
-  if (!plain) ConstrainParameters(info, s, problem);
+  if (!plain) ConstrainParameters(info, o, s, problem);
 }
 
 template <typename M>
@@ -235,12 +253,15 @@ double Predict(const Observation& obs, int c, const State& s, const ModelInfo& i
   double lb[3], ls[3], vs[3];
   LightInBoard(obs, light_frame, s.light.data(), lb);
   const double e = Geometry(obs, lb, ls, vs);
-  if (e <= 0) return 0.0;
-  if (obs.white) return white_albedo.value_or(0.0) * kInvPi * s.intensity * e;
+  if (obs.white) {
+    return white_albedo.value_or(0.0) * kInvPi *
+           ((e > 0 ? s.intensity * e : 0.0) + s.ambient_irradiance[c]);
+  }
+  if (e <= 0) return s.ambient_sample[c];
   double p[M::kNumParams];
   const auto& ch = s.chan[std::min<size_t>(c, s.chan.size() - 1)];
   for (int k = 0; k < M::kNumParams; ++k) p[k] = info.params[k].per_channel ? ch[k] : s.shared[k];
-  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e;
+  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e + s.ambient_sample[c];
 }
 
 // Every `max_n`-th observation or so: a deterministic subsample of at most max_n.

@@ -66,9 +66,10 @@ std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
 }
 
 // Free parameters of a candidate in the joint fit: its per-channel parameters once per channel,
-// its shared ones once, the lamp position (3) and the intensity (1).
+// its shared ones once, the lamp position (3), the intensity (1) and the fitted ambient terms
+// (two per channel at most).
 size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions& o) {
-  size_t k = 4;
+  size_t k = 4 + (o.ambient == AmbientTerm::kFit ? 2 * channels : 0);
   for (const auto& p : info.params) k += (p.per_channel && o.per_channel) ? channels : 1;
   return k;
 }
