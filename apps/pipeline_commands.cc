@@ -68,9 +68,9 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_flag("--grey", a->grey, "One albedo for all channels");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
   cmd->add_option("--ambient", a->ambient,
-                  "none, or fit: a constant ambient radiance per channel on the sample and an "
-                  "ambient irradiance on the white reference (when the session has no lamp-off "
-                  "frames; docs/pipeline.md)")
+                  "The room's light when the session has no lamp-off frames: none, fit (a "
+                  "constant per channel on the sample and on the white reference) or auto "
+                  "(fitted when the criterion says the data need it); docs/pipeline.md")
       ->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }

@@ -146,7 +146,8 @@ struct PresetOptions {
   double sfs_light_offaxis_deg = 0.0;
 };
 
-// "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps".
+// "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps",
+// "raised-sample", "ambient".
 Scene PresetScene(const std::string& name, const PresetOptions& options = {});
 const std::vector<std::string>& PresetNames();
 

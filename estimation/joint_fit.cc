@@ -24,8 +24,8 @@ namespace {
 
 constexpr OptionWord<LightFrame> kLightFrameWords[] = {{LightFrame::kBoard, "board"},
                                                        {LightFrame::kCamera, "camera"}};
-constexpr OptionWord<AmbientTerm> kAmbientWords[] = {{AmbientTerm::kNone, "none"},
-                                                     {AmbientTerm::kFit, "fit"}};
+constexpr OptionWord<AmbientTerm> kAmbientWords[] = {
+    {AmbientTerm::kNone, "none"}, {AmbientTerm::kFit, "fit"}, {AmbientTerm::kAuto, "auto"}};
 
 using joint_fit_internal::BuildProblem;
 using joint_fit_internal::CountResiduals;

@@ -37,8 +37,10 @@ std::string ToString(LightFrame frame);
 // colour channel fitted on the sample (ambient radiance L_a) and one on the white reference
 // (ambient irradiance E_a, reflected as A_w E_a / pi):
 //   L = f_r I cos(theta_i) / d^2 + L_a        L_w = A_w / pi (I cos(theta_i) / d^2 + E_a)
-enum class AmbientTerm { kNone, kFit };
-// "none" or "fit"; InputError naming `option_name` otherwise.
+// kAuto: the search without it, then the selected model's final fit both ways; the ambient
+// terms are kept when they lower the criterion (BIC, or AIC) by more than 2.
+enum class AmbientTerm { kNone, kFit, kAuto };
+// "none", "fit" or "auto"; InputError naming `option_name` otherwise.
 AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name);
 std::string ToString(AmbientTerm term);
 
@@ -100,6 +102,7 @@ struct JointFitResult {
   std::vector<double> ambient_sample, ambient_irradiance;
   std::vector<std::optional<double>> ambient_sample_stddev, ambient_irradiance_stddev;
   double lamp_irradiance = 0;
+  std::string ambient_reason;  // kAuto: why the terms were kept or left out
   size_t lamp_off_frames = 0;  // frames whose lamp-off radiance extraction subtracted
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;

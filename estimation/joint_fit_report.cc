@@ -71,6 +71,7 @@ nlohmann::json JointFitResult::AmbientJson() const {
     return a;
   };
   nlohmann::json j = {{"term", ToString(ambient)}, {"lamp_off_frames", lamp_off_frames}};
+  if (!ambient_reason.empty()) j["reason"] = ambient_reason;
   if (ambient != AmbientTerm::kFit) return j;
   j["sample_radiance"] = values(ambient_sample);
   j["sample_radiance_stddev"] = stddevs(ambient_sample_stddev, ambient_sample.size());
@@ -102,7 +103,9 @@ namespace {
 // "ambient: ..." lines: the fitted terms with their standard deviations, or how the room's
 // light was handled.
 std::string AmbientReport(const JointFitResult& f) {
+  const std::string reason = f.ambient_reason.empty() ? "" : f.ambient_reason + "\n";
   if (f.ambient != AmbientTerm::kFit) {
+    if (!reason.empty()) return "ambient: not modelled; " + reason;
     return f.lamp_off_frames > 0
                ? fmt::format("ambient: lamp-off frames subtracted ({} frames)\n", f.lamp_off_frames)
                : "ambient: not modelled (no lamp-off frames; --ambient fit to fit it)\n";
@@ -122,7 +125,7 @@ std::string AmbientReport(const JointFitResult& f) {
     }
     s += "\n";
   }
-  return s;
+  return s + reason;
 }
 
 }  // namespace
