@@ -52,7 +52,7 @@ void RunExtract(const ExtractArgs& a) {
 struct FitArgs {
   std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
   std::string robust = "huber", white_albedo, ambient = "none";
-  bool grey = false;
+  bool grey = false, fit_sample_height = false;
   int threads = 0;
 };
 
@@ -66,6 +66,8 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_option("--light-init", a->light_init, "X,Y,Z start in the light frame, metres");
   cmd->add_option("--white-albedo", a->white_albedo, "Known albedo of the white reference");
   cmd->add_flag("--grey", a->grey, "One albedo for all channels");
+  cmd->add_flag("--fit-sample-height", a->fit_sample_height,
+                "Fit a correction to board.json's sample_height_m (docs/pipeline.md)");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
   cmd->add_option("--ambient", a->ambient,
                   "The room's light when the session has no lamp-off frames: none, fit (a "
@@ -93,6 +95,7 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
     o.white_albedo = w;
   }
   o.per_channel = !a.grey;
+  o.fit_sample_height = a.fit_sample_height;
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
   o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
   o.threads = a.threads;

@@ -108,6 +108,7 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
   r.light_position = s.light;
   r.intensity = s.intensity;
   r.ambient = o.ambient;
+  if (o.fit_sample_height) r.sample_height_offset = s.height_offset;
   if (o.ambient == AmbientTerm::kFit) {
     r.ambient_sample = s.ambient_sample;
     if (o.white_albedo) r.ambient_irradiance = s.ambient_irradiance;
@@ -163,6 +164,11 @@ std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem&
   }
   blocks->push_back(&s->intensity);
   cols.push_back({&s->intensity, 0, std::abs(s->intensity), "intensity"});
+  if (problem.HasParameterBlock(&s->height_offset) &&
+      !problem.IsParameterBlockConstant(&s->height_offset)) {
+    blocks->push_back(&s->height_offset);
+    cols.push_back({&s->height_offset, 0, 0.01, "sample_height"});  // range: 1 cm
+  }
   // Ambient terms: ranges the lamp's irradiance at its distance (and a white Lambertian's
   // radiance under it).
   const double lamp_irradiance = std::abs(s->intensity) / (light_distance * light_distance);
@@ -249,6 +255,9 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
     } else if (c.block == &s.intensity) {
       r->intensity_stddev = u.stddev[j];
       if (u.undetermined[j]) r->undetermined_light.push_back("intensity");
+    } else if (c.block == &s.height_offset) {
+      r->sample_height_offset_stddev = u.stddev[j];
+      if (u.undetermined[j]) r->undetermined_light.push_back("sample_height");
     } else if (AmbientColumn(s, c, u.stddev[j], r)) {
       if (u.undetermined[j]) r->undetermined_light.push_back(c.name);
     } else if (c.block == s.shared.data() || c.block == s.chan[0].data()) {
@@ -288,6 +297,9 @@ void AnalyzeJointUncertainty(const ModelInfo& info, const ObservationSet& data,
         if (problem.HasParameterBlock(&a)) problem.SetParameterBlockConstant(&a);
       }
     }
+  }
+  if (!o.fit_sample_height && problem.HasParameterBlock(&plain.height_offset)) {
+    problem.SetParameterBlockConstant(&plain.height_offset);
   }
   const std::vector<FreeColumn> cols = FreeColumns(info, problem, &plain, light_distance, &blocks);
   double cost = 0;

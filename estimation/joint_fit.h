@@ -55,6 +55,9 @@ struct JointFitOptions {
   std::optional<double> white_albedo;           // known albedo of the white reference
   bool per_channel = true;                      // per-channel albedo-like parameters (colour data)
   AmbientTerm ambient = AmbientTerm::kNone;     // --ambient
+  // --fit-sample-height: a correction to board.json's sample_height_m fitted with the rest
+  // (the sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
+  bool fit_sample_height = false;
   RobustLoss robust_loss = RobustLoss::kHuber;  // scale 3 sigma
   double relative_noise_floor = 0.01;           // sigma^2 = variance + (floor * L)^2
   size_t selection_max_observations = 3000;     // candidates compared on a subsample
@@ -102,8 +105,12 @@ struct JointFitResult {
   std::vector<double> ambient_sample, ambient_irradiance;
   std::vector<std::optional<double>> ambient_sample_stddev, ambient_irradiance_stddev;
   double lamp_irradiance = 0;
-  std::string ambient_reason;  // kAuto: why the terms were kept or left out
-  size_t lamp_off_frames = 0;  // frames whose lamp-off radiance extraction subtracted
+  std::string ambient_reason;
+  // --fit-sample-height: the fitted correction to board.json's sample height (metres, > 0:
+  // the top stands further out) and its standard deviation.
+  std::optional<double> sample_height_offset,
+      sample_height_offset_stddev;  // kAuto: why the terms were kept or left out
+  size_t lamp_off_frames = 0;       // frames whose lamp-off radiance extraction subtracted
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
   size_t n_observations = 0;

@@ -54,6 +54,11 @@ nlohmann::json JointFitResult::ToJson() const {
   }
   j["frames"] = frames_json;
   j["ambient"] = AmbientJson();
+  if (sample_height_offset) {
+    j["sample_height_offset_m"] = Finite(*sample_height_offset);
+    j["sample_height_offset_stddev_m"] =
+        sample_height_offset_stddev ? Finite(*sample_height_offset_stddev) : nlohmann::json();
+  }
   j["warnings"] = warnings;
   j["n_observations"] = n_observations;
   return j;
@@ -144,6 +149,13 @@ std::string JointSelectionResult::Report() const {
   s << fmt::format("; intensity {:.5g}{}\n", f.intensity,
                    f.absolute ? "" : " (relative: no white reference)");
   s << AmbientReport(f);
+  if (f.sample_height_offset) {
+    s << fmt::format("sample height: {:+.2f} mm {} from board.json's (fitted)\n",
+                     1e3 * *f.sample_height_offset,
+                     f.sample_height_offset_stddev
+                         ? fmt::format("+- {:.2f} mm", 1e3 * *f.sample_height_offset_stddev)
+                         : std::string("(undetermined)"));
+  }
   for (const auto& u : f.undetermined_light) s << "undetermined: " << u << "\n";
   for (const auto& w : f.warnings) s << "warning: " << w << "\n";
   return s.str();

@@ -69,7 +69,7 @@ std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
 // its shared ones once, the lamp position (3), the intensity (1) and the fitted ambient terms
 // (two per channel at most).
 size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions& o) {
-  size_t k = 4 + (o.ambient != AmbientTerm::kNone ? 2 * channels : 0);
+  size_t k = 4 + (o.ambient != AmbientTerm::kNone ? 2 * channels : 0) + o.fit_sample_height;
   for (const auto& p : info.params) k += (p.per_channel && o.per_channel) ? channels : 1;
   return k;
 }

@@ -48,12 +48,14 @@ struct Outcome {
 
 // The chain on a rendered session with the truth's white albedo; the lamp starts from the
 // multi-start search.
-Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, AmbientTerm ambient) {
+Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, AmbientTerm ambient,
+              bool fit_sample_height = false) {
   const RunInputs in = LoadRunInputs(dir, "", "");
   RunOptions o;
   o.fit.candidates = {"lambert", "oren-nayar"};
   o.fit.white_albedo = scene.board.white_albedo;
   o.fit.ambient = ambient;
+  o.fit.fit_sample_height = fit_sample_height;
   o.extract.patch = 4;
   const RunResult run = gonio::Run(in, o);
   Outcome out;
@@ -95,6 +97,16 @@ TEST(BenchEffects, RaisedSampleNeedsItsHeight) {
       with.fit.material.rel_rms, without.fit.material.rel_rms);
   EXPECT_GT(std::abs(without.albedo - kAlbedo), 0.006) << without.report;
   EXPECT_GT(without.fit.material.rel_rms, 2 * with.fit.material.rel_rms) << without.report;
+
+  // The height estimated from the data (--fit-sample-height) with board.json still at 0.
+  const Outcome fitted = RunOn(dir.path(), scene, AmbientTerm::kNone, true);
+  ASSERT_TRUE(fitted.fit.sample_height_offset && fitted.fit.sample_height_offset_stddev)
+      << fitted.report;
+  const double h = *fitted.fit.sample_height_offset, h_sd = *fitted.fit.sample_height_offset_stddev;
+  std::printf("raised 4 mm, height fitted: %.3f +- %.3f mm, albedo %.4f, lamp error %.2f%%\n",
+              1e3 * h, 1e3 * h_sd, fitted.albedo, 100 * fitted.lamp_error);
+  EXPECT_NEAR(h, 0.004, std::max(3 * h_sd, 0.0005)) << fitted.report;
+  EXPECT_NEAR(fitted.albedo, kAlbedo, 0.004) << fitted.report;
 }
 
 // The room's light at 5% of the lamp's irradiance on the sample, each frame with a lamp-off
