@@ -71,7 +71,9 @@ Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, Ambie
 // A 4 mm raised sample. With sample_height_m in board.json: lambert selected, albedo within
 // 0.5% (measured 0.6002 +- 0.0005 with a linear camera), lamp within 0.5% of its distance.
 // Without it (the board file as if the sample lay on the paper): the albedo is more than 1% off
-// (measured +1.6%) and the residuals several times the noise floor's.
+// (measured +1.6%) and the residuals several times the noise floor's. With board.json still at
+// 0, --fit-sample-height finds the height within 3 standard deviations (measured 4.07 +- 0.04
+// mm) and the albedo within 0.7%.
 TEST(BenchEffects, RaisedSampleNeedsItsHeight) {
   synth::Scene scene = LambertScene();
   scene.board.sample_height = 0.004;
