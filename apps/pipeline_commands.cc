@@ -52,8 +52,8 @@ void RunExtract(const ExtractArgs& a) {
 // The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
 struct FitArgs {
   std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
-  std::string robust = "huber", white_albedo, noise_floor;
-  bool grey = false;
+  std::string robust = "huber", white_albedo, noise_floor, ambient = "none";
+  bool grey = false, fit_sample_height = false;
   int threads = 0;
 };
 
@@ -70,7 +70,14 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_option("--noise-floor", a->noise_floor,
                   "Relative calibration uncertainty in each radiance, e.g. 0.01 (default: "
                   "photometric.json's relative_accuracy for run, else 0.01)");
+  cmd->add_flag("--fit-sample-height", a->fit_sample_height,
+                "Fit a correction to board.json's sample_height_m (docs/pipeline.md)");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
+  cmd->add_option("--ambient", a->ambient,
+                  "The room's light when the session has no lamp-off frames: none, fit (a "
+                  "constant per channel on the sample and on the white reference) or auto "
+                  "(fitted when the criterion says the data need it); docs/pipeline.md")
+      ->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }
 
@@ -99,7 +106,9 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
     o.relative_noise_floor = f;
   }
   o.per_channel = !a.grey;
+  o.fit_sample_height = a.fit_sample_height;
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
+  o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
   o.threads = a.threads;
   o.Check();
   return o;

@@ -74,7 +74,8 @@ void AddSynthCommand(CLI::App& app) {
       "synth", "Render a synthetic session (board) or sfs input folder with truth.json");
   cmd->add_option("--scene", args->scene_file, "scene.json (docs/formats.md)");
   cmd->add_option("--preset", args->preset,
-                  "default, flat-field, exposure-sweep, sfs-sphere, sfs-vase, sfs-bumps");
+                  "default, flat-field, exposure-sweep, sfs-sphere, sfs-vase, sfs-bumps, "
+                  "raised-sample, ambient");
   cmd->add_option("--out", args->out_dir, "Output folder");
   cmd->add_option("--write-scene", args->write_scene, "Write the scene (e.g. a preset) as JSON");
   cmd->add_option("--sfs-light-offaxis-deg", args->sfs_light_offaxis_deg,

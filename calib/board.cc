@@ -22,6 +22,25 @@ const std::set<std::string> kFamilies = {"tag36h11",       "tag36h10",         "
 // board comes near them).
 constexpr double kMaxLengthM = 1000.0;
 constexpr long long kMaxGridPoints = 100000;
+// A sample thicker than this is not a flat sample lying on the board (a box, a typo in
+// millimetres): refused rather than back-projected onto a plane far from the board.
+constexpr double kMaxSampleHeightM = 0.1;
+
+double SampleHeight(const nlohmann::json& j, const std::string& what, bool has_sample_region) {
+  if (!j.contains("sample_height_m")) return 0.0;
+  const auto& v = j.at("sample_height_m");
+  const double h = v.is_number() ? v.get<double>() : NAN;
+  if (!(h >= 0 && h <= kMaxSampleHeightM)) {
+    throw InputError(fmt::format(
+        "{}: 'sample_height_m' must be a number of metres in [0, {:g}] (the sample's top above "
+        "the board; 4 mm is 0.004)",
+        what, kMaxSampleHeightM));
+  }
+  if (h > 0 && !has_sample_region) {
+    throw InputError(what + ": 'sample_height_m' is given but there is no 'sample_region'");
+  }
+  return h;
+}
 
 double PositiveNumber(const nlohmann::json& j, const char* key, const std::string& what) {
   if (!j.contains(key)) throw InputError(what + ": missing key '" + key + "'");
@@ -116,13 +135,15 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
   }
   b.sample_region_ = Polygon(j, "sample_region", what);
   b.white_region_ = Polygon(j, "white_region", what);
+  b.sample_height_ = SampleHeight(j, what, !b.sample_region_.empty());
   return b;
 }
 
 void Board::ReadChessboard(const nlohmann::json& j, const std::string& what) {
   type_ = Type::kChessboard;
   CheckKeys(j,
-            {"type", "inner_corners", "square_size", "sample_region", "white_region", "provenance"},
+            {"type", "inner_corners", "square_size", "sample_region", "white_region",
+             "sample_height_m", "provenance"},
             what);
   if (!j.contains("inner_corners") || !j["inner_corners"].is_array() ||
       j["inner_corners"].size() != 2) {
@@ -146,7 +167,7 @@ void Board::ReadAprilTagGrid(const nlohmann::json& j, const std::string& what) {
   type_ = Type::kAprilTagGrid;
   CheckKeys(j,
             {"type", "family", "tag_size", "pitch", "columns", "rows", "ids", "sample_region",
-             "white_region", "provenance"},
+             "white_region", "sample_height_m", "provenance"},
             what);
   if (!j.contains("family") || !j["family"].is_string()) {
     throw InputError(what + ": missing key 'family' (e.g. \"tag36h11\")");
@@ -202,12 +223,15 @@ void Board::ReadTagIds(const nlohmann::json& j, const std::string& what) {
 nlohmann::json Board::ToJson() const { return source_; }
 
 std::string Board::Describe() const {
+  const std::string height =
+      sample_height_ > 0 ? fmt::format(", sample top {:g} mm above the board", 1e3 * sample_height_)
+                         : "";
   if (is_chessboard()) {
-    return fmt::format("chessboard {}x{} inner corners, square {} m", inner_columns_, inner_rows_,
-                       square_size_);
+    return fmt::format("chessboard {}x{} inner corners, square {} m{}", inner_columns_, inner_rows_,
+                       square_size_, height);
   }
-  return fmt::format("apriltag-grid {} {}x{}, tag {} m, pitch {} m", family_, columns_, rows_,
-                     tag_size_, pitch_);
+  return fmt::format("apriltag-grid {} {}x{}, tag {} m, pitch {} m{}", family_, columns_, rows_,
+                     tag_size_, pitch_, height);
 }
 
 int Board::TagIndex(int id) const {

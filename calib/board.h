@@ -57,6 +57,11 @@ class Board {
   // Polygons in board coordinates (metres, z = 0); empty when the file gives none.
   const std::vector<Eigen::Vector2d>& sample_region() const { return sample_region_; }
   const std::vector<Eigen::Vector2d>& white_region() const { return white_region_; }
+  // How far the sample's top surface stands above the printed board plane, metres (>= 0;
+  // board.json "sample_height_m", default 0): a fabric, a tile or paper on card. The sample's
+  // surface is the plane z = -sample_height() (z points into the board); the white reference
+  // stays on z = 0.
+  double sample_height() const { return sample_height_; }
 
   // p_in_board of every corner: chessboard row-major (index row * inner_columns + col);
   // AprilTag grid 4 per tag, TagPointIndex(k, c).
@@ -89,6 +94,7 @@ class Board {
   int columns_ = 0, rows_ = 0;
   std::vector<int> ids_;
   std::vector<Eigen::Vector2d> sample_region_, white_region_;
+  double sample_height_ = 0;
   std::vector<Eigen::Vector3d> points_;
   nlohmann::json source_;
 };

@@ -79,6 +79,21 @@ void Session::Check(const std::string& what) const {
     if (!std::isfinite(f.timestamp)) throw InputError(fw + ": timestamp is not finite");
     if (f.bracket < 0) throw InputError(fw + ": bracket must be >= 0");
   }
+  // A lamp-off frame is not a frame of its own (no board detection, no observations): it may
+  // not be listed as one, nor paired with two frames.
+  std::set<std::string> lamp_off_seen;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const std::string& off = frames[i].lamp_off;
+    if (off.empty()) continue;
+    const std::string fw = what + ": frame " + std::to_string(i);
+    CheckRelative(fw, "lamp_off", off);
+    if (seen.count(off)) {
+      throw InputError(fw + ": lamp_off '" + off + "' is also listed as a frame");
+    }
+    if (!lamp_off_seen.insert(off).second) {
+      throw InputError(fw + ": lamp_off '" + off + "' is paired with two frames");
+    }
+  }
 }
 
 Session ReadSession(const fs::path& dir_or_file) {
@@ -109,19 +124,23 @@ Session ReadSession(const fs::path& dir_or_file) {
     const nlohmann::json& jf = frames[i];
     const std::string fw = what + ": frame " + std::to_string(i);
     if (!jf.is_object()) throw InputError(fw + ": not a JSON object");
-    RejectUnknownKeys(fw, jf, {"file", "exposure_s", "gain", "timestamp", "bracket"});
+    RejectUnknownKeys(fw, jf, {"file", "exposure_s", "gain", "timestamp", "bracket", "lamp_off"});
     SessionFrame f;
     f.file = Get<std::string>(fw, jf, "file");
     f.exposure_s = Get<double>(fw, jf, "exposure_s");
     f.gain = jf.contains("gain") ? Get<double>(fw, jf, "gain") : 1.0;
     f.timestamp = jf.contains("timestamp") ? Get<double>(fw, jf, "timestamp") : 0.0;
     f.bracket = jf.contains("bracket") ? Get<int>(fw, jf, "bracket") : static_cast<int>(i);
+    if (jf.contains("lamp_off")) f.lamp_off = Get<std::string>(fw, jf, "lamp_off");
     s.frames.push_back(f);
   }
   s.Check(what);
   for (size_t i = 0; i < s.frames.size(); ++i) {
     if (!fs::is_regular_file(s.FramePath(i))) {
       throw InputError(what + ": frame file " + s.frames[i].file + " does not exist");
+    }
+    if (!s.frames[i].lamp_off.empty() && !fs::is_regular_file(s.LampOffPath(i))) {
+      throw InputError(what + ": lamp-off file " + s.frames[i].lamp_off + " does not exist");
     }
   }
   if (!s.board.empty() && !fs::is_regular_file(s.BoardPath())) {
@@ -138,11 +157,16 @@ void WriteSession(const fs::path& dir, const Session& session) {
     if (!fs::is_regular_file(dir / f.file)) {
       throw InputError(file.string() + ": frame file " + f.file + " is not in the folder");
     }
-    frames.push_back({{"file", f.file},
-                      {"exposure_s", f.exposure_s},
-                      {"gain", f.gain},
-                      {"timestamp", f.timestamp},
-                      {"bracket", f.bracket}});
+    if (!f.lamp_off.empty() && !fs::is_regular_file(dir / f.lamp_off)) {
+      throw InputError(file.string() + ": lamp-off file " + f.lamp_off + " is not in the folder");
+    }
+    nlohmann::json jf = {{"file", f.file},
+                         {"exposure_s", f.exposure_s},
+                         {"gain", f.gain},
+                         {"timestamp", f.timestamp},
+                         {"bracket", f.bracket}};
+    if (!f.lamp_off.empty()) jf["lamp_off"] = f.lamp_off;
+    frames.push_back(jf);
   }
   if (!session.board.empty() && !fs::is_regular_file(dir / session.board)) {
     throw InputError(file.string() + ": board file " + session.board + " is not in the folder");

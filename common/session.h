@@ -15,6 +15,10 @@ struct SessionFrame {
   double gain = 1.0;        // unit given by Session::gain_unit
   double timestamp = 0.0;   // seconds since the session started
   int bracket = 0;          // frames with equal bracket share a pose
+  // A frame of the same pose, exposure and gain with the lamp off (the room's light only),
+  // relative to the session folder; empty: none. Extraction subtracts its radiance
+  // (docs/formats.md "Session folder", docs/pipeline.md "Ambient light").
+  std::string lamp_off;
 };
 
 struct Session {
@@ -34,6 +38,10 @@ struct Session {
   // Folder the session was read from (set by ReadSession); the paths below resolve against it.
   std::filesystem::path dir;
   std::filesystem::path FramePath(size_t i) const { return dir / frames.at(i).file; }
+  // Empty when frame i has no lamp-off frame.
+  std::filesystem::path LampOffPath(size_t i) const {
+    return frames.at(i).lamp_off.empty() ? std::filesystem::path() : dir / frames.at(i).lamp_off;
+  }
   std::filesystem::path BoardPath() const {
     return board.empty() ? std::filesystem::path() : dir / board;
   }

@@ -47,12 +47,48 @@ struct PoseGeometry {
   Eigen::Vector3d to_light_in_board;  // distant light (unit)
 };
 
+// Whether the 2-D segment a-b meets the axis-aligned rectangle r = [xmin, ymin, xmax, ymax]
+// (Liang-Barsky clipping).
+bool SegmentMeetsRect(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                      const std::array<double, 4>& r) {
+  double t0 = 0, t1 = 1;
+  const Eigen::Vector2d d = b - a;
+  const double p[4] = {-d.x(), d.x(), -d.y(), d.y()};
+  const double q[4] = {a.x() - r[0], r[2] - a.x(), a.y() - r[1], r[3] - a.y()};
+  for (int k = 0; k < 4; ++k) {
+    if (p[k] == 0) {
+      if (q[k] < 0) return false;
+      continue;
+    }
+    const double t = q[k] / p[k];
+    if (p[k] < 0) {
+      t0 = std::max(t0, t);
+    } else {
+      t1 = std::min(t1, t);
+    }
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+bool InRect(const Eigen::Vector2d& p, const std::array<double, 4>& r) {
+  return p.x() >= r[0] && p.x() < r[2] && p.y() >= r[1] && p.y() < r[3];
+}
+
 class BoardShader {
  public:
-  BoardShader(const Scene& scene, const Material& material) : scene_(scene), material_(material) {}
+  BoardShader(const Scene& scene, const Material& material) : scene_(scene), material_(material) {
+    // rho_dh(theta_r) tabulated once: the ambient term of the sample (scene.h LightSpec).
+    if (scene.light.ambient_irradiance > 0) {
+      for (int k = 0; k <= kAlbedoSteps; ++k) {
+        rho_dh_.push_back(material.DirectionalAlbedo(0.5 * kPi * k / kAlbedoSteps));
+      }
+    }
+  }
 
-  // Radiance of surface s at board point p (z = 0) seen from the pose's camera.
-  double Radiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g) const {
+  // Radiance of surface s at board point p (z = 0, the sample z = -sample_height) seen from
+  // the pose's camera; with the lamp off, the ambient alone.
+  double Radiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g, bool lamp_on) const {
     if (s == Surface::kBackground) return 0.0;
     const Eigen::Vector3d n(0, 0, -1);  // outward normal of the board's printed side
     Eigen::Vector3d l;
@@ -63,43 +99,154 @@ class BoardShader {
       l = g.to_light_in_board;
       e = scene_.light.irradiance * std::max(0.0, n.dot(l));
     }
-    if (e <= 0) return 0.0;
+    if (!lamp_on || (s != Surface::kSample && ShadowedBySample(p, l))) e = 0;
+    const double ambient = scene_.light.ambient_irradiance;
     switch (s) {
       case Surface::kPaper:
-        return scene_.board.white_albedo * kInvPi * e;
+        return scene_.board.white_albedo * kInvPi * (e + ambient);
       case Surface::kInk:
-        return scene_.board.black_albedo * kInvPi * e;
+        return scene_.board.black_albedo * kInvPi * (e + ambient);
       default: {
         const Eigen::Vector3d v = (g.camera_in_board - p).normalized();
-        return material_.Brdf(LocalAngles(n, l, v)) * e;
+        const double lamp = e > 0 ? material_.Brdf(LocalAngles(n, l, v)) * e : 0.0;
+        return lamp +
+               (ambient > 0 ? RhoDh(std::acos(std::min(1.0, n.dot(v)))) * ambient * kInvPi : 0.0);
       }
     }
   }
 
  private:
+  static constexpr int kAlbedoSteps = 90;
+  double RhoDh(double theta_r) const {
+    const double x = std::clamp(theta_r / (0.5 * kPi), 0.0, 1.0) * kAlbedoSteps;
+    const int k = std::min(static_cast<int>(x), kAlbedoSteps - 1);
+    return rho_dh_[k] + (x - k) * (rho_dh_[k + 1] - rho_dh_[k]);
+  }
+  // A raised sample shades the board beside it: the part of the ray to the lamp below the
+  // sample's top meets the sample's footprint.
+  bool ShadowedBySample(const Eigen::Vector3d& p, const Eigen::Vector3d& to_light) const {
+    const double h = scene_.board.sample_height;
+    if (h <= 0 || !(to_light.z() < 0)) return false;
+    const Eigen::Vector3d top = p + (h / -to_light.z()) * to_light;
+    return SegmentMeetsRect(p.head<2>(), top.head<2>(), scene_.board.sample_region);
+  }
+
   const Scene& scene_;
   const Material& material_;
+  std::vector<double> rho_dh_;
 };
 
-// Radiance image of one pose; counts supersampled footprints.
-cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
-                       const std::vector<Eigen::Vector3d>& rays, const PoseGeometry& g, int threads,
-                       size_t* supersampled) {
-  const int w = scene.camera.width, h = scene.camera.height, w1 = w + 1;
+// One pixel footprint: the board points of its four corners (z = 0) and, for a raised sample,
+// the points of the same rays on the sample's top plane.
+struct Footprint {
+  const Eigen::Vector2d *a, *b, *c, *d;      // board plane
+  const Eigen::Vector2d *ta, *tb, *tc, *td;  // sample top plane (raised sample only)
+  Eigen::Vector2d Board(double u, double v) const {
+    return (1 - v) * ((1 - u) * *a + u * *b) + v * ((1 - u) * *c + u * *d);
+  }
+  Eigen::Vector2d Top(double u, double v) const {
+    return (1 - v) * ((1 - u) * *ta + u * *tb) + v * ((1 - u) * *tc + u * *td);
+  }
+};
+
+// The box-filtered radiance of a footprint that crosses an edge: S^2 points of a
+// multi-jittered pattern (one sample per cell of an S x S grid and per row and column of the
+// S^2 x S^2 grid, so an edge along either image axis is resolved to 1/S^2 of a pixel), each
+// surface's radiance evaluated once at the footprint centre (the sample's on its top plane).
+// A point whose ray passes the raised sample's side is black.
+double SupersampledRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
+                            const PoseGeometry& g, const Footprint& fp, bool raised, bool lamp_on) {
+  const int ss = scene.supersampling;
+  const double h = scene.board.sample_height;
+  const auto& rect = scene.board.sample_region;
+  int counts[4] = {0, 0, 0, 0};
+  for (int j = 0; j < ss; ++j) {
+    for (int i = 0; i < ss; ++i) {
+      const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
+      const Eigen::Vector2d p = fp.Board(u, v);
+      if (!raised) {
+        ++counts[static_cast<int>(board.At(p.x(), p.y()))];
+        continue;
+      }
+      const Eigen::Vector2d t = fp.Top(u, v);
+      if (InRect(t, rect)) {
+        ++counts[static_cast<int>(Surface::kSample)];
+      } else if (!SegmentMeetsRect(p, t, rect)) {
+        ++counts[static_cast<int>(board.At(p.x(), p.y()))];
+      }  // else: the sample's side
+    }
+  }
+  const Eigen::Vector2d centre = fp.Board(0.5, 0.5);
+  double sum = 0;
+  for (int k = 1; k < 4; ++k) {
+    if (!counts[k]) continue;
+    const bool top = raised && k == static_cast<int>(Surface::kSample);
+    const Eigen::Vector2d q = top ? fp.Top(0.5, 0.5) : centre;
+    sum += counts[k] * shader.Radiance(static_cast<Surface>(k),
+                                       Eigen::Vector3d(q.x(), q.y(), top ? -h : 0.0), g, lamp_on);
+  }
+  return sum / (ss * ss);
+}
+
+// Radiance of one footprint: one surface seen whole (evaluated at the centre), else
+// supersampled. Counts supersampled footprints.
+double FootprintRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
+                         const PoseGeometry& g, const Footprint& fp, bool lamp_on,
+                         size_t* supersampled) {
+  const double h = scene.board.sample_height;
+  const auto& rect = scene.board.sample_region;
+  const Eigen::Vector2d lo = fp.a->cwiseMin(*fp.b).cwiseMin(*fp.c).cwiseMin(*fp.d);
+  const Eigen::Vector2d hi = fp.a->cwiseMax(*fp.b).cwiseMax(*fp.c).cwiseMax(*fp.d);
+  const Eigen::Vector2d centre = fp.Board(0.5, 0.5);
+  bool raised = false;
+  if (h > 0) {
+    const Eigen::Vector2d tlo = fp.ta->cwiseMin(*fp.tb).cwiseMin(*fp.tc).cwiseMin(*fp.td);
+    const Eigen::Vector2d thi = fp.ta->cwiseMax(*fp.tb).cwiseMax(*fp.tc).cwiseMax(*fp.td);
+    if (InRect(tlo, rect) && InRect(thi, rect)) {  // on the top
+      const Eigen::Vector2d t = fp.Top(0.5, 0.5);
+      return shader.Radiance(Surface::kSample, Eigen::Vector3d(t.x(), t.y(), -h), g, lamp_on);
+    }
+    // Footprint and its rays' way down from the top clear of the sample: the board alone.
+    const Eigen::Vector2d ulo = lo.cwiseMin(tlo), uhi = hi.cwiseMax(thi);
+    raised = !(uhi.x() < rect[0] || ulo.x() >= rect[2] || uhi.y() < rect[1] || ulo.y() >= rect[3]);
+  }
+  Surface s;
+  if (!raised && board.Uniform(lo.x(), lo.y(), hi.x(), hi.y(), &s)) {
+    return shader.Radiance(s, Eigen::Vector3d(centre.x(), centre.y(), 0.0), g, lamp_on);
+  }
+  ++*supersampled;
+  return SupersampledRadiance(scene, board, shader, g, fp, raised, lamp_on);
+}
+
+// Where the rays through the pixel corners meet the plane z = plane_z; hit false where the ray
+// misses it (towards the horizon).
+void TraceCorners(const std::vector<Eigen::Vector3d>& rays, const PoseGeometry& g, double plane_z,
+                  int threads, std::vector<Eigen::Vector2d>* corner, std::vector<char>* hit) {
   const Eigen::Matrix3d board_from_cam = g.cam_from_board.R.transpose();
   const Eigen::Vector3d c = g.camera_in_board;
-  // Board points of the footprint corners; false where the ray misses the board plane.
-  std::vector<Eigen::Vector2d> corner(rays.size());
-  std::vector<char> hit(rays.size());
+  corner->resize(rays.size());
+  hit->resize(rays.size());
   ParallelFor(rays.size(), threads, [&](size_t b, size_t e) {
     for (size_t k = b; k < e; ++k) {
       const Eigen::Vector3d d = board_from_cam * rays[k];
-      hit[k] = d.z() > 1e-12;
-      const double t = hit[k] ? -c.z() / d.z() : 0.0;
-      corner[k] = (c + t * d).head<2>();
+      const bool ok = d.z() > 1e-12 && plane_z - c.z() > 0;
+      (*hit)[k] = ok;
+      const double t = ok ? (plane_z - c.z()) / d.z() : 0.0;
+      (*corner)[k] = (c + t * d).head<2>();
     }
   });
-  const int ss = scene.supersampling;
+}
+
+// Radiance image of one pose (the lamp on or off); counts supersampled footprints.
+cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
+                       const std::vector<Eigen::Vector3d>& rays, const PoseGeometry& g,
+                       bool lamp_on, int threads, size_t* supersampled) {
+  const int w = scene.camera.width, h = scene.camera.height, w1 = w + 1;
+  std::vector<Eigen::Vector2d> corner, top;
+  std::vector<char> hit, top_hit;
+  TraceCorners(rays, g, 0.0, threads, &corner, &hit);
+  const bool raised = scene.board.sample_height > 0;
+  if (raised) TraceCorners(rays, g, -scene.board.sample_height, threads, &top, &top_hit);
   cv::Mat radiance(h, w, CV_64F);
   std::atomic<size_t> count{0};
   ParallelFor(h, threads, [&](size_t b, size_t e) {
@@ -112,34 +259,9 @@ cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardSha
           row[x] = 0.0;  // the footprint reaches the board's horizon: far off the board
           continue;
         }
-        const Eigen::Vector2d &a = corner[i00], &bq = corner[i10], &cq = corner[i01],
-                              &d = corner[i11];
-        const Eigen::Vector2d lo = a.cwiseMin(bq).cwiseMin(cq).cwiseMin(d);
-        const Eigen::Vector2d hi = a.cwiseMax(bq).cwiseMax(cq).cwiseMax(d);
-        const Eigen::Vector2d centre2 = 0.25 * (a + bq + cq + d);
-        const Eigen::Vector3d centre(centre2.x(), centre2.y(), 0.0);
-        Surface s;
-        if (board.Uniform(lo.x(), lo.y(), hi.x(), hi.y(), &s)) {
-          row[x] = shader.Radiance(s, centre, g);
-          continue;
-        }
-        ++local;
-        int counts[4] = {0, 0, 0, 0};
-        for (int j = 0; j < ss; ++j) {
-          for (int i = 0; i < ss; ++i) {
-            // Multi-jittered canonical pattern: one sample per cell of an S x S grid and
-            // per row and column of the S^2 x S^2 grid, so an edge along either image axis
-            // is resolved to 1/S^2 of a pixel (a plain S x S grid gives only 1/S).
-            const double u = (i * ss + j + 0.5) / (ss * ss), v = (j * ss + i + 0.5) / (ss * ss);
-            const Eigen::Vector2d p = (1 - v) * ((1 - u) * a + u * bq) + v * ((1 - u) * cq + u * d);
-            ++counts[static_cast<int>(board.At(p.x(), p.y()))];
-          }
-        }
-        double sum = 0;
-        for (int k = 1; k < 4; ++k) {
-          if (counts[k]) sum += counts[k] * shader.Radiance(static_cast<Surface>(k), centre, g);
-        }
-        row[x] = sum / (ss * ss);
+        Footprint fp{&corner[i00], &corner[i10], &corner[i01], &corner[i11]};
+        if (raised) fp = {fp.a, fp.b, fp.c, fp.d, &top[i00], &top[i10], &top[i01], &top[i11]};
+        row[x] = FootprintRadiance(scene, board, shader, g, fp, lamp_on, &local);
       }
     }
     count += local;
@@ -249,9 +371,11 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
                        {"material", material.ToJson()},
                        {"light", LightTruthJson(scene.light)},
                        {"white_albedo", scene.board.white_albedo},
+                       {"ambient_irradiance", scene.light.ambient_irradiance},
                        {"black_albedo", scene.board.black_albedo},
                        {"board",
                         {{"file", "board.json"},
+                         {"sample_height", scene.board.sample_height},
                          {"sample_region", scene.board.sample_region},
                          {"white_region", scene.board.white_region}}},
                        {"camera",
@@ -305,7 +429,12 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
   for (size_t pose_index = 0; pose_index < poses.size(); ++pose_index) {
     const PoseGeometry g = PoseGeometryOf(scene, poses[pose_index]);
     const cv::Mat radiance =
-        RenderRadiance(scene, board, shader, rays, g, threads, &result.supersampled_pixels);
+        RenderRadiance(scene, board, shader, rays, g, true, threads, &result.supersampled_pixels);
+    cv::Mat lamp_off_radiance;
+    if (scene.light.lamp_off_frames) {
+      size_t unused = 0;
+      lamp_off_radiance = RenderRadiance(scene, board, shader, rays, g, false, threads, &unused);
+    }
     const json corners = TagCornersJson(board, scene.camera, g.cam_from_board);
     for (double exposure_s : exposures) {
       size_t saturated = 0;
@@ -316,11 +445,23 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
       WriteAtomically(out_dir / name,
                       [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
       result.saturated_fraction.push_back(static_cast<double>(saturated) / pixels);
-      session_frames.push_back({{"file", name},
-                                {"exposure_s", exposure_s},
-                                {"gain", 1.0},
-                                {"timestamp", 0.1 * frame},
-                                {"bracket", static_cast<int>(pose_index)}});
+      json session_frame = {{"file", name},
+                            {"exposure_s", exposure_s},
+                            {"gain", 1.0},
+                            {"timestamp", 0.1 * frame},
+                            {"bracket", static_cast<int>(pose_index)}};
+      if (scene.light.lamp_off_frames) {
+        // Its own noise: frame numbers far beyond the lit frames' seed the generator.
+        size_t off_saturated = 0;
+        const cv::Mat off = ExposeFrame(scene, chain, lamp_off_radiance, exposure_s,
+                                        (1 << 20) + frame, threads, &off_saturated);
+        char off_name[40];
+        std::snprintf(off_name, sizeof(off_name), "frame_%04d_lamp_off.png", frame);
+        WriteAtomically(out_dir / off_name,
+                        [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), off); });
+        session_frame["lamp_off"] = off_name;
+      }
+      session_frames.push_back(session_frame);
       json tf = {{"file", name},
                  {"cam_from_board", ToJson(g.cam_from_board)},
                  {"exposure_s", exposure_s},

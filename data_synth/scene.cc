@@ -307,7 +307,10 @@ void AddPhotometricAndLightFields(std::vector<Field>* f) {
            Must([](const Eigen::Vector3d& d, const Scene&) { return d.norm() > 1e-9; },
                 "must be non-zero"),
            DistantLight)
-      .Add("irradiance", &LightSpec::irradiance, positive, DistantLight);
+      .Add("irradiance", &LightSpec::irradiance, positive, DistantLight)
+      .Add("ambient_irradiance", &LightSpec::ambient_irradiance,
+           Must([](double v, const Scene&) { return v >= 0; }, "must be >= 0"), BoardScene)
+      .Add("lamp_off_frames", &LightSpec::lamp_off_frames, NoCheck(), BoardScene);
 }
 
 void AddBoardFields(std::vector<Field>* f) {
@@ -344,6 +347,8 @@ void AddBoardFields(std::vector<Field>* f) {
            Must([](double v, const Scene& s) { return v >= 0 && v < s.board.white_albedo; },
                 "must be in [0, white_albedo)"))
       .Add("sample_region", &B::sample_region, RegionCheck)
+      .Add("sample_height", &B::sample_height,
+           Must([](double v, const Scene&) { return v >= 0 && v <= 0.1; }, "must be in [0, 0.1] m"))
       .Add("white_region", &B::white_region, [](const std::array<double, 4>& w, const Scene& s) {
         const std::string tags = RegionCheck(w, s);
         if (!tags.empty()) return tags;

@@ -39,6 +39,9 @@ struct BoardSpec {
   // Axis-aligned rectangles [xmin, ymin, xmax, ymax] in the board frame, metres.
   std::array<double, 4> sample_region = {0.075, 0.04, 0.235, 0.15};
   std::array<double, 4> white_region = {0.036, 0.04, 0.064, 0.15};
+  // The sample's top above the printed plane, metres: drawn on z = -sample_height, its sides
+  // black; board.json gets sample_height_m.
+  double sample_height = 0.0;
 
   // The ids, one per grid position (expands the ring default).
   std::vector<int> ResolvedIds() const;
@@ -66,6 +69,12 @@ struct LightSpec {
   double intensity = 1.0;                        // W/sr (arbitrary but consistent units)
   Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the light, distant light
   double irradiance = 1.0;                       // at normal incidence, distant light
+  // The room's light: a uniform irradiance from the whole hemisphere on every surface,
+  // L += rho_dh(theta_r) * ambient_irradiance / pi (rho_dh: directional-hemispherical
+  // reflectance; albedo / pi * E for the paper). lamp_off_frames: each frame also rendered
+  // with the lamp off (the ambient alone), paired in session.json as "lamp_off".
+  double ambient_irradiance = 0.0;
+  bool lamp_off_frames = false;
 };
 
 // Pixel value chain (docs/formats.md, truth.json "photometric"):
@@ -138,7 +147,7 @@ struct PresetOptions {
 };
 
 // "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps", "flash",
-// "flash-8bit".
+// "flash-8bit", "raised-sample", "ambient".
 Scene PresetScene(const std::string& name, const PresetOptions& options = {});
 const std::vector<std::string>& PresetNames();
 

@@ -4,6 +4,7 @@
 
 #include "common/error.h"
 #include "common/math.h"
+#include "reflectance/quadrature.h"
 #include "reflectance/registry.h"
 
 namespace gonio::synth {
@@ -27,6 +28,20 @@ double Material::Brdf(const Angles<double>& a) const {
   throw NumericalError("material " + model_ + " at theta_i=" + std::to_string(RadToDeg(a.theta_i)) +
                        " theta_r=" + std::to_string(RadToDeg(a.theta_r)) +
                        " phi=" + std::to_string(RadToDeg(a.phi)) + " deg: " + reason);
+}
+
+double Material::DirectionalAlbedo(double theta_r) const {
+  // rho_dh = int_0^2pi int_0^1 f_r du dphi / 2 with u = sin^2(theta_i); isotropic models are
+  // even in phi, so phi over [0, pi] counts twice.
+  const auto& rule = GaussLegendreRule<24>();
+  double sum = 0;
+  for (int a = 0; a < 24; ++a) {
+    const double theta_i = std::asin(std::sqrt(rule.node[a]));
+    for (int b = 0; b < 24; ++b) {
+      sum += rule.weight[a] * rule.weight[b] * Brdf({theta_i, theta_r, kPi * rule.node[b]});
+    }
+  }
+  return kPi * sum;
 }
 
 nlohmann::json Material::ToJson() const {

@@ -32,6 +32,10 @@ class Material {
   // f_r in 1/sr. NumericalError naming the model, angles and the model's reason when it has
   // no valid value there (never returns NaN/Inf).
   double Brdf(const Angles<double>& a) const;
+  // Directional-hemispherical reflectance rho_dh(theta_r) = int f_r cos(theta_i) dw_i over the
+  // incident hemisphere: the radiance a uniform irradiance E gives is rho_dh * E / pi
+  // (Gauss-Legendre in sin^2(theta_i) and phi; a Lambertian albedo rho gives rho).
+  double DirectionalAlbedo(double theta_r) const;
   // truth.json / material.json {"model", "params": {name: value}}.
   nlohmann::json ToJson() const;
   const std::string& model() const { return model_; }

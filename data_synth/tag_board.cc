@@ -123,15 +123,18 @@ nlohmann::json TagBoard::BoardJson() const {
   auto polygon = [](const std::array<double, 4>& r) {
     return nlohmann::json::array({{r[0], r[1]}, {r[2], r[1]}, {r[2], r[3]}, {r[0], r[3]}});
   };
-  return {{"type", "apriltag-grid"},
-          {"family", spec_.family},
-          {"tag_size", spec_.tag_size},
-          {"pitch", spec_.pitch},
-          {"columns", spec_.columns},
-          {"rows", spec_.rows},
-          {"ids", ids_},
-          {"sample_region", polygon(spec_.sample_region)},
-          {"white_region", polygon(spec_.white_region)}};
+  nlohmann::json j = {{"type", "apriltag-grid"},
+                      {"family", spec_.family},
+                      {"tag_size", spec_.tag_size},
+                      {"pitch", spec_.pitch},
+                      {"columns", spec_.columns},
+                      {"rows", spec_.rows},
+                      {"ids", ids_},
+                      {"sample_region", polygon(spec_.sample_region)},
+                      {"white_region", polygon(spec_.white_region)}};
+  // The user's measurement of a raised sample's thickness (docs/formats.md).
+  if (spec_.sample_height > 0) j["sample_height_m"] = spec_.sample_height;
+  return j;
 }
 
 }  // namespace gonio::synth

@@ -39,7 +39,7 @@ double InsideDistance(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vec
 
 // Pixel counts left out, shared by the worker threads of one frame.
 struct Counters {
-  std::atomic<size_t> saturated{0}, dark{0}, tag{0};
+  std::atomic<size_t> saturated{0}, dark{0}, tag{0}, hidden{0};
 };
 
 // What one frame's pixel loop needs, computed once per frame.
@@ -93,9 +93,9 @@ ObservationExtractor::ObservationExtractor(const std::vector<SessionFrame>& fram
   if (board.sample_region().size() < 3) {
     throw InputError("board file has no sample_region: nothing to extract");
   }
-  regions_.emplace_back(&board.sample_region(), false);
+  regions_.push_back({&board.sample_region(), false, -board.sample_height()});
   if (options.white_reference && board.white_region().size() >= 3) {
-    regions_.emplace_back(&board.white_region(), true);
+    regions_.push_back({&board.white_region(), true, 0.0});
   }
   tags_ = GrownTagSquares(board);
   set_.channels = photometric.response.channels;
@@ -106,13 +106,13 @@ namespace {
 
 // The patch origins whose pixels can fall in a region: the regions' corners projected into
 // the image bound the pixel loop.
-void BoundPatchLoop(const CameraModel& camera,
-                    const std::vector<const std::vector<Eigen::Vector2d>*>& polys, int patch,
+template <typename Region>
+void BoundPatchLoop(const CameraModel& camera, const std::vector<Region>& regions, int patch,
                     FrameGeometry* g) {
   double umin = camera.width, umax = 0, vmin = camera.height, vmax = 0;
-  for (const auto* poly : polys) {
-    for (const auto& q : *poly) {
-      const Eigen::Vector3d p_in_cam = g->cam_from_board * Eigen::Vector3d(q.x(), q.y(), 0.0);
+  for (const Region& r : regions) {
+    for (const auto& q : *r.polygon) {
+      const Eigen::Vector3d p_in_cam = g->cam_from_board * Eigen::Vector3d(q.x(), q.y(), r.z);
       if (p_in_cam.z() <= 0) continue;
       const Eigen::Vector2d px = camera.Project(p_in_cam);
       umin = std::min(umin, px.x());
@@ -128,31 +128,70 @@ void BoundPatchLoop(const CameraModel& camera,
 }
 
 // What every patch of every frame shares.
+template <typename Region>
 struct PatchContext {
   const CameraModel* camera;
-  const std::vector<std::pair<const std::vector<Eigen::Vector2d>*, bool>>* regions;
+  const std::vector<Region>* regions;
   const std::vector<std::vector<Eigen::Vector2d>>* tags;
   int channels, patch;
+  double sample_height;
 };
 
-// The board point a pixel's ray meets, or false when the ray misses the board's front.
-bool BoardPoint(const CameraModel& camera, const FrameGeometry& g, int u, int v,
+// Where a pixel's ray meets the plane z = plane_z (board frame), or false when it meets it
+// behind the camera or not at all.
+bool PlanePoint(const FrameGeometry& g, const Eigen::Vector3d& dir, double plane_z,
                 Eigen::Vector3d* p) {
-  const Eigen::Vector3d ray_in_cam = camera.Unproject(Eigen::Vector2d(u, v));
-  const Eigen::Vector3d dir = g.board_from_cam.R * ray_in_cam;
   if (std::abs(dir.z()) < 1e-12) return false;
-  const double s = -g.board_from_cam.t.z() / dir.z();
+  const double s = (plane_z - g.board_from_cam.t.z()) / dir.z();
   if (s <= 0) return false;
   *p = g.board_from_cam.t + s * dir;
   return true;
+}
+
+// Whether the ray from the camera to board point p (z = 0) passes through a sample raised by
+// `height` (its top or its sides, within `margin`): points along the ray between the top's
+// plane and the board, tested against the sample polygon.
+bool HiddenBySample(const FrameGeometry& g, const std::vector<Eigen::Vector2d>& sample,
+                    const Eigen::Vector3d& p, double height, double margin) {
+  const Eigen::Vector3d to_camera = g.board_from_cam.t - p;
+  if (!(to_camera.z() < 0)) return false;
+  constexpr int kSteps = 8;
+  for (int k = 0; k <= kSteps; ++k) {
+    const Eigen::Vector3d q = p + (height * k / kSteps / -to_camera.z()) * to_camera;
+    if (InsideDistance(sample, Eigen::Vector2d(q.x(), q.y())) > -margin) return true;
+  }
+  return false;
+}
+
+// The region a pixel's ray shows (index into ctx.regions, -1: none) and its point there: the
+// sample on its own plane first (a raised sample stands in front of the board), then the
+// others; a region point hidden behind the raised sample counts as none (`*hidden`).
+template <typename Region>
+int PixelRegion(const PatchContext<Region>& ctx, const FrameGeometry& g, int u, int v,
+                Eigen::Vector3d* p, bool* hidden) {
+  const Eigen::Vector3d dir = g.board_from_cam.R * ctx.camera->Unproject(Eigen::Vector2d(u, v));
+  *hidden = false;
+  for (size_t k = 0; k < ctx.regions->size(); ++k) {
+    const Region& r = (*ctx.regions)[k];
+    if (!PlanePoint(g, dir, r.z, p)) continue;
+    if (InsideDistance(*r.polygon, Eigen::Vector2d(p->x(), p->y())) <= g.margin) continue;
+    if (k > 0 && ctx.sample_height > 0 &&
+        HiddenBySample(g, *(*ctx.regions)[0].polygon, *p, ctx.sample_height, g.margin)) {
+      *hidden = true;
+      return -1;
+    }
+    return static_cast<int>(k);
+  }
+  return -1;
 }
 
 // One patch x patch square at (u, v) into an observation: every pixel must fall inside the
 // same region (by more than the margin), off the tags, and be validly exposed. The variance of
 // the patch mean is the larger of the propagated pixel noise and the patch's own scatter
 // (texture) divided by n.
-bool ExtractPatch(const PatchContext& ctx, const FrameGeometry& g, const FrameImages& im, int u,
-                  int v, Counters* count, Observation* o) {
+template <typename Region>
+bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const FrameImages& im,
+                  int u, int v, Counters* count, Observation* o) {
   const int C = ctx.channels, P = ctx.patch;
   Eigen::Vector3d sum_p = Eigen::Vector3d::Zero();
   std::vector<double> sum(C, 0.0), sum_sq(C, 0.0), sum_var(C, 0.0);
@@ -160,12 +199,13 @@ bool ExtractPatch(const PatchContext& ctx, const FrameGeometry& g, const FrameIm
   for (int dv = 0; dv < P; ++dv) {
     for (int du = 0; du < P; ++du) {
       Eigen::Vector3d p;
-      if (!BoardPoint(*ctx.camera, g, u + du, v + dv, &p)) return false;
-      const Eigen::Vector2d q(p.x(), p.y());
-      int kind = -1;
-      for (size_t k = 0; k < ctx.regions->size(); ++k) {
-        if (InsideDistance(*(*ctx.regions)[k].first, q) > g.margin) kind = static_cast<int>(k);
+      bool hidden = false;
+      const int kind = PixelRegion(ctx, g, u + du, v + dv, &p, &hidden);
+      if (hidden) {
+        ++count->hidden;
+        return false;
       }
+      const Eigen::Vector2d q(p.x(), p.y());
       if (kind < 0 || (region_kind >= 0 && kind != region_kind)) return false;
       region_kind = kind;
       for (const auto& t : *ctx.tags) {
@@ -193,10 +233,10 @@ bool ExtractPatch(const PatchContext& ctx, const FrameGeometry& g, const FrameIm
   o->px = u + 0.5 * (P - 1);
   o->py = v + 0.5 * (P - 1);
   o->p_in_board = sum_p / n;
-  o->p_in_board.z() = 0.0;
+  o->p_in_board.z() = (*ctx.regions)[region_kind].z;
   o->camera_in_board = g.board_from_cam.t;
   o->board_from_cam_aa = g.board_from_cam_aa;
-  o->white = (*ctx.regions)[region_kind].second;
+  o->white = (*ctx.regions)[region_kind].white;
   o->num_pixels = n;
   for (int c = 0; c < C; ++c) {
     const double mean = sum[c] / n;
@@ -209,11 +249,50 @@ bool ExtractPatch(const PatchContext& ctx, const FrameGeometry& g, const FrameIm
 
 }  // namespace
 
+namespace {
+
+// The lamp's own radiance: the lamp-off frame's radiance (same exposure and gain) subtracted,
+// the two variances added. A lamp-off pixel at or below the black level is a valid reading of
+// (nearly) no ambient light; a saturated one makes the pixel invalid.
+void SubtractLampOff(const PhotometricCalibration& photometric, const cv::Mat& lamp_off,
+                     const SessionFrame& frame, FrameImages* im) {
+  FrameImages off;
+  photometric.ToRadiance(lamp_off, frame.exposure_s, frame.gain, &off.radiance, &off.variance,
+                         &off.valid);
+  const int C = im->radiance.channels();
+  const double max_value = (1 << photometric.response.bit_depth) - 1.0;
+  cv::Mat values;
+  lamp_off.convertTo(values, CV_MAKETYPE(CV_64F, C));
+  for (int y = 0; y < values.rows; ++y) {
+    const double* z = values.ptr<double>(y);
+    float* L = im->radiance.ptr<float>(y);
+    float* V = im->variance.ptr<float>(y);
+    const float* L_off = off.radiance.ptr<float>(y);
+    const float* V_off = off.variance.ptr<float>(y);
+    uint8_t* ok = im->valid.ptr<uint8_t>(y);
+    for (int x = 0; x < values.cols; ++x) {
+      for (int c = 0; c < C; ++c) {
+        const int i = x * C + c;
+        if (z[i] >= std::min(max_value, photometric.response.saturation_level[c])) ok[x] = 0;
+        L[i] -= L_off[i];
+        V[i] += V_off[i];
+      }
+    }
+  }
+}
+
+}  // namespace
+
 void ObservationExtractor::AddFrame(size_t f, const cv::Mat& raw, const Rigid3d& cam_from_board,
-                                    const std::string& what) {
+                                    const std::string& what, const cv::Mat* lamp_off) {
   if (raw.empty()) throw InputError(what + ": cannot be read as an image");
   if (raw.cols != camera_.width || raw.rows != camera_.height) {
     throw InputError(what + ": image size differs from the camera model's");
+  }
+  if (lamp_off &&
+      (lamp_off->empty() || lamp_off->size() != raw.size() || lamp_off->type() != raw.type())) {
+    throw InputError(what + ": its lamp-off frame " + frames_[f].lamp_off +
+                     " cannot be read or differs in size or type");
   }
   added_.at(f) = true;
   FrameGeometry g;
@@ -223,16 +302,19 @@ void ObservationExtractor::AddFrame(size_t f, const cv::Mat& raw, const Rigid3d&
   g.board_from_cam_aa = aa.angle() * aa.axis();
   const double footprint = g.board_from_cam.t.norm() / camera_.intrinsics[0];
   g.margin = options_.edge_margin_px * footprint * options_.patch;
-  std::vector<const std::vector<Eigen::Vector2d>*> polys;
-  for (const auto& r : regions_) polys.push_back(r.first);
-  BoundPatchLoop(camera_, polys, options_.patch, &g);
+  BoundPatchLoop(camera_, regions_, options_.patch, &g);
 
   FrameImages im;
   photometric_.ToRadiance(raw, frames_[f].exposure_s, frames_[f].gain, &im.radiance, &im.variance,
                           &im.valid);
+  if (lamp_off) {
+    SubtractLampOff(photometric_, *lamp_off, frames_[f], &im);
+    ++lamp_off_frames_;
+  }
   const int P = options_.patch;
   const int rows = g.v1 >= g.v0 ? (g.v1 - g.v0) / P + 1 : 0;
-  const PatchContext ctx{&camera_, &regions_, &tags_, set_.channels, P};
+  const PatchContext<Region> ctx{&camera_,      &regions_, &tags_,
+                                 set_.channels, P,         board_.sample_height()};
   Counters count;
   std::mutex mutex;
   ParallelFor(rows, options_.threads, [&](size_t rb, size_t re) {
@@ -253,6 +335,7 @@ void ObservationExtractor::AddFrame(size_t f, const cv::Mat& raw, const Rigid3d&
   saturated_ += count.saturated.load();
   dark_ += count.dark.load();
   tag_ += count.tag.load();
+  hidden_ += count.hidden.load();
 }
 ObservationSet ObservationExtractor::Finish(const std::string& what) {
   // Threads append in any order: sort so output is reproducible.
@@ -263,6 +346,8 @@ ObservationSet ObservationExtractor::Finish(const std::string& what) {
   const size_t no_pose = std::count(added_.begin(), added_.end(), false);
   set_.excluded = {
       {"saturated", saturated_}, {"dark", dark_}, {"tag", tag_}, {"frames_without_pose", no_pose}};
+  if (board_.sample_height() > 0) set_.excluded.emplace_back("hidden_by_sample", hidden_);
+  set_.lamp_off_frames = lamp_off_frames_;
   if (no_pose == frames_.size()) {
     throw InputError(what + ": no frame has a pose (run gonio locate; is the board visible?)");
   }
@@ -277,6 +362,15 @@ ObservationSet ObservationExtractor::Finish(const std::string& what) {
       "tag {}, frames without pose {}",
       set_.observations.size(), sample, set_.observations.size() - sample, saturated_, dark_, tag_,
       no_pose);
+  if (lamp_off_frames_ > 0) {
+    spdlog::info("extract: lamp-off radiance subtracted in {} frames", lamp_off_frames_);
+  }
+  if (lamp_off_frames_ > 0 && lamp_off_frames_ + no_pose < frames_.size()) {
+    spdlog::warn(
+        "extract: only {} of {} frames have a lamp-off frame; the others include the "
+        "room's light",
+        lamp_off_frames_, frames_.size() - no_pose);
+  }
   return std::move(set_);
 }
 
@@ -292,7 +386,13 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
     const auto pose_it = poses.find(session.frames[f].file);
     if (pose_it != poses.end()) {
       const std::string path = session.FramePath(f).string();
-      extractor.AddFrame(f, cv::imread(path, cv::IMREAD_UNCHANGED), pose_it->second, path);
+      cv::Mat lamp_off;
+      if (!session.frames[f].lamp_off.empty()) {
+        lamp_off = cv::imread(session.LampOffPath(f).string(), cv::IMREAD_UNCHANGED);
+      }
+      extractor.AddFrame(
+          f, cv::imread(path, cv::IMREAD_UNCHANGED), pose_it->second, path,
+          lamp_off.empty() && session.frames[f].lamp_off.empty() ? nullptr : &lamp_off);
     }
     progress.Step();
   }

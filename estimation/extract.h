@@ -1,5 +1,11 @@
 // Back-projection: every sample (and white-reference) pixel of every located frame becomes an
 // Observation with its board point, camera centre and linear radiance.
+//
+// The sample's surface is the plane z = -Board::sample_height() (a raised sample: fabric,
+// tile, card), the white reference the printed plane z = 0; a white-reference pixel whose ray
+// passes through the raised sample is left out. A frame with a lamp-off partner (session.json
+// "lamp_off") has the partner's radiance subtracted pixel by pixel, its variance added
+// (docs/pipeline.md "Ambient light").
 #pragma once
 
 #include <filesystem>
@@ -38,9 +44,10 @@ class ObservationExtractor {
                        const Board& board, const PhotometricCalibration& photometric,
                        const ExtractOptions& options);
   // raw: the frame as decoded from its file (cv::IMREAD_UNCHANGED); `what` names it in errors.
-  // InputError when its size differs from the camera model's.
+  // lamp_off: the decoded lamp-off frame of the same pose and exposure, or null. InputError
+  // when a size differs from the camera model's.
   void AddFrame(size_t frame_index, const cv::Mat& raw, const Rigid3d& cam_from_board,
-                const std::string& what);
+                const std::string& what, const cv::Mat* lamp_off = nullptr);
   // InputError naming `what` (the session) when no frame was added or no sample pixel is usable.
   ObservationSet Finish(const std::string& what);
 
@@ -50,12 +57,17 @@ class ObservationExtractor {
   const Board& board_;
   const PhotometricCalibration& photometric_;
   ExtractOptions options_;
-  // Sample region first, then the white reference (second: true).
-  std::vector<std::pair<const std::vector<Eigen::Vector2d>*, bool>> regions_;
+  // Sample region first (on z = -sample height), then the white reference (on z = 0).
+  struct Region {
+    const std::vector<Eigen::Vector2d>* polygon;
+    bool white;
+    double z;  // the plane the region lies on, board frame
+  };
+  std::vector<Region> regions_;
   std::vector<std::vector<Eigen::Vector2d>> tags_;  // tag squares grown by one module
   ObservationSet set_;
   std::vector<bool> added_;
-  size_t saturated_ = 0, dark_ = 0, tag_ = 0;
+  size_t saturated_ = 0, dark_ = 0, tag_ = 0, hidden_ = 0, lamp_off_frames_ = 0;
 };
 
 // poses: frame file -> cam_from_board (poses.json via calib/vignette.h ReadPoses).

@@ -24,6 +24,8 @@ namespace {
 
 constexpr OptionWord<LightFrame> kLightFrameWords[] = {{LightFrame::kBoard, "board"},
                                                        {LightFrame::kCamera, "camera"}};
+constexpr OptionWord<AmbientTerm> kAmbientWords[] = {
+    {AmbientTerm::kNone, "none"}, {AmbientTerm::kFit, "fit"}, {AmbientTerm::kAuto, "auto"}};
 
 using joint_fit_internal::BuildProblem;
 using joint_fit_internal::CountResiduals;
@@ -64,6 +66,8 @@ State InitialState(const ModelInfo& info, const ObservationSet& data,
   s.chan.assign(o.per_channel ? data.channels : 1, s.shared);
   s.light = light_start;
   s.intensity = 1.0;
+  s.ambient_sample.assign(data.channels, 0.0);
+  s.ambient_irradiance.assign(data.channels, 0.0);
   double fy = 0, ff = 0;
   for (size_t i : use) {
     const Observation& obs = data.observations[i];
@@ -103,6 +107,12 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
   }
   r.light_position = s.light;
   r.intensity = s.intensity;
+  r.ambient = o.ambient;
+  if (o.fit_sample_height) r.sample_height_offset = s.height_offset;
+  if (o.ambient == AmbientTerm::kFit) {
+    r.ambient_sample = s.ambient_sample;
+    if (o.white_albedo) r.ambient_irradiance = s.ambient_irradiance;
+  }
   for (const auto& p : info.params) {
     if (p.per_channel) r.per_channel_param_names.push_back(p.name);
   }
@@ -149,6 +159,28 @@ std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem&
   }
   blocks->push_back(&s->intensity);
   cols.push_back({&s->intensity, 0, std::abs(s->intensity), "intensity"});
+  if (problem.HasParameterBlock(&s->height_offset) &&
+      !problem.IsParameterBlockConstant(&s->height_offset)) {
+    blocks->push_back(&s->height_offset);
+    cols.push_back({&s->height_offset, 0, 0.01, "sample_height"});  // range: 1 cm
+  }
+  // Ambient terms: ranges the lamp's irradiance at its distance (and a white Lambertian's
+  // radiance under it).
+  const double lamp_irradiance = std::abs(s->intensity) / (light_distance * light_distance);
+  for (size_t c = 0; c < s->ambient_sample.size(); ++c) {
+    if (problem.HasParameterBlock(&s->ambient_sample[c]) &&
+        !problem.IsParameterBlockConstant(&s->ambient_sample[c])) {
+      blocks->push_back(&s->ambient_sample[c]);
+      cols.push_back({&s->ambient_sample[c], 0, lamp_irradiance * kInvPi,
+                      fmt::format("ambient_sample[{}]", c)});
+    }
+    if (problem.HasParameterBlock(&s->ambient_irradiance[c]) &&
+        !problem.IsParameterBlockConstant(&s->ambient_irradiance[c])) {
+      blocks->push_back(&s->ambient_irradiance[c]);
+      cols.push_back({&s->ambient_irradiance[c], 0, lamp_irradiance,
+                      fmt::format("ambient_irradiance[{}]", c)});
+    }
+  }
   return cols;
 }
 
@@ -187,6 +219,24 @@ using joint_fit_internal::FreeColumn;
 using joint_fit_internal::FreeColumns;
 using joint_fit_internal::FreeJacobian;
 
+// When column c is an ambient term: its standard deviation into r's.
+bool AmbientColumn(const State& s, const FreeColumn& c, std::optional<double> stddev,
+                   JointFitResult* r) {
+  for (size_t k = 0; k < s.ambient_sample.size(); ++k) {
+    if (c.block == &s.ambient_sample[k]) {
+      r->ambient_sample_stddev.resize(s.ambient_sample.size());
+      r->ambient_sample_stddev[k] = stddev;
+      return true;
+    }
+    if (c.block == &s.ambient_irradiance[k]) {
+      r->ambient_irradiance_stddev.resize(s.ambient_irradiance.size());
+      r->ambient_irradiance_stddev[k] = stddev;
+      return true;
+    }
+  }
+  return false;
+}
+
 // Standard deviations and undetermined directions into `r`: the lamp's, the intensity's and
 // the material's (channel 0 stands for the per-channel parameters). `s` holds the blocks the
 // columns point into.
@@ -208,6 +258,11 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
     } else if (c.block == &s.intensity) {
       r->intensity_stddev = u.stddev[j];
       if (u.undetermined[j]) r->undetermined_light.push_back("intensity");
+    } else if (c.block == &s.height_offset) {
+      r->sample_height_offset_stddev = u.stddev[j];
+      if (u.undetermined[j]) r->undetermined_light.push_back("sample_height");
+    } else if (AmbientColumn(s, c, u.stddev[j], r)) {
+      if (u.undetermined[j]) r->undetermined_light.push_back(c.name);
     } else if (c.block == s.shared.data() || c.block == s.chan[0].data()) {
       m.stddev[c.index] = u.stddev[j];
       if (u.undetermined[j]) m.undetermined.push_back(c.name);
@@ -237,6 +292,18 @@ void AnalyzeJointUncertainty(const ModelInfo& info, const ObservationSet& data,
   BuildProblem<M>(data, use, info, o, &plain, true, &problem);
   std::vector<double*> blocks;
   const double light_distance = (s.light - data.observations[use[0]].p_in_board).norm();
+  // The plain problem has no constant blocks: the ambient terms are free columns only when
+  // fitted.
+  if (o.ambient != AmbientTerm::kFit) {
+    for (auto* ambient : {&plain.ambient_sample, &plain.ambient_irradiance}) {
+      for (double& a : *ambient) {
+        if (problem.HasParameterBlock(&a)) problem.SetParameterBlockConstant(&a);
+      }
+    }
+  }
+  if (!o.fit_sample_height && problem.HasParameterBlock(&plain.height_offset)) {
+    problem.SetParameterBlockConstant(&plain.height_offset);
+  }
   const std::vector<FreeColumn> cols = FreeColumns(info, problem, &plain, light_distance, &blocks);
   double cost = 0;
   const Eigen::MatrixXd J = FreeJacobian(&problem, blocks, cols, &cost);
@@ -263,6 +330,7 @@ void CheckIrradianceContrast(const ObservationSet& data, const std::vector<size_
     e_max = std::max(e_max, e);
   }
   const double contrast = e_min > 0 ? e_max / e_min - 1.0 : 0.0;
+  if (std::isfinite(e_min)) r->lamp_irradiance = s.intensity * 0.5 * (e_min + e_max);
   if (contrast >= o.min_irradiance_contrast) return;
   r->light_stddev.reset();
   r->undetermined_light.push_back("light_distance");
@@ -385,6 +453,7 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
   JointFitResult r = ResultFromState(info, s, o, use.size());
   r.material.n_samples = CountResiduals(data, use, o);
   if (!s.usable) return r;
+  r.lamp_off_frames = data.lamp_off_frames;
   AnalyzeJointUncertainty<M>(info, data, use, o, s, &r);
   CheckIrradianceContrast(data, use, o, s, &r);
   ComputeMetrics<M>(info, data, use, o, s, &r);
@@ -414,6 +483,12 @@ bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles
   *angles = AnglesFromDirections(ls, vs);
   return true;
 }
+
+AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name) {
+  return ParseOptionWord(kAmbientWords, word, option_name);
+}
+
+std::string ToString(AmbientTerm term) { return OptionWordOf(kAmbientWords, term); }
 
 LightFrame ParseLightFrame(const std::string& word, const std::string& option_name) {
   return ParseOptionWord(kLightFrameWords, word, option_name);

@@ -32,6 +32,18 @@ enum class LightFrame { kBoard, kCamera };
 LightFrame ParseLightFrame(const std::string& word, const std::string& option_name);
 std::string ToString(LightFrame frame);
 
+// The room's light (docs/pipeline.md "Ambient light"): not modelled (kNone: the data are
+// lamp-only, e.g. lamp-off frames were subtracted, or the room is dark), or one constant per
+// colour channel fitted on the sample (ambient radiance L_a) and one on the white reference
+// (ambient irradiance E_a, reflected as A_w E_a / pi):
+//   L = f_r I cos(theta_i) / d^2 + L_a        L_w = A_w / pi (I cos(theta_i) / d^2 + E_a)
+// kAuto: the search without it, then the selected model's final fit both ways; the ambient
+// terms are kept when they lower the criterion (BIC, or AIC) by more than 2.
+enum class AmbientTerm { kNone, kFit, kAuto };
+// "none", "fit" or "auto"; InputError naming `option_name` otherwise.
+AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name);
+std::string ToString(AmbientTerm term);
+
 // Lamp starts farther than this from the board origin are refused as typos (metres).
 inline constexpr double kMaxLightDistance = 1000.0;
 
@@ -42,6 +54,10 @@ struct JointFitOptions {
   std::optional<Eigen::Vector3d> light_init;    // in light_frame; none: multi-start
   std::optional<double> white_albedo;           // known albedo of the white reference
   bool per_channel = true;                      // per-channel albedo-like parameters (colour data)
+  AmbientTerm ambient = AmbientTerm::kNone;     // --ambient
+  // --fit-sample-height: a correction to board.json's sample_height_m fitted with the rest
+  // (the sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
+  bool fit_sample_height = false;
   RobustLoss robust_loss = RobustLoss::kHuber;  // scale 3 sigma
   double relative_noise_floor = 0.01;           // sigma^2 = variance + (floor * L)^2
   size_t selection_max_observations = 3000;     // candidates compared on a subsample
@@ -81,11 +97,26 @@ struct JointFitResult {
   std::optional<double> intensity_stddev;
   bool absolute = false;                        // a white reference fixed the intensity
   std::vector<std::string> undetermined_light;  // "light_x", "intensity", ...
+  // The ambient terms per colour channel (AmbientTerm::kFit; empty otherwise): the sample's
+  // ambient radiance and the ambient irradiance on the white reference (empty without a
+  // white reference), with their standard deviations; lamp_irradiance: the lamp's mean
+  // irradiance I cos(theta_i) / d^2 over the sample, which the irradiance is a fraction of.
+  AmbientTerm ambient = AmbientTerm::kNone;
+  std::vector<double> ambient_sample, ambient_irradiance;
+  std::vector<std::optional<double>> ambient_sample_stddev, ambient_irradiance_stddev;
+  double lamp_irradiance = 0;
+  std::string ambient_reason;
+  // --fit-sample-height: the fitted correction to board.json's sample height (metres, > 0:
+  // the top stands further out) and its standard deviation.
+  std::optional<double> sample_height_offset,
+      sample_height_offset_stddev;  // kAuto: why the terms were kept or left out
+  size_t lamp_off_frames = 0;       // frames whose lamp-off radiance extraction subtracted
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
   size_t n_observations = 0;
 
   nlohmann::json ToJson() const;
+  nlohmann::json AmbientJson() const;  // fit.json "ambient" (docs/formats.md)
 };
 
 struct JointSelectionResult {

@@ -22,6 +22,9 @@
 
 namespace gonio::joint_fit_internal {
 
+// A fitted sample-height correction is searched within this many metres of board.json's.
+inline constexpr double kMaxSampleHeightOffset = 0.05;
+
 // Lamp position in the board frame for one observation: `light` as fitted, in the board frame,
 // or in the camera frame (then moved by the observation's board_from_cam pose).
 template <typename T>
@@ -39,21 +42,27 @@ void LightInBoard(const Observation& o, LightFrame frame, const T* light, T* lig
 // Irradiance factor cos(theta_i)/d^2 at the observed point for the lamp at `light_in_board`,
 // and the (unnormalized) directions to lamp and camera in the sample frame (board x, -y, -z:
 // the sample's outward normal is -z_board). Call sites name them lb, ls and vs.
+// height_offset: the sample's surface this much further out of the board than the
+// observation's point (metres; the fitted correction to board.json's sample_height_m): the
+// point moves along the pixel's ray, from the camera, to the plane z = p.z - height_offset.
 template <typename T>
 T Geometry(const Observation& o, const T* light_in_board, T* light_dir_in_sample,
-           T* view_dir_in_sample) {
+           T* view_dir_in_sample, const T& height_offset = T(0)) {
   const T* lb = light_in_board;
   T* ls = light_dir_in_sample;
   T* vs = view_dir_in_sample;
-  const T l[3] = {lb[0] - T(o.p_in_board.x()), lb[1] - T(o.p_in_board.y()),
-                  lb[2] - T(o.p_in_board.z())};
+  const Eigen::Vector3d& c = o.camera_in_board;
+  const Eigen::Vector3d ray = o.p_in_board - c;
+  const T along = (T(ray.z()) - height_offset) / T(ray.z());  // 1 without an offset
+  const T p[3] = {T(c.x()) + along * T(ray.x()), T(c.y()) + along * T(ray.y()),
+                  T(c.z()) + along * T(ray.z())};
+  const T l[3] = {lb[0] - p[0], lb[1] - p[1], lb[2] - p[2]};
   ls[0] = l[0];
   ls[1] = -l[1];
   ls[2] = -l[2];
-  const Eigen::Vector3d v = o.camera_in_board - o.p_in_board;
-  vs[0] = T(v.x());
-  vs[1] = T(-v.y());
-  vs[2] = T(-v.z());
+  vs[0] = T(c.x()) - p[0];
+  vs[1] = -(T(c.y()) - p[1]);
+  vs[2] = -(T(c.z()) - p[2]);
   const T d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
   using std::sqrt;
   return ls[2] / (d2 * sqrt(d2));  // cos(theta_i) / d^2
@@ -69,16 +78,19 @@ struct SampleRadianceResidual {
   double inv_sigma;
   LightFrame light_frame;
   std::array<bool, 16> per_channel;
+  // ambient: this channel's ambient radiance of the sample (0 and constant unless fitted).
+  // height_offset: the fitted correction to the sample's height (0 and constant unless fitted).
   template <typename T>
-  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity, T* r) const {
+  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity,
+                  const T* ambient, const T* height_offset, T* r) const {
     T lb[3], ls[3], vs[3];
     LightInBoard(*o, light_frame, light, lb);
-    const T e = Geometry(*o, lb, ls, vs);
+    const T e = Geometry(*o, lb, ls, vs, height_offset[0]);
     T p[M::kNumParams];
     for (int k = 0; k < M::kNumParams; ++k) p[k] = per_channel[k] ? chan[k] : shared[k];
     T f = T(0);
     if (ls[2] > T(0)) f = M::Evaluate(p, AnglesFromDirections(ls, vs));
-    const T model = e > T(0) ? f * intensity[0] * e : T(0);
+    const T model = (e > T(0) ? f * intensity[0] * e : T(0)) + ambient[0];
     r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
     return true;
   }
@@ -89,12 +101,15 @@ struct WhiteRadianceResidual {
   int channel;
   double inv_sigma, white_albedo;
   LightFrame light_frame;
+  // ambient_irradiance: this channel's ambient irradiance E_a (0 and constant unless fitted);
+  // the Lambertian reference reflects A_w / pi of it.
   template <typename T>
-  bool operator()(const T* light, const T* intensity, T* r) const {
+  bool operator()(const T* light, const T* intensity, const T* ambient_irradiance, T* r) const {
     T lb[3], ls[3], vs[3];
     LightInBoard(*o, light_frame, light, lb);
     const T e = Geometry(*o, lb, ls, vs);
-    const T model = e > T(0) ? T(white_albedo * kInvPi) * intensity[0] * e : T(0);
+    const T model =
+        T(white_albedo * kInvPi) * ((e > T(0) ? intensity[0] * e : T(0)) + ambient_irradiance[0]);
     r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
     return true;
   }
@@ -136,6 +151,10 @@ struct State {
   std::vector<std::vector<double>> chan;  // per channel (one when options.per_channel is off)
   Eigen::Vector3d light;
   double intensity = 1;
+  // Per channel: the sample's ambient radiance and the ambient irradiance on the white
+  // reference (docs/pipeline.md "Ambient light"); zero and held constant unless fitted.
+  std::vector<double> ambient_sample, ambient_irradiance;
+  double height_offset = 0;  // metres, added to board.json's sample height when fitted
   double cost = INFINITY;
   bool usable = false;
 };
@@ -154,23 +173,42 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
       const double inv_sigma = 1.0 / Sigma(obs, c, o.relative_noise_floor);
       if (obs.white) {
         problem->AddResidualBlock(
-            new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1>(
+            new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1, 1>(
                 new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.light_frame}),
-            loss, s->light.data(), &s->intensity);
+            loss, s->light.data(), &s->intensity, &s->ambient_irradiance[c]);
       } else {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
-                                            M::kNumParams, 3, 1>(
+                                            M::kNumParams, 3, 1, 1, 1>(
                 new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.light_frame, per_channel}),
-            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity);
+            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity,
+            &s->ambient_sample[c], &s->height_offset);
       }
     }
   }
 }
 
-// Registry bounds on every parameter, the intensity positive, and manifolds that hold the
-// entries of each block that belong to the other block constant.
-inline void ConstrainParameters(const ModelInfo& info, State* s, ceres::Problem* problem) {
+// Registry bounds on every parameter, the intensity positive, the ambient terms held at zero
+// unless fitted, and manifolds that hold the entries of each block that belong to the other
+// block constant.
+inline void ConstrainParameters(const ModelInfo& info, const JointFitOptions& o, State* s,
+                                ceres::Problem* problem) {
+  for (auto* ambient : {&s->ambient_sample, &s->ambient_irradiance}) {
+    for (double& a : *ambient) {
+      if (o.ambient != AmbientTerm::kFit && problem->HasParameterBlock(&a)) {
+        problem->SetParameterBlockConstant(&a);
+      }
+    }
+  }
+  if (problem->HasParameterBlock(&s->height_offset)) {
+    if (o.fit_sample_height) {
+      // The sample's top stays in front of the board's far side and within a sane thickness.
+      problem->SetParameterLowerBound(&s->height_offset, 0, -kMaxSampleHeightOffset);
+      problem->SetParameterUpperBound(&s->height_offset, 0, kMaxSampleHeightOffset);
+    } else {
+      problem->SetParameterBlockConstant(&s->height_offset);
+    }
+  }
   const int n = info.num_params();
   std::vector<int> channel_idx, shared_idx;
   for (int k = 0; k < n; ++k) (info.params[k].per_channel ? channel_idx : shared_idx).push_back(k);
@@ -209,7 +247,7 @@ template <typename M>
 void BuildProblem(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
                   const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
   AddResiduals<M>(data, use, info, o, s, plain, problem);
-  if (!plain) ConstrainParameters(info, s, problem);
+  if (!plain) ConstrainParameters(info, o, s, problem);
 }
 
 template <typename M>
@@ -235,13 +273,16 @@ double Predict(const Observation& obs, int c, const State& s, const ModelInfo& i
                LightFrame light_frame, std::optional<double> white_albedo) {
   double lb[3], ls[3], vs[3];
   LightInBoard(obs, light_frame, s.light.data(), lb);
-  const double e = Geometry(obs, lb, ls, vs);
-  if (e <= 0) return 0.0;
-  if (obs.white) return white_albedo.value_or(0.0) * kInvPi * s.intensity * e;
+  const double e = Geometry(obs, lb, ls, vs, obs.white ? 0.0 : s.height_offset);
+  if (obs.white) {
+    return white_albedo.value_or(0.0) * kInvPi *
+           ((e > 0 ? s.intensity * e : 0.0) + s.ambient_irradiance[c]);
+  }
+  if (e <= 0) return s.ambient_sample[c];
   double p[M::kNumParams];
   const auto& ch = s.chan[std::min<size_t>(c, s.chan.size() - 1)];
   for (int k = 0; k < M::kNumParams; ++k) p[k] = info.params[k].per_channel ? ch[k] : s.shared[k];
-  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e;
+  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e + s.ambient_sample[c];
 }
 
 // One free column of the Jacobian: the entry `index` of parameter block `block`, its range

@@ -66,9 +66,10 @@ std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
 }
 
 // Free parameters of a candidate in the joint fit: its per-channel parameters once per channel,
-// its shared ones once, the lamp position (3) and the intensity (1).
+// its shared ones once, the lamp position (3), the intensity (1) and the fitted ambient terms
+// (two per channel at most).
 size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions& o) {
-  size_t k = 4;
+  size_t k = 4 + (o.ambient != AmbientTerm::kNone ? 2 * channels : 0) + o.fit_sample_height;
   for (const auto& p : info.params) k += (p.per_channel && o.per_channel) ? channels : 1;
   return k;
 }
@@ -142,6 +143,31 @@ void ApplyPracticalSignificance(const ObservationSet& data, const std::vector<si
 
 }  // namespace
 
+// --ambient auto: the final model refitted with the ambient terms, kept when the criterion
+// (BIC, or AIC) drops by more than 2 (the same margin as the model choice).
+void ChooseAmbient(const ObservationSet& data, const std::vector<size_t>& use,
+                   const JointFitOptions& options, JointSelectionResult* out) {
+  if (data.lamp_off_frames > 0) {
+    out->final_fit.ambient_reason = "--ambient auto: lamp-off frames subtracted; no ambient term";
+    return;
+  }
+  JointFitOptions with = options;
+  with.ambient = AmbientTerm::kFit;
+  const JointFitResult& none = out->final_fit;
+  JointFitResult fit =
+      FitCandidate(none.material.model, data, use, none.light_position, with, false);
+  const bool aic = options.criterion == Criterion::kAic;
+  const double c_none = aic ? none.material.aic : none.material.bic;
+  const double c_fit = aic ? fit.material.aic : fit.material.bic;
+  const bool keep = fit.material.converged && c_fit < c_none - 2.0;
+  const std::string reason =
+      fmt::format("--ambient auto: {} {:.2f} without the ambient terms, {:.2f} with them: {}",
+                  aic ? "AIC" : "BIC", c_none, c_fit, keep ? "kept" : "left out");
+  spdlog::info("{}", reason);
+  if (keep) out->final_fit = std::move(fit);
+  out->final_fit.ambient_reason = reason;
+}
+
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
   options.Check();
   size_t sample = 0;
@@ -157,13 +183,16 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   const std::vector<std::string> names =
       options.candidates.empty() ? AutoCandidates() : options.candidates;
   CheckEnoughResiduals(data, names, options);
-  const Eigen::Vector3d light0 = InitialLight(data, options);
+  // --ambient auto searches without the ambient terms; ChooseAmbient decides at the end.
+  JointFitOptions search = options;
+  if (search.ambient == AmbientTerm::kAuto) search.ambient = AmbientTerm::kNone;
+  const Eigen::Vector3d light0 = InitialLight(data, search);
   const auto use = Subsample(data, options.selection_max_observations);
   JointSelectionResult out;
   Progress progress("joint fit candidates", names.size());
   std::string stopped;
   for (const auto& stage : Stages(names)) {
-    const auto fits = FitStage(stage, data, use, light0, options, &progress);
+    const auto fits = FitStage(stage, data, use, light0, search, &progress);
     bool explained = false;
     for (const auto& f : fits) {
       explained = explained || ExplainsToTheNoise(f);
@@ -188,7 +217,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   ModelSelectionOptions sel;
   sel.criterion = options.criterion;
   ChooseSimplestAdequate(sel, &out.selection);
-  ApplyPracticalSignificance(data, use, options, &out);
+  ApplyPracticalSignificance(data, use, search, &out);
   out.selection.reason += stopped;
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
@@ -196,7 +225,8 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   // The final fit on (up to final_max_observations of) everything; no folds again.
   const auto final_use = Subsample(data, options.final_max_observations);
   out.final_fit =
-      FitCandidate(chosen.material.model, data, final_use, chosen.light_position, options, false);
+      FitCandidate(chosen.material.model, data, final_use, chosen.light_position, search, false);
+  if (options.ambient == AmbientTerm::kAuto) ChooseAmbient(data, final_use, options, &out);
   return out;
 }
 

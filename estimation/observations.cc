@@ -145,6 +145,7 @@ ObservationSet MergeObservations(const std::vector<ObservationSet>& sets) {
       out.observations.push_back(std::move(o));
     }
     out.excluded.insert(out.excluded.end(), s.excluded.begin(), s.excluded.end());
+    out.lamp_off_frames += s.lamp_off_frames;
   }
   return out;
 }

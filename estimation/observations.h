@@ -14,7 +14,7 @@ namespace gonio {
 struct Observation {
   int frame = 0;
   double px = 0, py = 0;       // pixel (patch centre), pixel-centre convention
-  Eigen::Vector3d p_in_board;  // point on the board (z = 0), metres
+  Eigen::Vector3d p_in_board;  // point on the board (z = 0; a raised sample: z = -height), m
   Eigen::Vector3d camera_in_board;
   Eigen::Vector3d board_from_cam_aa;  // rotation (angle-axis) of board_from_cam
   bool white = false;                 // white reference paper (known albedo) instead of the sample
@@ -29,6 +29,8 @@ struct ObservationSet {
   std::vector<Observation> observations;
   // Counts of pixels left out, by reason (saturated, dark, tag, outside).
   std::vector<std::pair<std::string, size_t>> excluded;
+  // Frames whose lamp-off partner's radiance was subtracted (the room's light removed).
+  size_t lamp_off_frames = 0;
 };
 
 // observations.csv (docs/formats.md). InputError naming the file and line on bad content.

@@ -52,7 +52,9 @@ void BrdfPlot(const JointFitResult& f, const ObservationSet& data,
     BrdfSample s{a.theta_i, a.theta_r, a.phi, 0, 1};
     auto& [meas, fitted] = bins[bin];
     meas.x.push_back(x);
-    meas.y.push_back(o.radiance[0] / (f.intensity * e));
+    // The lamp's part of the radiance: a fitted ambient constant subtracted (docs/pipeline.md).
+    const double ambient = f.ambient_sample.empty() ? 0.0 : f.ambient_sample[0];
+    meas.y.push_back((o.radiance[0] - ambient) / (f.intensity * e));
     fitted.x.push_back(x);
     fitted.y.push_back(f.material.Predict(s));
   }
@@ -194,6 +196,36 @@ void GeometrySketch(const JointFitResult& f, const ObservationSet& data, const B
   RenderPlot(spec, png);
 }
 
+// Parameter-table rows for the room's light and a fitted sample height (docs/pipeline.md).
+std::string AmbientRows(const JointFitResult& f) {
+  auto sd = [](const std::vector<std::optional<double>>& v, size_t k) {
+    return k < v.size() && v[k] ? fmt::format("{:.2g}", *v[k]) : std::string("undetermined");
+  };
+  std::string rows;
+  if (f.ambient != AmbientTerm::kFit) {
+    rows = fmt::format("<tr><td>ambient</td><td colspan=2>{}</td></tr>",
+                       f.lamp_off_frames > 0
+                           ? fmt::format("lamp-off frames subtracted ({})", f.lamp_off_frames)
+                           : std::string("not modelled"));
+  }
+  for (size_t c = 0; c < f.ambient_sample.size(); ++c) {
+    rows += fmt::format("<tr><td>ambient radiance, sample [{}]</td><td>{:.4g}</td><td>{}</td></tr>",
+                        c, f.ambient_sample[c], sd(f.ambient_sample_stddev, c));
+  }
+  for (size_t c = 0; c < f.ambient_irradiance.size(); ++c) {
+    rows += fmt::format("<tr><td>ambient irradiance [{}]</td><td>{:.4g}</td><td>{}</td></tr>", c,
+                        f.ambient_irradiance[c], sd(f.ambient_irradiance_stddev, c));
+  }
+  if (f.sample_height_offset) {
+    rows += fmt::format("<tr><td>sample height correction</td><td>{:+.2f} mm</td><td>{}</td></tr>",
+                        1e3 * *f.sample_height_offset,
+                        f.sample_height_offset_stddev
+                            ? fmt::format("{:.2g} mm", 1e3 * *f.sample_height_offset_stddev)
+                            : std::string("undetermined"));
+  }
+  return rows;
+}
+
 }  // namespace
 
 void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
@@ -245,8 +277,9 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
                                    f.light_stddev->y(), f.light_stddev->z())
                      : "undetermined");
   h << fmt::format(
-      "<tr><td>intensity</td><td>{:.5g}</td><td>{}</td></tr></table>", f.intensity,
+      "<tr><td>intensity</td><td>{:.5g}</td><td>{}</td></tr>", f.intensity,
       f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined");
+  h << AmbientRows(f) << "</table>";
   if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
   for (const auto& w : f.warnings) h << "<p style='color:#b00'>warning: " << Escape(w) << "</p>";
   h << "<h2>Model comparison</h2><table><tr><th>model</th><th>k</th><th>rel_rms</th><th>AIC</th>"

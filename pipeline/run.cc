@@ -119,7 +119,13 @@ ObservationSet ExtractAll(const RunInputs& in, const RunOptions& o, const RunRes
     const auto it = pose_of.find(in.session.frames[i].file);
     const cv::Mat raw = cache->Take(i);  // released either way
     if (it != pose_of.end()) {
-      extractor.AddFrame(i, raw, *it->second, in.session.FramePath(i).string());
+      // The lamp-off partner is read here only: it is never detected (it may be too dark).
+      const std::string off_file = in.session.frames[i].lamp_off;
+      cv::Mat off;
+      if (!off_file.empty())
+        off = cv::imread(in.session.LampOffPath(i).string(), cv::IMREAD_UNCHANGED);
+      extractor.AddFrame(i, raw, *it->second, in.session.FramePath(i).string(),
+                         off_file.empty() ? nullptr : &off);
     }
     progress.Step();
   }

@@ -106,5 +106,31 @@ TEST(Board, RejectsGridsTooLargeToHold) {
   EXPECT_THROW(Board::FromJson(far, "b"), InputError);
 }
 
+// sample_height_m: the raised sample's top above the board, default 0, validated.
+TEST(Board, SampleHeightIsReadAndChecked) {
+  nlohmann::json j = Grid();
+  j["sample_region"] = {{0.04, 0.04}, {0.06, 0.04}, {0.06, 0.06}};
+  EXPECT_EQ(Board::FromJson(j, "b").sample_height(), 0.0);
+  j["sample_height_m"] = 0.004;
+  const Board b = Board::FromJson(j, "b");
+  EXPECT_DOUBLE_EQ(b.sample_height(), 0.004);
+  EXPECT_NE(b.Describe().find("4 mm"), std::string::npos) << b.Describe();
+  EXPECT_DOUBLE_EQ(Board::FromJson(b.ToJson(), "b").sample_height(), 0.004);
+  for (const nlohmann::json& bad : {nlohmann::json(-0.001), nlohmann::json(4.0),
+                                    nlohmann::json("4mm"), nlohmann::json(nullptr)}) {
+    j["sample_height_m"] = bad;
+    try {
+      Board::FromJson(j, "b.json");
+      ADD_FAILURE() << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("b.json: 'sample_height_m'"), std::string::npos)
+          << e.what();
+    }
+  }
+  nlohmann::json no_region = Grid();
+  no_region["sample_height_m"] = 0.004;
+  EXPECT_THROW(Board::FromJson(no_region, "b"), InputError);
+}
+
 }  // namespace
 }  // namespace gonio

@@ -162,5 +162,35 @@ TEST(Session, BadFilesNameTheFileAndTheProblem) {
   ExpectReadError(file, "no such file");
 }
 
+// lamp_off pairs a frame with a lamp-off frame of the same pose and exposure: kept through a
+// round trip, resolved against the folder, and never a frame of its own or paired twice.
+TEST(Session, LampOffPairingRoundTripsAndIsChecked) {
+  testing::TempDir dir;
+  Session s = TwoFrameSession(dir.path());
+  Touch(dir.path() / "frame_0000_off.png");
+  s.frames[0].lamp_off = "frame_0000_off.png";
+  WriteSession(dir.path(), s);
+  const Session read = ReadSession(dir.path());
+  EXPECT_EQ(read.frames[0].lamp_off, "frame_0000_off.png");
+  EXPECT_EQ(read.LampOffPath(0), dir.path() / "frame_0000_off.png");
+  EXPECT_TRUE(read.frames[1].lamp_off.empty());
+  EXPECT_TRUE(read.LampOffPath(1).empty());
+
+  s.frames[1].lamp_off = "frame_0000_off.png";
+  EXPECT_THROW(WriteSession(dir.path(), s), InputError);  // paired twice
+  s.frames[1].lamp_off = "frame_0000.png";
+  EXPECT_THROW(WriteSession(dir.path(), s), InputError);  // a frame of its own
+  s.frames[1].lamp_off = "../off.png";
+  EXPECT_THROW(WriteSession(dir.path(), s), InputError);  // outside the folder
+  const fs::path file = dir.path() / "session.json";
+  std::ofstream(file) << R"({"format": "gonio-session", "version": 1, "frames": [
+      {"file": "frame_0000.png", "exposure_s": 0.01, "lamp_off": "gone.png"}]})";
+  ExpectReadError(file, "lamp-off file gone.png does not exist");
+  std::ofstream(file) << R"({"format": "gonio-session", "version": 1, "frames": [
+      {"file": "frame_0000.png", "exposure_s": 0.01, "lamp_off": "frame_0001.png"},
+      {"file": "frame_0001.png", "exposure_s": 0.01}]})";
+  ExpectReadError(file, "also listed as a frame");
+}
+
 }  // namespace
 }  // namespace gonio
