@@ -275,7 +275,12 @@ void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setu
     k_b = std::max(k_a + 1, static_cast<int>(Percentile(knots, 0.75)));
     fit->h[k_b] = std::log((k_b + 0.5) / (k_a + 0.5));
     problem->SetParameterBlockConstant(&fit->h[k_b]);
-    problem->SetParameterBlockConstant(&fit->ln_t[s.usable.front()]);
+    for (int j : s.usable) {
+      if (problem->HasParameterBlock(&fit->ln_t[j])) {
+        problem->SetParameterBlockConstant(&fit->ln_t[j]);
+        break;
+      }
+    }
   } else {
     for (int j : s.usable) {
       if (!free_time[j] && problem->HasParameterBlock(&fit->ln_t[j])) {
@@ -467,6 +472,23 @@ Setup MakeSetup(const ResponseOptions& o, int bit_depth) {
   s.dark_limit = (o.black_level ? *o.black_level : 0.0) + 0.02 * s.max_value;
   s.min_range_fraction = o.min_range_fraction;
   return s;
+}
+
+// InputError when the brightest value of the whole sweep lies below `min_range_fraction` of the
+// stated range: 12-bit values read as 16-bit, say, would otherwise fit a curve to 6 % of it.
+void CheckValueSpan(const std::vector<ExposureFrame>& frames, const Setup& s) {
+  double top = 0;
+  for (const auto& f : frames) {
+    double m = 0;
+    cv::minMaxLoc(f.image.reshape(1), nullptr, &m);
+    top = std::max(top, m);
+  }
+  if (top < s.min_range_fraction * s.max_value) {
+    throw InputError(fmt::format(
+        "exposure sweep: the brightest value is {:.0f}, {:.1f}% of the {}-bit range; is the bit "
+        "depth right (session.json bit_depth or --bit-depth)?",
+        top, 100 * top / s.max_value, s.bit_depth));
+  }
 }
 
 // A channel's saturation: a sensor whose white level is below the largest value piles its
@@ -752,6 +774,7 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   std::vector<ExposureFrame> frames = input;
   const int bit_depth = ResolveBitDepth(o.bit_depth, "the bit depth option", &frames);
   Setup s = MakeSetup(o, bit_depth);
+  CheckValueSpan(frames, s);
   ResponseResult result;
   result.bit_depth = s.bit_depth;
   result.channels = frames[0].image.channels();
@@ -759,8 +782,8 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   if (result.regional_mapping_difference > o.max_regional_mapping_difference) {
     throw InputError(fmt::format(
         "exposure sweep: neighbouring frames map values differently in different image regions "
-        "(up to {:.1f}% of the range): the camera tone-maps locally or merges exposures, so no "
-        "single response exists; use manual mode or RAW",
+        "({:.0f}% of the step between frames): the camera tone-maps locally or merges exposures, "
+        "so no single response exists; use manual mode or RAW",
         100 * result.regional_mapping_difference));
   }
   const auto planes = ChannelPlanes(frames, s, result.channels);

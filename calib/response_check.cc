@@ -316,14 +316,19 @@ double RegionalMappingDifference(const std::vector<ExposureFrame>& frames, int b
     const size_t cell_min = std::max<size_t>(50, all.size() / (grid * grid * bins * 4));
     std::vector<double> deviations;
     for (const auto& cell : cells) {
-      // Per bin, the cell's median departure from the whole image's mapping.
-      std::vector<std::vector<double>> dev(bins);
+      // Per bin, the cell's median departure from the whole image's mapping, relative to the
+      // mapping's step there (a dark bin's step is small, and so is any departure in values).
+      std::vector<std::vector<double>> dev(bins), shorter(bins);
       for (const auto& p : cell) {
         if (p.shorter < global.x.front() || p.shorter > global.x.back()) continue;
         dev[p.bin].push_back(p.longer - global(p.shorter));
+        shorter[p.bin].push_back(p.shorter);
       }
-      for (const auto& d : dev) {
-        if (d.size() >= cell_min) deviations.push_back(std::abs(Median(d)) / max_value);
+      for (int b = 0; b < bins; ++b) {
+        if (dev[b].size() < cell_min) continue;
+        const double z = Median(shorter[b]);
+        const double step = std::max(global(z) - z, 0.02 * max_value);
+        deviations.push_back(std::abs(Median(dev[b])) / step);
       }
     }
     if (!deviations.empty()) {
