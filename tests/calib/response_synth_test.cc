@@ -203,6 +203,41 @@ TEST(ResponseRefusals, BlackBackgroundStillCalibrates) {
   EXPECT_GT(r.saturation_level[0], 0.9 * maxv);
 }
 
+// A camera whose output falls while exposure rises over part of the range (values 100..140
+// reversed, as a solarizing film or a broken tone curve gives): no monotone inverse exists and
+// the monotone fit is flat over that band. Refused with a NumericalError (exit 3) instead of a
+// table that maps many values to one exposure.
+TEST(ResponseSynthCli, FlatCurveIsANumericalError) {
+  auto frames = ToneSweep(8, [](double) { return 1.0; });
+  for (auto& f : frames) {
+    f.image.forEach<uint8_t>([](uint8_t& v, const int*) {
+      if (v > 100 && v <= 140) v = static_cast<uint8_t>(240 - v);
+    });
+  }
+  try {
+    const ResponseResult r = CalibrateResponse(frames, {});
+    ADD_FAILURE() << "calibrated:\n" << r.Report();
+  } catch (const NumericalError& e) {
+    std::cout << e.what() << "\n";
+  } catch (const InputError& e) {
+    ADD_FAILURE() << "InputError: " << e.what();
+  }
+  // The command: exit 3, one line, no response.json.
+  testing::TempDir dir;
+  std::ofstream list(dir.path() / "image_list.txt");
+  for (const auto& f : frames) {
+    cv::imwrite((dir.path() / (f.file + ".png")).string(), f.image);
+    list << f.file << ".png " << f.exposure_s << "\n";
+  }
+  list.close();
+  const auto out = dir.path() / "r.json";
+  const auto r = testing::RunGonio("photometric response --sweep " + dir.path().string() +
+                                   " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 // A sweep folder of 12-bit values in 16-bit PNGs, with or without session.json.
 void WriteTwelveBitSweep(const std::filesystem::path& dir, int session_bit_depth, int shift) {
   auto frames = ToneSweep(12, [](double) { return 2.2; });
