@@ -4,11 +4,11 @@
 // Model: for pixel p in frame j with value Z, h(Z) = ln E_p + ln t_j, where h = ln of the
 // inverse response (pixel value -> relative exposure, irradiance x time). h is non-parametric
 // (piecewise linear on knots over the value range, so any bit depth works), fitted with Ceres
-// jointly with every pixel's ln E and every frame's ln t, as Debevec-Malik do for h and E but
-// with the exposures free as in Mitsunaga-Nayar. The listed exposure times enter as priors with
-// a Cauchy loss: the consistent majority of frames fixes the exponent ambiguity of
-// self-calibration, while a frame whose listed time contradicts its brightness is free to move,
-// is reported, and is then either re-timed or left out. Monotonicity is enforced afterwards by
+// jointly with every pixel's ln E, as Debevec-Malik do. The listed exposure times of the frames
+// that agree with each other are held exactly, which fixes the exponent ambiguity of
+// self-calibration (Mitsunaga-Nayar); a frame whose listed time contradicts the others by more
+// than the curve's own uncertainty is found (response_times.cc), reported, and either re-timed
+// (its ln t free) or left out. Monotonicity is enforced afterwards by
 // isotonic regression (pool adjacent violators). Saturated and dark values get zero weight;
 // unlike the TUM monoVO tool nothing divides by a count that can be zero. docs/photometric.md
 // describes the method, its self-check and its refusals.

@@ -182,24 +182,29 @@ std::vector<std::vector<double>> TableOf(const cv::Mat& response, int channels) 
 
 }  // namespace
 
-std::vector<std::vector<double>> DebevecInverseResponse(const std::vector<ExposureFrame>& frames,
+namespace {
+
+std::vector<std::vector<double>> ClassicInverseResponse(const cv::Ptr<cv::CalibrateCRF>& method,
+                                                        const std::vector<ExposureFrame>& frames,
                                                         const std::vector<double>& exposures_s) {
   std::vector<cv::Mat> images;
   std::vector<float> times;
   OpenCvInput(frames, exposures_s, &images, &times);
   cv::Mat response;
-  cv::createCalibrateDebevec()->process(images, response, times);
+  method->process(images, response, times);
   return TableOf(response, frames[0].image.channels());
+}
+
+}  // namespace
+
+std::vector<std::vector<double>> DebevecInverseResponse(const std::vector<ExposureFrame>& frames,
+                                                        const std::vector<double>& exposures_s) {
+  return ClassicInverseResponse(cv::createCalibrateDebevec(), frames, exposures_s);
 }
 
 std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<ExposureFrame>& frames,
                                                           const std::vector<double>& exposures_s) {
-  std::vector<cv::Mat> images;
-  std::vector<float> times;
-  OpenCvInput(frames, exposures_s, &images, &times);
-  cv::Mat response;
-  cv::createCalibrateRobertson()->process(images, response, times);
-  return TableOf(response, frames[0].image.channels());
+  return ClassicInverseResponse(cv::createCalibrateRobertson(), frames, exposures_s);
 }
 
 std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<ExposureFrame>& frames,
