@@ -30,14 +30,16 @@ struct ResponseArgs {
   std::string sweep, list, out, plot;
   double black_level = -1;
   int bit_depth = 0;
-  bool drop_inconsistent = false, compare_debevec = true;
+  std::vector<int> exclude_rgb;
+  bool drop_inconsistent = false;
   double tolerance = 0.05;
+  ResponseOptions options;
 };
 
 void PlotResponse(const ResponseResult& r, const std::string& png) {
   PlotSpec spec;
-  spec.title = fmt::format("inverse response ({} bit), linearity error {:.2f}%", r.bit_depth,
-                           100 * r.median_ratio_error);
+  spec.title = fmt::format("inverse response ({} bit), pair consistency {:.2f}% (median pair)",
+                           r.bit_depth, 100 * r.consistency.median_pair);
   spec.xlabel = "pixel value";
   spec.ylabel = "relative exposure (log)";
   spec.log_y = true;
@@ -55,43 +57,53 @@ void PlotResponse(const ResponseResult& r, const std::string& png) {
   RenderPlot(spec, png);
 }
 
+// The bit depth: --bit-depth, or the sweep's session.json; both must agree.
+int StatedBitDepth(const ResponseArgs& args, const ExposureSweep& sweep, std::string* stated_by) {
+  if (args.bit_depth != 0 && sweep.bit_depth != 0 && args.bit_depth != sweep.bit_depth) {
+    throw InputError(fmt::format("--bit-depth {} contradicts bit_depth {} in {}", args.bit_depth,
+                                 sweep.bit_depth, sweep.bit_depth_source));
+  }
+  *stated_by = args.bit_depth != 0 ? "--bit-depth" : sweep.bit_depth_source;
+  return args.bit_depth != 0 ? args.bit_depth : sweep.bit_depth;
+}
+
+// gonio against OpenCV's Debevec and Robertson on the same frames, times and pixels.
+nlohmann::json PrintComparison(const std::vector<ExposureFrame>& frames, const ResponseResult& r) {
+  nlohmann::json j = nlohmann::json::array();
+  std::cout << "pair consistency on the frames and times gonio used, values 5-95% of the range:\n";
+  for (const auto& m : CompareWithClassicMethods(frames, r)) {
+    std::cout << fmt::format(
+        "  {:<17} median pair {:6.2f}%  worst pair {:6.2f}%  worst band bias "
+        "{:6.2f}%\n",
+        m.method, 100 * m.consistency.median_pair, 100 * m.consistency.worst_pair,
+        100 * m.consistency.worst_band_bias);
+    j.push_back({{"method", m.method}, {"consistency", m.consistency.ToJson()}});
+  }
+  return j;
+}
+
 void RunResponse(const ResponseArgs& args) {
-  std::string list =
-      args.list.empty() ? (fs::path(args.sweep) / "image_list.txt").string() : args.list;
-  const auto frames = LoadExposureSweep(args.sweep, list);
-  ResponseOptions o;
-  o.bit_depth = args.bit_depth;
+  ExposureSweep sweep = LoadSweepFolder(args.sweep, args.list);
+  if (!args.exclude_rgb.empty()) {
+    MaskColour(cv::Scalar(args.exclude_rgb[2], args.exclude_rgb[1], args.exclude_rgb[0]),
+               &sweep.frames);
+  }
+  std::string stated_by;
+  ResponseOptions o = args.options;
+  o.bit_depth = StatedBitDepth(args, sweep, &stated_by);
+  // Checked here too so that a mismatch names the file that stated the depth.
+  std::vector<ExposureFrame> checked = sweep.frames;
+  o.bit_depth = ResolveBitDepth(o.bit_depth, stated_by, &checked);
   if (args.black_level >= 0) o.black_level = args.black_level;
   o.drop_inconsistent = args.drop_inconsistent;
   o.exposure_tolerance = args.tolerance;
-  spdlog::info("calibrating the inverse response from {} frames", frames.size());
-  const ResponseResult r = CalibrateResponse(frames, o);
+  spdlog::info("calibrating the inverse response from {} frames ({} bit)", sweep.frames.size(),
+               o.bit_depth);
+  const ResponseResult r = CalibrateResponse(sweep.frames, o);
   nlohmann::json j = r.ToJson();
   j["sweep"] = args.sweep;
-  j["list"] = list;
-  if (args.compare_debevec && frames[0].image.depth() == CV_8U) {
-    // OpenCV's Debevec calibration on the same frames, with the listed times and with ours.
-    std::vector<double> listed, ours;
-    std::vector<bool> used;
-    for (size_t k = 0; k < frames.size(); ++k) {
-      listed.push_back(frames[k].exposure_s);
-      ours.push_back(r.frames[k].estimated_s);
-      used.push_back(r.frames[k].used);
-    }
-    const auto deb_listed = DebevecInverseResponse(frames, listed);
-    const auto deb_ours = DebevecInverseResponse(frames, ours);
-    const std::vector<bool> all(frames.size(), true);
-    const double err_listed =
-        MedianRatioError(frames, listed, all, deb_listed, r.saturation_level, r.black_level, 8);
-    const double err_ours =
-        MedianRatioError(frames, ours, used, deb_ours, r.saturation_level, r.black_level, 8);
-    j["debevec_baseline"] = {{"worst_pair_error_listed_times", err_listed},
-                             {"worst_pair_error_gonio_times", err_ours}};
-    std::cout << fmt::format(
-        "OpenCV Debevec: worst-pair ratio error {:.2f}% with the listed times, {:.2f}% given "
-        "gonio's frames and times (gonio: {:.2f}%)\n",
-        100 * err_listed, 100 * err_ours, 100 * r.median_ratio_error);
-  }
+  if (!args.list.empty()) j["list"] = args.list;
+  if (r.bit_depth == 8) j["comparison"] = PrintComparison(sweep.frames, r);
   const std::string plot =
       args.plot.empty() ? (fs::path(args.out).replace_extension(".png")).string() : args.plot;
   PlotResponse(r, plot);
@@ -282,14 +294,28 @@ void AddPhotometricCommand(CLI::App& app) {
   auto args = std::make_shared<ResponseArgs>();
   auto* resp = cmd->add_subcommand("response", "Inverse response from an exposure sweep");
   resp->add_option("--sweep", args->sweep, "Folder with the sweep's images")->required();
-  resp->add_option("--list", args->list, "List 'file exposure_s' (default SWEEP/image_list.txt)");
+  resp->add_option(
+      "--list", args->list,
+      "List 'file exposure_s' (default: SWEEP/session.json, else SWEEP/image_list.txt)");
   resp->add_option("--out", args->out, "response.json")->required();
   resp->add_option("--plot", args->plot, "PNG of the curve (default: OUT with .png)");
   resp->add_option("--black-level", args->black_level,
                    "Black level in pixel values (default: estimate)");
-  resp->add_option("--bit-depth", args->bit_depth, "Bits per value (default: from the images)");
+  resp->add_option("--bit-depth", args->bit_depth,
+                   "Significant bits per value (default: SWEEP/session.json, else the container)");
+  resp->add_option("--exclude-rgb", args->exclude_rgb,
+                   "Leave out pixels of exactly this colour, e.g. 0,0,255 for registration borders")
+      ->expected(3)
+      ->delimiter(',');
   resp->add_option("--exposure-tolerance", args->tolerance,
                    "Relative mismatch that marks a listed exposure as wrong")
+      ->capture_default_str();
+  resp->add_option("--knots", args->options.num_knots, "Knots of the inverse response")
+      ->capture_default_str();
+  resp->add_option("--pixels", args->options.num_pixels, "Sampled pixels per channel")
+      ->capture_default_str();
+  resp->add_option("--smoothness", args->options.smoothness,
+                   "Weight of the curve's second differences")
       ->capture_default_str();
   resp->add_flag("--drop-inconsistent", args->drop_inconsistent,
                  "Leave out frames whose brightness contradicts their listed exposure "

@@ -9,8 +9,8 @@
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/photo.hpp>
 
+#include "calib/response_fit.h"
 #include "common/error.h"
 #include "common/parallel.h"
 #include "common/stats.h"
@@ -33,15 +33,6 @@ struct SmoothnessResidual {
   template <typename T>
   bool operator()(const T* h0, const T* h1, const T* h2, T* r) const {
     r[0] = T(w) * (h0[0] - T(2) * h1[0] + h2[0]);
-    return true;
-  }
-};
-
-struct PriorResidual {
-  double ln_listed, inv_sigma;
-  template <typename T>
-  bool operator()(const T* ln_t, T* r) const {
-    r[0] = T(inv_sigma) * (ln_t[0] - T(ln_listed));
     return true;
   }
 };
@@ -70,18 +61,9 @@ std::vector<double> Isotonic(const std::vector<double>& y, const std::vector<dou
   return out;
 }
 
-struct ChannelFit {
-  std::vector<double> h;       // knots
-  std::vector<double> ln_t;    // per frame
-  std::vector<double> counts;  // observations per knot (for the isotonic weights)
-  double rms = 0;
-};
-
-struct Setup {
-  int bit_depth, max_value, num_knots;
-  double dark_limit, saturation_limit;
-  std::vector<int> usable;  // frame indices in the fit
-};
+bool Usable(const ExposureFrame& f, const cv::Point& p) {
+  return f.mask.empty() || f.mask.at<uint8_t>(p) != 0;
+}
 
 double KnotPosition(const Setup& s, double z) { return z / s.max_value * (s.num_knots - 1); }
 
@@ -91,50 +73,58 @@ double HatWeight(const Setup& s, double z) {
   return std::min(z - s.dark_limit, s.saturation_limit - z) / half;
 }
 
-// Pixels on flat areas (small gradient, robust to tiny misalignment), stratified by their mean
-// normalized value so that dark and bright scene parts are both represented.
-std::vector<cv::Point> SamplePixels(const std::vector<cv::Mat>& planes, const Setup& s,
+// Pixels on flat areas (small gradient relative to the value, robust to tiny misalignment),
+// stratified by their mean value over the frames so that dark and bright scene parts are both
+// represented. The flatness cut is made within each stratum: one global cut at the median
+// gradient keeps only a black background when it fills most of the frame.
+std::vector<cv::Point> SamplePixels(const std::vector<cv::Mat>& planes,
+                                    const std::vector<ExposureFrame>& frames, const Setup& s,
                                     int wanted) {
-  const cv::Mat& ref = planes[s.usable[s.usable.size() / 2]];
+  cv::Mat mean_image = cv::Mat::zeros(planes[0].size(), CV_32F);
+  for (int j : s.usable) mean_image += planes[j];
+  mean_image /= static_cast<double>(s.usable.size());
   cv::Mat blurred, gx, gy, grad;
-  ref.convertTo(blurred, CV_32F);
-  cv::GaussianBlur(blurred, blurred, cv::Size(5, 5), 1.5);
+  cv::GaussianBlur(mean_image, blurred, cv::Size(5, 5), 1.5);
   cv::Sobel(blurred, gx, CV_32F, 1, 0);
   cv::Sobel(blurred, gy, CV_32F, 0, 1);
   cv::magnitude(gx, gy, grad);
-  const int stride = std::max(2, static_cast<int>(std::sqrt(ref.total() / (8.0 * wanted))));
+  const int stride = std::max(2, static_cast<int>(std::sqrt(mean_image.total() / (8.0 * wanted))));
+  const int bins = 32;
   struct Candidate {
     cv::Point p;
-    float gradient;
-    double mean;
+    float relative_gradient;
   };
-  std::vector<Candidate> cands;
-  for (int y = 4; y < ref.rows - 4; y += stride) {
-    for (int x = 4; x < ref.cols - 4; x += stride) {
-      double mean = 0;
-      for (int j : s.usable) mean += planes[j].at<float>(y, x);
-      cands.push_back({{x, y}, grad.at<float>(y, x), mean / s.usable.size()});
+  std::vector<std::vector<Candidate>> strata(bins);
+  for (int y = 4; y < mean_image.rows - 4; y += stride) {
+    for (int x = 4; x < mean_image.cols - 4; x += stride) {
+      bool masked = false;
+      for (int j : s.usable) masked |= !Usable(frames[j], {x, y});
+      if (masked) continue;
+      const float mean = mean_image.at<float>(y, x);
+      const int b = std::clamp(static_cast<int>(mean / (s.max_value + 1.0) * bins), 0, bins - 1);
+      strata[b].push_back(
+          {{x, y}, grad.at<float>(y, x) / static_cast<float>(mean + 0.01 * s.max_value)});
     }
   }
-  std::vector<float> g;
-  for (const auto& c : cands) g.push_back(c.gradient);
-  std::nth_element(g.begin(), g.begin() + g.size() / 2, g.end());
-  const float gradient_limit = g[g.size() / 2];
-  const int bins = 32;
-  std::vector<std::vector<cv::Point>> strata(bins);
-  for (const auto& c : cands) {
-    if (c.gradient > gradient_limit) continue;
-    const int b = std::clamp(static_cast<int>(c.mean / (s.max_value + 1.0) * bins), 0, bins - 1);
-    strata[b].push_back(c.p);
+  // The flatter half of each stratum, in raster order.
+  for (auto& st : strata) {
+    if (st.size() < 2) continue;
+    std::vector<float> g;
+    for (const auto& c : st) g.push_back(c.relative_gradient);
+    std::nth_element(g.begin(), g.begin() + g.size() / 2, g.end());
+    const float limit = g[g.size() / 2];
+    st.erase(std::remove_if(st.begin(), st.end(),
+                            [&](const Candidate& c) { return c.relative_gradient > limit; }),
+             st.end());
   }
   std::vector<cv::Point> picked;
   for (int round = 0; static_cast<int>(picked.size()) < wanted; ++round) {
     bool any = false;
     for (auto& st : strata) {
-      // Deterministic spread within a stratum: take every (size / per-round)th element.
+      // Deterministic spread within a stratum.
       if (round < static_cast<int>(st.size())) {
         const size_t idx = (static_cast<size_t>(round) * 7919) % st.size();
-        picked.push_back(st[idx]);
+        picked.push_back(st[idx].p);
         any = true;
       }
       if (static_cast<int>(picked.size()) >= wanted) break;
@@ -160,30 +150,51 @@ KnotPair KnotsOf(const Setup& s, double z) {
   return {k, pos - k};
 }
 
-// One residual per well-exposed observation of a sampled pixel; each pixel's ln E starts at
-// the median over its frames of h(Z) - ln t. Returns the number of observations.
-size_t AddObservations(const std::vector<cv::Mat>& planes, const Setup& s,
-                       const std::vector<cv::Point>& pixels, ceres::Problem* problem,
-                       ChannelFit* fit, std::vector<double>* ln_e) {
-  size_t n_obs = 0;
+// One well-exposed observation of a sampled pixel.
+struct Observation {
+  size_t pixel;
+  int frame, k;
+  double a, w;
+};
+
+std::vector<Observation> CollectObservations(const std::vector<cv::Mat>& planes,
+                                             const std::vector<ExposureFrame>& frames,
+                                             const Setup& s, const std::vector<cv::Point>& pixels) {
+  std::vector<Observation> obs;
   for (size_t p = 0; p < pixels.size(); ++p) {
-    std::vector<double> est;
     for (int j : s.usable) {
+      if (!Usable(frames[j], pixels[p])) continue;
       const double z = planes[j].at<float>(pixels[p]);
       const double w = HatWeight(s, z);
       if (w < 0.05) continue;
       const auto [k, a] = KnotsOf(s, z);
-      est.push_back((1 - a) * fit->h[k] + a * fit->h[k + 1] - fit->ln_t[j]);
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ObservationResidual, 1, 1, 1, 1, 1>(
-                                    new ObservationResidual{a, w}),
-                                nullptr, &fit->h[k], &fit->h[k + 1], &(*ln_e)[p], &fit->ln_t[j]);
-      fit->counts[k] += w * (1 - a);
-      fit->counts[k + 1] += w * a;
-      ++n_obs;
+      obs.push_back({p, j, k, a, w});
     }
-    (*ln_e)[p] = est.empty() ? 0.0 : Median(est);
   }
-  return n_obs;
+  return obs;
+}
+
+double HOf(const ChannelFit& fit, const Observation& o) {
+  return (1 - o.a) * fit.h[o.k] + o.a * fit.h[o.k + 1];
+}
+
+// One residual per observation, with a Huber loss beyond 0.05 ln units: misregistered edges and
+// moving objects give a few observations far off, which a square loss lets bend the curve
+// (measured on the registered film scans of hdr_sweep/memorial: median pair consistency 10.9 ->
+// 10.6 %). Each pixel's ln E starts at the median over its frames of h(Z) - ln t.
+void AddObservations(const std::vector<Observation>& obs, ceres::Problem* problem, ChannelFit* fit,
+                     std::vector<double>* ln_e) {
+  std::vector<std::vector<double>> est(ln_e->size());
+  for (const auto& o : obs) {
+    est[o.pixel].push_back(HOf(*fit, o) - fit->ln_t[o.frame]);
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ObservationResidual, 1, 1, 1, 1, 1>(
+                                  new ObservationResidual{o.a, o.w}),
+                              new ceres::HuberLoss(0.05), &fit->h[o.k], &fit->h[o.k + 1],
+                              &(*ln_e)[o.pixel], &fit->ln_t[o.frame]);
+    fit->counts[o.k] += o.w * (1 - o.a);
+    fit->counts[o.k + 1] += o.w * o.a;
+  }
+  for (size_t p = 0; p < est.size(); ++p) (*ln_e)[p] = est[p].empty() ? 0.0 : Median(est[p]);
 }
 
 // Second differences of h, weighted by the hat function as in Debevec-Malik: ln X curves
@@ -199,64 +210,90 @@ void AddSmoothness(const Setup& s, double weight, ceres::Problem* problem, Chann
   }
 }
 
-// Exposure priors with a heavy-tailed loss (see the header); a frame without a trusted time
-// floats freely, a trusted one is held exactly when `times_fixed`.
-void AddExposurePriors(const std::vector<double>& listed, const std::vector<bool>& has_prior,
-                       bool times_fixed, const Setup& s, double prior_sigma,
-                       ceres::Problem* problem, ChannelFit* fit) {
-  for (int j : s.usable) {
-    if (!problem->HasParameterBlock(&fit->ln_t[j])) continue;
-    if (times_fixed && has_prior[j]) {
-      problem->SetParameterBlockConstant(&fit->ln_t[j]);
-    } else if (has_prior[j]) {
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 1, 1>(
-                                    new PriorResidual{std::log(listed[j]), 1.0 / prior_sigma}),
-                                new ceres::CauchyLoss(1.0), &fit->ln_t[j]);
-    }
-  }
-}
-
-// RMS of h(Z) - ln E - ln t over the well-exposed observations.
-double ObservationRms(const std::vector<cv::Mat>& planes, const Setup& s,
-                      const std::vector<cv::Point>& pixels, const ChannelFit& fit,
-                      const std::vector<double>& ln_e) {
+// RMS of h(Z) - ln E - ln t, and each frame's leave-one-out offset (ChannelFit::frame_offset).
+void Residuals(const std::vector<Observation>& obs, const std::vector<double>& ln_e, size_t frames,
+               ChannelFit* fit) {
   double ssr = 0;
-  size_t m = 0;
-  for (size_t p = 0; p < pixels.size(); ++p) {
-    for (int j : s.usable) {
-      const double z = planes[j].at<float>(pixels[p]);
-      if (HatWeight(s, z) < 0.05) continue;
-      const auto [k, a] = KnotsOf(s, z);
-      const double r = (1 - a) * fit.h[k] + a * fit.h[k + 1] - ln_e[p] - fit.ln_t[j];
-      ssr += r * r;
-      ++m;
-    }
+  std::vector<double> sum_w(ln_e.size(), 0.0), sum_wl(ln_e.size(), 0.0);
+  std::vector<int> count(ln_e.size(), 0);
+  for (const auto& o : obs) {
+    const double l = HOf(*fit, o) - fit->ln_t[o.frame];
+    ssr += (l - ln_e[o.pixel]) * (l - ln_e[o.pixel]);
+    sum_w[o.pixel] += o.w;
+    sum_wl[o.pixel] += o.w * l;
+    ++count[o.pixel];
   }
-  return std::sqrt(ssr / std::max<size_t>(m, 1));
+  fit->rms = std::sqrt(ssr / std::max<size_t>(obs.size(), 1));
+  std::vector<std::vector<double>> offsets(frames);
+  for (const auto& o : obs) {
+    if (count[o.pixel] < 2) continue;
+    const double l = HOf(*fit, o) - fit->ln_t[o.frame];
+    const double others = (sum_wl[o.pixel] - o.w * l) / (sum_w[o.pixel] - o.w);
+    offsets[o.frame].push_back(l - others);
+  }
+  fit->frame_offset.assign(frames, NAN);
+  fit->judgeable.assign(frames, false);
+  for (size_t j = 0; j < frames; ++j) {
+    fit->judgeable[j] = offsets[j].size() >= std::max<size_t>(20, ln_e.size() / 4);
+    if (fit->judgeable[j]) fit->frame_offset[j] = Median(offsets[j]);
+  }
 }
 
-ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<double>& listed,
-                      const std::vector<bool>& has_prior, bool times_fixed, const Setup& s,
+// The gauge of (h, ln E, ln t): h(Z) - ln E - ln t is unchanged by adding a constant to h and
+// ln E, by moving a constant from ln E to ln t, and, without smoothness, by scaling all three
+// (the exponent ambiguity of self-calibration, Mitsunaga-Nayar). Normally the listed times of
+// the frames with `free_time` false are held exactly and fix the last two; with
+// `times_unknown` every time but the first usable frame's is free and h is held at two knots
+// (near the 25th and 75th percentile of the observations), so the times come out as
+// a + b ln t_true for some b > 0 however wrong the listed ones are.
+void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
+              const std::vector<Observation>& obs, ceres::Problem* problem, ChannelFit* fit) {
+  const int K = s.num_knots;
+  int k_a = K / 2, k_b = K / 2;
+  if (times_unknown) {
+    std::vector<double> knots;
+    for (const auto& ob : obs) knots.push_back(ob.k);
+    k_a = static_cast<int>(Percentile(knots, 0.25));
+    k_b = std::max(k_a + 1, static_cast<int>(Percentile(knots, 0.75)));
+    fit->h[k_b] = std::log((k_b + 0.5) / (k_a + 0.5));
+    problem->SetParameterBlockConstant(&fit->h[k_b]);
+    for (int j : s.usable) {
+      if (problem->HasParameterBlock(&fit->ln_t[j])) {
+        problem->SetParameterBlockConstant(&fit->ln_t[j]);
+        break;
+      }
+    }
+  } else {
+    for (int j : s.usable) {
+      if (!free_time[j] && problem->HasParameterBlock(&fit->ln_t[j])) {
+        problem->SetParameterBlockConstant(&fit->ln_t[j]);
+      }
+    }
+  }
+  fit->h[k_a] = 0.0;
+  problem->SetParameterBlockConstant(&fit->h[k_a]);
+}
+
+}  // namespace
+
+ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<ExposureFrame>& frames,
+                      const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
                       const std::vector<cv::Point>& pixels, const ResponseOptions& o) {
   const int K = s.num_knots;
   ChannelFit fit;
   fit.h.resize(K);
   for (int k = 0; k < K; ++k) fit.h[k] = std::log((k + 0.5) / K);  // start: linear response
-  fit.ln_t.assign(listed.size(), 0.0);
-  for (size_t j = 0; j < listed.size(); ++j) fit.ln_t[j] = std::log(listed[j]);
+  fit.ln_t.assign(frames.size(), 0.0);
+  for (size_t j = 0; j < frames.size(); ++j) fit.ln_t[j] = std::log(frames[j].exposure_s);
   fit.counts.assign(K, 0.0);
   std::vector<double> ln_e(pixels.size(), 0.0);
 
+  const auto obs = CollectObservations(planes, frames, s, pixels);
+  if (obs.empty()) throw InputError("exposure sweep: no pixel is well exposed in any frame");
   ceres::Problem problem;
-  const size_t n_obs = AddObservations(planes, s, pixels, &problem, &fit, &ln_e);
-  if (n_obs == 0) {
-    throw InputError("exposure sweep: no pixel is well exposed in any frame");
-  }
-  AddSmoothness(s, o.smoothness * std::sqrt(static_cast<double>(n_obs) / K), &problem, &fit);
-  AddExposurePriors(listed, has_prior, times_fixed, s, o.prior_sigma, &problem, &fit);
-  // Additive gauge of (h, ln E): h = 0 at the middle knot.
-  problem.SetParameterBlockConstant(&fit.h[K / 2]);
-  fit.h[K / 2] = 0.0;
+  AddObservations(obs, &problem, &fit, &ln_e);
+  AddSmoothness(s, o.smoothness * std::sqrt(static_cast<double>(obs.size()) / K), &problem, &fit);
+  FixGauge(free_time, times_unknown, s, obs, &problem, &fit);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.max_num_iterations = 100;
@@ -267,14 +304,47 @@ ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<doub
   if (!summary.IsSolutionUsable()) {
     throw NumericalError("response fit failed: " + summary.message);
   }
-  fit.rms = ObservationRms(planes, s, pixels, fit, ln_e);
+  Residuals(obs, ln_e, frames.size(), &fit);
   return fit;
 }
 
+namespace {
+
+// InputError when the supported values [z_lo, z_hi] span too little of the stated range;
+// NumericalError when the monotone curve is flat over a tenth of them or barely rises: such a
+// table would map distinct values to one exposure and pass its own check.
+void CheckSupportedRange(const std::vector<double>& h, int k_lo, int k_hi, double z_lo, double z_hi,
+                         const Setup& s) {
+  if (z_hi - z_lo < s.min_range_fraction * s.max_value) {
+    throw InputError(fmt::format(
+        "exposure sweep: the usable values span only {:.0f}..{:.0f}, {:.1f}% of the {}-bit range; "
+        "is the bit depth right (session.json bit_depth or --bit-depth)?",
+        z_lo, z_hi, 100 * (z_hi - z_lo) / s.max_value, s.bit_depth));
+  }
+  const double value_per_knot = static_cast<double>(s.max_value) / (s.num_knots - 1);
+  int run_start = k_lo;
+  for (int k = k_lo + 1; k <= k_hi + 1; ++k) {
+    if (k <= k_hi && h[k] - h[k - 1] > 1e-9) run_start = k;
+    if (k > k_hi || h[k] - h[k - 1] > 1e-9) continue;
+    if ((k - run_start) * value_per_knot > 0.1 * (z_hi - z_lo)) {
+      throw NumericalError(fmt::format(
+          "exposure sweep: the fitted inverse response is flat from value {:.0f} to {:.0f} (the "
+          "frames do not show exposure changing there)",
+          run_start * value_per_knot, k * value_per_knot));
+    }
+  }
+  if (h[k_hi] - h[k_lo] < std::log(1.5)) {
+    throw NumericalError(fmt::format(
+        "exposure sweep: the fitted inverse response rises only {:.2f}x over values {:.0f}..{:.0f}",
+        std::exp(h[k_hi] - h[k_lo]), z_lo, z_hi));
+  }
+}
+
 // Table of relative exposure for every value: exp(h) where data exist, a straight line down to
-// the black level below, held constant at and above saturation.
+// the black level below, held constant above the highest supported value (`z_top`, which the
+// result then treats as saturation).
 std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* black_level,
-                               bool black_given) {
+                               bool black_given, double* z_top) {
   const int K = s.num_knots;
   std::vector<double> w(K);
   for (int k = 0; k < K; ++k) w[k] = fit.counts[k] + 1e-6;
@@ -292,6 +362,8 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
   const double z_lo = std::max(static_cast<double>(k_lo) * s.max_value / (K - 1), s.dark_limit);
   const double z_hi =
       std::min(static_cast<double>(k_hi) * s.max_value / (K - 1), s.saturation_limit);
+  CheckSupportedRange(h, k_lo, k_hi, z_lo, z_hi, s);
+  *z_top = z_hi;
   if (!black_given) {
     // Near the dark end a response behaves like a power law, X = c (Z - black)^p (p = 1 for a
     // linear sensor, p ~ 2.2 for a gamma curve): choose the black level whose log-log fit over
@@ -377,14 +449,48 @@ void CheckSweep(const std::vector<ExposureFrame>& frames) {
   if (max_t <= min_t * 1.01) throw InputError("exposure sweep: all frames have the same exposure");
 }
 
-Setup MakeSetup(const ResponseOptions& o, const cv::Mat& first) {
+Setup MakeSetup(const ResponseOptions& o, int bit_depth) {
   Setup s;
-  s.bit_depth = o.bit_depth ? o.bit_depth : (first.depth() == CV_8U ? 8 : 16);
+  s.bit_depth = bit_depth;
   s.max_value = (1 << s.bit_depth) - 1;
   s.num_knots = std::min(o.num_knots, s.max_value + 1);
   s.saturation_limit = s.max_value * (1.0 - o.saturation_margin);
   s.dark_limit = (o.black_level ? *o.black_level : 0.0) + 0.02 * s.max_value;
+  s.min_range_fraction = o.min_range_fraction;
   return s;
+}
+
+// InputError when the brightest value of the whole sweep lies below `min_range_fraction` of the
+// stated range: 12-bit values read as 16-bit, say, would otherwise fit a curve to 6 % of it.
+void CheckValueSpan(const std::vector<ExposureFrame>& frames, const Setup& s) {
+  double top = 0;
+  for (const auto& f : frames) {
+    double m = 0;
+    cv::minMaxLoc(f.image.reshape(1), nullptr, &m);
+    top = std::max(top, m);
+  }
+  if (top < s.min_range_fraction * s.max_value) {
+    throw InputError(fmt::format(
+        "exposure sweep: the brightest value is {:.0f}, {:.1f}% of the {}-bit range; is the bit "
+        "depth right (session.json bit_depth or --bit-depth)?",
+        top, 100 * top / s.max_value, s.bit_depth));
+  }
+}
+
+// A channel's saturation: a sensor whose white level is below the largest value piles its
+// saturated pixels up on one value in the longest exposure; the limit goes below that value.
+double ChannelSaturation(const std::vector<cv::Mat>& planes, const Setup& s,
+                         const std::vector<double>& exposures_s) {
+  int longest = s.usable.front();
+  for (int j : s.usable) {
+    if (exposures_s[j] > exposures_s[longest]) longest = j;
+  }
+  double top = 0;
+  cv::minMaxLoc(planes[longest], nullptr, &top);
+  const double at_top =
+      cv::countNonZero(planes[longest] >= top) / static_cast<double>(planes[longest].total());
+  if (at_top < 0.005) return s.saturation_limit;
+  return std::min(s.saturation_limit, top - std::max(1.0, 0.005 * s.max_value));
 }
 
 // planes[channel][frame] as CV_32F; InputError for a value beyond the bit depth.
@@ -434,102 +540,23 @@ void ScreenFrames(const std::vector<ExposureFrame>& frames, const std::vector<cv
   }
 }
 
-// The exposure times and which of them are trusted, shared by the channels' fits.
-struct SweepTimes {
-  std::vector<double> listed;
-  std::vector<bool> has_prior;
-};
-
-std::vector<ChannelFit> FitChannels(const std::vector<std::vector<cv::Mat>>& planes,
-                                    const SweepTimes& times, bool times_fixed, const Setup& s,
-                                    const std::vector<std::vector<cv::Point>>& pixels,
-                                    const ResponseOptions& o) {
-  std::vector<ChannelFit> fits(planes.size());
-  ParallelFor(planes.size(), o.threads, [&](size_t b, size_t e) {
-    for (size_t c = b; c < e; ++c) {
-      fits[c] = FitChannel(planes[c], times.listed, times.has_prior, times_fixed, s, pixels[c], o);
-    }
-  });
-  return fits;
-}
-
-// Pass 1's verdict: the usable frames whose fitted time (median over channels) departs from
-// the listed one by more than the tolerance are marked inconsistent and returned.
-std::vector<int> FindInconsistentFrames(const std::vector<ChannelFit>& fits, const Setup& s,
-                                        const SweepTimes& times, const ResponseOptions& o,
-                                        ResponseResult* result) {
-  std::vector<int> inconsistent;
-  for (int j : s.usable) {
-    std::vector<double> ln_ratio;
-    for (const auto& f : fits) ln_ratio.push_back(f.ln_t[j] - std::log(times.listed[j]));
-    const double r = Median(ln_ratio);
-    if (std::abs(r) > std::log1p(o.exposure_tolerance)) {
-      auto& rep = result->frames[j];
-      rep.consistent = false;
-      rep.note = fmt::format("brightness implies {:.4g} s, listed {:.4g} s",
-                             times.listed[j] * std::exp(r), times.listed[j]);
-      inconsistent.push_back(j);
-    }
-  }
-  const size_t consistent = s.usable.size() - inconsistent.size();
-  if (consistent < 2) {
-    throw InputError(fmt::format(
-        "exposure sweep: only {} frame(s) agree with their listed exposure; cannot calibrate",
-        consistent));
-  }
-  return inconsistent;
-}
-
-// Pass 2's frames: the inconsistent ones lose their prior and are re-timed jointly, or are
-// left out with `drop_inconsistent`.
-void ReleaseInconsistentFrames(const std::vector<int>& inconsistent, const ResponseOptions& o,
-                               Setup* s, SweepTimes* times, ResponseResult* result) {
-  std::vector<int> usable;
-  for (int j : s->usable) {
-    if (std::find(inconsistent.begin(), inconsistent.end(), j) == inconsistent.end()) {
-      usable.push_back(j);
-    }
-  }
-  for (int j : inconsistent) {
-    times->has_prior[j] = false;
-    if (o.drop_inconsistent) {
-      result->frames[j].used = false;
-    } else {
-      usable.push_back(j);
-    }
-  }
-  std::sort(usable.begin(), usable.end());
-  s->usable = usable;
-}
-
-// The re-timed frames' final times (median over channels) and verdicts: pass 1's robust
-// estimate is only a screen; the verdict uses the final estimate.
-void ReportRetimedFrames(const std::vector<ChannelFit>& fits, const std::vector<int>& inconsistent,
-                         const SweepTimes& times, const ResponseOptions& o,
-                         ResponseResult* result) {
-  if (o.drop_inconsistent) return;
-  for (int j : inconsistent) {
-    std::vector<double> ln_t;
-    for (const auto& f : fits) ln_t.push_back(f.ln_t[j]);
-    auto& rep = result->frames[j];
-    rep.estimated_s = std::exp(Median(ln_t));
-    rep.consistent =
-        std::abs(std::log(rep.estimated_s / times.listed[j])) <= std::log1p(o.exposure_tolerance);
-    rep.note = fmt::format("brightness implies {:.4g} s, listed {:.4g} s", rep.estimated_s,
-                           times.listed[j]);
-  }
-}
-
-// The per-channel tables, black and saturation levels, fit RMS and the linearity check.
+// The per-channel tables, black and saturation levels, fit RMS and the self-check over the
+// whole returned range (just above black to saturation).
 void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<ChannelFit>& fits,
-                    const Setup& s, const ResponseOptions& o, ResponseResult* result) {
+                    const std::vector<Setup>& setups, const ResponseOptions& o,
+                    ResponseResult* result) {
   result->black_level.assign(result->channels, o.black_level.value_or(0.0));
-  result->saturation_level.assign(result->channels, s.saturation_limit);
+  result->saturation_level.assign(result->channels, 0.0);
   double rms = 0;
+  std::vector<double> lo(result->channels), hi(result->channels);
   for (int c = 0; c < result->channels; ++c) {
+    double z_top = 0;
     result->inverse_response.push_back(
-        BuildTable(fits[c], s, &result->black_level[c], o.black_level.has_value()));
+        BuildTable(fits[c], setups[c], &result->black_level[c], o.black_level.has_value(), &z_top));
+    result->saturation_level[c] = std::floor(z_top) + 1;
     rms += fits[c].rms * fits[c].rms;
+    lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
+    hi[c] = result->saturation_level[c] - 1;
   }
   result->rms_log_residual = std::sqrt(rms / result->channels);
   std::vector<double> used_t(frames.size());
@@ -538,9 +565,8 @@ void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<
     used[j] = result->frames[j].used;
     used_t[j] = result->frames[j].estimated_s;
   }
-  result->median_ratio_error =
-      MedianRatioError(frames, used_t, used, result->inverse_response, result->saturation_level,
-                       result->black_level, s.bit_depth, &result->pair_ratio_error);
+  result->consistency =
+      MeasurePairConsistency(frames, used_t, used, result->inverse_response, lo, hi);
 }
 
 }  // namespace
@@ -553,110 +579,47 @@ void ResponseOptions::Check() const {
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
   if (num_pixels < 50) throw InputError("at least 50 pixels are needed");
   if (!(smoothness >= 0)) throw InputError("smoothness must be >= 0");
-  if (!(prior_sigma > 0)) throw InputError("prior sigma must be > 0");
   if (!(exposure_tolerance > 0)) throw InputError("exposure tolerance must be > 0");
   if (!(saturation_margin >= 0 && saturation_margin < 0.5)) {
     throw InputError("saturation margin must be in [0, 0.5)");
   }
 }
 
-ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& frames,
+ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
                                  const ResponseOptions& o) {
   o.Check();
-  CheckSweep(frames);
-  Setup s = MakeSetup(o, frames[0].image);
+  CheckSweep(input);
+  std::vector<ExposureFrame> frames = input;
+  const int bit_depth = ResolveBitDepth(o.bit_depth, "the bit depth option", &frames);
+  Setup s = MakeSetup(o, bit_depth);
+  CheckValueSpan(frames, s);
   ResponseResult result;
   result.bit_depth = s.bit_depth;
   result.channels = frames[0].image.channels();
+  result.regional_mapping_difference = RegionalMappingDifference(frames, bit_depth);
+  if (result.regional_mapping_difference > o.max_regional_mapping_difference) {
+    throw InputError(fmt::format(
+        "exposure sweep: neighbouring frames map values differently in different image regions "
+        "({:.0f}% of the step between frames): the camera tone-maps locally or merges exposures, "
+        "so no single response exists; use manual mode or RAW",
+        100 * result.regional_mapping_difference));
+  }
   const auto planes = ChannelPlanes(frames, s, result.channels);
   ScreenFrames(frames, planes[0], &s, &result);
 
-  SweepTimes times;
-  for (const auto& f : frames) times.listed.push_back(f.exposure_s);
-  times.has_prior.assign(frames.size(), true);
+  std::vector<double> listed;
+  for (const auto& f : frames) listed.push_back(f.exposure_s);
+  std::vector<Setup> setups(result.channels, s);
   std::vector<std::vector<cv::Point>> pixels(result.channels);
-  for (int c = 0; c < result.channels; ++c) pixels[c] = SamplePixels(planes[c], s, o.num_pixels);
-  // Pass 1: every frame, listed times as robust priors, to find the frames whose brightness
-  // contradicts their listed time.
-  auto fits = FitChannels(planes, times, false, s, pixels, o);
-  const std::vector<int> inconsistent = FindInconsistentFrames(fits, s, times, o, &result);
-  // Pass 2: the consistent frames' times are held exactly, so they alone fix the exponent
-  // ambiguity.
-  ReleaseInconsistentFrames(inconsistent, o, &s, &times, &result);
-  fits = FitChannels(planes, times, true, s, pixels, o);
-  ReportRetimedFrames(fits, inconsistent, times, o, &result);
-  FinishResponse(frames, fits, s, o, &result);
+  for (int c = 0; c < result.channels; ++c) {
+    setups[c].saturation_limit = ChannelSaturation(planes[c], s, listed);
+    pixels[c] = SamplePixels(planes[c], frames, setups[c], o.num_pixels);
+  }
+  std::vector<bool> free_time(frames.size(), false);
+  const auto fits = FitWithTimeScreening(planes, frames, setups, pixels, o, &s, &free_time);
+  ReportFrames(fits, free_time, frames, s, o, &result);
+  FinishResponse(frames, fits, setups, o, &result);
   return result;
-}
-
-double MedianRatioError(const std::vector<ExposureFrame>& frames,
-                        const std::vector<double>& exposures_s, const std::vector<bool>& used,
-                        const std::vector<std::vector<double>>& inverse_response,
-                        const std::vector<double>& saturation_level,
-                        const std::vector<double>& black_level, int bit_depth,
-                        std::vector<double>* per_pair) {
-  std::vector<int> order;
-  for (size_t j = 0; j < frames.size(); ++j) {
-    if (used[j]) order.push_back(static_cast<int>(j));
-  }
-  std::sort(order.begin(), order.end(),
-            [&](int a, int b) { return exposures_s[a] < exposures_s[b]; });
-  const int channels = frames[0].image.channels();
-  double worst = NAN;
-  if (per_pair) per_pair->clear();
-  for (size_t q = 0; q + 1 < order.size(); ++q) {
-    const int a = order[q], b = order[q + 1];
-    const double expected = exposures_s[a] / exposures_s[b];
-    if (expected > 0.99) continue;  // equal exposures say nothing about the response
-    std::vector<cv::Mat> pa, pb;
-    cv::split(frames[a].image, pa);
-    cv::split(frames[b].image, pb);
-    std::vector<double> ratios;
-    for (int c = 0; c < channels; ++c) {
-      const double lo = black_level[c] + 0.1 * (saturation_level[c] - black_level[c]);
-      const double hi = saturation_level[c] - 0.1 * (saturation_level[c] - black_level[c]);
-      cv::Mat fa, fb;
-      pa[c].convertTo(fa, CV_32S);
-      pb[c].convertTo(fb, CV_32S);
-      for (int y = 0; y < fa.rows; y += 3) {
-        for (int x = 0; x < fa.cols; x += 3) {
-          const int za = fa.at<int>(y, x), zb = fb.at<int>(y, x);
-          if (za < lo || za > hi || zb < lo || zb > hi) continue;
-          const double xb = inverse_response[c][zb];
-          if (!(xb > 0)) continue;
-          ratios.push_back(inverse_response[c][za] / xb / expected);
-        }
-      }
-    }
-    // The median over pixels of the linearized ratio, against the exposure ratio.
-    const double err = ratios.size() < 100 ? NAN : std::abs(Median(ratios) - 1.0);
-    if (per_pair) per_pair->push_back(err);
-    if (std::isfinite(err)) worst = std::isfinite(worst) ? std::max(worst, err) : err;
-  }
-  (void)bit_depth;
-  return worst;
-}
-
-std::vector<std::vector<double>> DebevecInverseResponse(const std::vector<ExposureFrame>& frames,
-                                                        const std::vector<double>& exposures_s) {
-  std::vector<cv::Mat> images;
-  std::vector<float> times;
-  for (size_t j = 0; j < frames.size(); ++j) {
-    cv::Mat im = frames[j].image;
-    if (im.depth() != CV_8U) throw InputError("OpenCV's Debevec calibration takes 8-bit frames");
-    if (im.channels() == 1) cv::cvtColor(im, im, cv::COLOR_GRAY2BGR);
-    images.push_back(im);
-    times.push_back(static_cast<float>(exposures_s[j]));
-  }
-  cv::Mat response;
-  cv::createCalibrateDebevec()->process(images, response, times);
-  const int channels = frames[0].image.channels();
-  std::vector<std::vector<double>> out(channels, std::vector<double>(256));
-  for (int z = 0; z < 256; ++z) {
-    const cv::Vec3f v = response.at<cv::Vec3f>(z, 0);
-    for (int c = 0; c < channels; ++c) out[c][z] = v[c];
-  }
-  return out;
 }
 
 }  // namespace gonio

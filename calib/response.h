@@ -4,13 +4,14 @@
 // Model: for pixel p in frame j with value Z, h(Z) = ln E_p + ln t_j, where h = ln of the
 // inverse response (pixel value -> relative exposure, irradiance x time). h is non-parametric
 // (piecewise linear on knots over the value range, so any bit depth works), fitted with Ceres
-// jointly with every pixel's ln E and every frame's ln t, as Debevec-Malik do for h and E but
-// with the exposures free as in Mitsunaga-Nayar. The listed exposure times enter as priors with
-// a Cauchy loss: the consistent majority of frames fixes the exponent ambiguity of
-// self-calibration, while a frame whose listed time contradicts its brightness is free to move,
-// is reported, and is then either re-timed or left out. Monotonicity is enforced afterwards by
+// jointly with every pixel's ln E, as Debevec-Malik do. The listed exposure times of the frames
+// that agree with each other are held exactly, which fixes the exponent ambiguity of
+// self-calibration (Mitsunaga-Nayar); a frame whose listed time contradicts the others by more
+// than the curve's own uncertainty is found (response_times.cc), reported, and either re-timed
+// (its ln t free) or left out. Monotonicity is enforced afterwards by
 // isotonic regression (pool adjacent violators). Saturated and dark values get zero weight;
-// unlike the TUM monoVO tool nothing divides by a count that can be zero.
+// unlike the TUM monoVO tool nothing divides by a count that can be zero. docs/photometric.md
+// describes the method, its self-check and its refusals.
 #pragma once
 
 #include <optional>
@@ -26,18 +27,36 @@ struct ExposureFrame {
   std::string file;
   double exposure_s = 0;  // as listed (EXIF, list file, session)
   cv::Mat image;          // CV_8U or CV_16U, 1 or 3 channels
+  cv::Mat mask;           // CV_8U, non-zero where the frame may be used; empty: everywhere
 };
 
+// A sweep as read from a folder: the frames and the bit depth the session states (0: none).
+struct ExposureSweep {
+  std::vector<ExposureFrame> frames;
+  int bit_depth = 0;
+  std::string bit_depth_source;  // the file that stated it
+};
+
+// How N significant bits sit in the frames' container.
+enum class ValuePacking { kNative, kLsbAligned, kMsbAligned };
+
 struct ResponseOptions {
-  int bit_depth = 0;                  // 0: from the image type (8 or 16)
+  int bit_depth = 0;                  // 0: from the image type (8 or 16); see ResolveBitDepth
   std::optional<double> black_level;  // given, or estimated
   int num_knots = 128;                // knots of h over [0, 2^bit_depth)
   int num_pixels = 1500;              // sampled pixels per channel
   double smoothness = 1.0;            // weight of h's second differences
-  double prior_sigma = 0.2;           // ln-units: how far a listed time is trusted
   double exposure_tolerance = 0.05;   // relative mismatch that marks a frame inconsistent
   bool drop_inconsistent = false;     // leave inconsistent frames out instead of re-timing
   double saturation_margin = 0.02;  // fraction of the range below the maximum treated as saturated
+  // Refused (InputError) when the values the fit is supported by span less than this fraction
+  // of the stated range: the bit depth is wrong or the sweep too narrow.
+  double min_range_fraction = 0.25;
+  // Refused (InputError) when the value-to-value mapping between neighbouring frames differs
+  // between image regions by more than this (fraction of the mapping's step; local tone
+  // mapping). Measured: 0.06-0.07 on the real sweeps, 0.03 on a synthetic one-curve sweep, 0.59
+  // on a synthetic locally tone-mapped one.
+  double max_regional_mapping_difference = 0.2;
   int threads = 0;
 
   void Check() const;
@@ -52,6 +71,23 @@ struct FrameExposureReport {
   std::string note;
 };
 
+// Pair consistency (the metric of docs/photometric.md): for neighbouring used exposures a, b and
+// every pixel well exposed in both, |(X(Z_a) / X(Z_b)) / (t_a / t_b) - 1|; per pair its median
+// over pixels. `band_bias`: the signed error (X_a / X_b) / (t_a / t_b) - 1 in each of `kBands`
+// equal parts of the checked value range, evaluated at the medians of groups of pixels that a
+// third frame's value selects (free of noise, see BandErrors in response_check.cc), median over
+// pairs and groups, so a curve wrong anywhere in the range it returns shows.
+struct PairConsistency {
+  static constexpr int kBands = 8;
+  std::vector<double> per_pair;       // NaN for a pair with too few pixels
+  double median_pair = NAN;           // median over pairs
+  double worst_pair = NAN;            // maximum over pairs
+  std::vector<double> band_bias;      // kBands values (NaN where no pixel falls)
+  double worst_band_bias = NAN;       // largest |band_bias|
+  double range_lo = 0, range_hi = 0;  // the checked value range
+  nlohmann::json ToJson() const;
+};
+
 struct ResponseResult {
   int bit_depth = 8;
   int channels = 1;
@@ -59,11 +95,12 @@ struct ResponseResult {
   std::vector<double> saturation_level;  // per channel: values at or above are saturated
   std::vector<std::vector<double>> inverse_response;  // [channel][value]: relative exposure
   std::vector<FrameExposureReport> frames;
-  // For pixels well exposed in two neighbouring used exposures a, b: |median over pixels of
-  // (X_a / X_b) / (t_a / t_b) - 1|, per neighbouring pair, and the worst pair.
-  double median_ratio_error = 0;
-  std::vector<double> pair_ratio_error;
+  // The self-check over the whole returned range (black level to saturation level).
+  PairConsistency consistency;
   double rms_log_residual = 0;  // of the fit, ln units
+  // Largest difference between image regions of the value-to-value mapping of neighbouring
+  // frames (fraction of the range; see RegionalMappingDifference).
+  double regional_mapping_difference = 0;
 
   // Relative exposure of a (possibly fractional) pixel value, linear between table entries.
   double Linearize(int channel, double value) const;
@@ -80,22 +117,62 @@ struct ResponseResult {
 // sizes or types, or fewer than two exposures.
 std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::string& list_file);
 
+// A sweep folder: with `list_file` empty and DIR/session.json present, the session's frames and
+// times; else the list file (default DIR/image_list.txt). Either way the bit depth is the one
+// DIR/session.json states, if any.
+ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_file);
+
+// Marks pixels of exactly colour `bgr` as unusable in each frame's mask (e.g. the pure blue
+// borders of the registered Memorial Church scans).
+void MaskColour(const cv::Scalar& bgr, std::vector<ExposureFrame>* frames);
+
+// The bit depth to calibrate with: `stated` (session.json or option; 0: none) checked against
+// every frame. In a 16-bit container N < 16 bits are LSB-aligned (values < 2^N) or MSB-aligned
+// (every value a multiple of 2^(16 - N)); MSB-aligned values are shifted down in place. Without
+// a stated depth the container's is used. InputError naming the frame on a value the stated
+// depth cannot hold in either packing, or an 8-bit container with another stated depth.
+int ResolveBitDepth(int stated, const std::string& stated_by, std::vector<ExposureFrame>* frames,
+                    ValuePacking* packing = nullptr);
+
 ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& frames,
                                  const ResponseOptions& options);
 
-// The same ratio check for any inverse response (e.g. OpenCV's Debevec result): for each pair
-// of neighbouring exposures, |median over pixels well exposed in both of (X_a/X_b)/(t_a/t_b) - 1|;
-// returns the worst pair (per_pair gets every pair).
-double MedianRatioError(const std::vector<ExposureFrame>& frames,
-                        const std::vector<double>& exposures_s, const std::vector<bool>& used,
-                        const std::vector<std::vector<double>>& inverse_response,
-                        const std::vector<double>& saturation_level,
-                        const std::vector<double>& black_level, int bit_depth,
-                        std::vector<double>* per_pair = nullptr);
+// Pair consistency (above) of any inverse response on the frames with `used` true, at the
+// given times, counting pixels with values in [lo, hi] in both frames (per channel) and inside
+// both frames' masks. Defined in response_check.cc.
+PairConsistency MeasurePairConsistency(const std::vector<ExposureFrame>& frames,
+                                       const std::vector<double>& exposures_s,
+                                       const std::vector<bool>& used,
+                                       const std::vector<std::vector<double>>& inverse_response,
+                                       const std::vector<double>& lo,
+                                       const std::vector<double>& hi);
 
-// OpenCV's Debevec calibration (cv::CalibrateDebevec) on 8-bit frames with the given times,
-// as a baseline: returns its inverse response in the same layout.
+// The classic methods as OpenCV implements them (cv::CalibrateDebevec, cv::CalibrateRobertson,
+// default parameters), on 8-bit frames with the given times: their inverse responses in the
+// layout of ResponseResult::inverse_response. InputError for other bit depths.
 std::vector<std::vector<double>> DebevecInverseResponse(const std::vector<ExposureFrame>& frames,
                                                         const std::vector<double>& exposures_s);
+std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<ExposureFrame>& frames,
+                                                          const std::vector<double>& exposures_s);
+
+// gonio's result and OpenCV's Debevec and Robertson, all on the frames gonio used at the times it
+// used (re-timed where it re-timed), checked on the same pixels: values in [5 %, 95 %] of the
+// range and inside gonio's black..saturation range. 8-bit frames only (InputError otherwise).
+struct MethodConsistency {
+  std::string method;
+  PairConsistency consistency;
+};
+std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<ExposureFrame>& frames,
+                                                         const ResponseResult& result);
+
+// Non-stationary processing check: for each pair of neighbouring frames (by listed time), the
+// whole image's value-to-value mapping (median longer-exposure value per bin of the shorter's)
+// and, in each cell of a 4x4 grid and each bin, the cell's median departure from it, as a
+// fraction of the mapping's step there (longer - shorter value, at least 2 % of the range). A
+// camera with one response gives one mapping everywhere; local tone mapping or HDR merging gives
+// a different one per region. Returns the median over pairs of the 75th percentile of the
+// departures: lens glare or a misregistered scan moves a few cells of a few pairs, a local tone
+// curve most of them.
+double RegionalMappingDifference(const std::vector<ExposureFrame>& frames, int bit_depth);
 
 }  // namespace gonio

@@ -1,6 +1,7 @@
 // Reading exposure sweeps and response.json, and what a ResponseResult says of itself
 // (calib/response.h); the calibration itself is response.cc.
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -10,6 +11,7 @@
 
 #include "calib/response.h"
 #include "common/error.h"
+#include "common/session.h"
 
 namespace gonio {
 
@@ -49,6 +51,116 @@ std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::
   return frames;
 }
 
+ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_file) {
+  namespace fs = std::filesystem;
+  ExposureSweep sweep;
+  const fs::path session_file = fs::path(dir) / "session.json";
+  if (fs::exists(session_file)) {
+    const Session session = ReadSession(session_file);
+    sweep.bit_depth = session.bit_depth;
+    sweep.bit_depth_source = session_file.string();
+    if (list_file.empty()) {
+      for (size_t i = 0; i < session.frames.size(); ++i) {
+        ExposureFrame f;
+        f.file = session.frames[i].file;
+        f.exposure_s = session.frames[i].exposure_s * session.frames[i].gain;
+        f.image = cv::imread(session.FramePath(i).string(), cv::IMREAD_UNCHANGED);
+        if (f.image.empty()) throw InputError(session.FramePath(i).string() + ": not an image");
+        if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
+        sweep.frames.push_back(std::move(f));
+      }
+      if (sweep.frames.size() < 2) {
+        throw InputError(session_file.string() + ": an exposure sweep needs at least two frames");
+      }
+      return sweep;
+    }
+  }
+  sweep.frames = LoadExposureSweep(
+      dir, list_file.empty() ? (fs::path(dir) / "image_list.txt").string() : list_file);
+  return sweep;
+}
+
+void MaskColour(const cv::Scalar& bgr, std::vector<ExposureFrame>* frames) {
+  for (auto& f : *frames) {
+    if (f.image.channels() != 3) throw InputError(f.file + ": a colour mask needs RGB frames");
+    cv::Mat match;
+    cv::inRange(f.image, bgr, bgr, match);
+    if (f.mask.empty()) f.mask = cv::Mat(f.image.size(), CV_8U, cv::Scalar(255));
+    f.mask.setTo(0, match);
+  }
+}
+
+namespace {
+
+// Number of low bits that are zero in every value of every frame (16 when all are zero).
+int CommonTrailingZeroBits(const std::vector<ExposureFrame>& frames) {
+  unsigned all = 0;
+  for (const auto& f : frames) {
+    cv::Mat v = f.image.reshape(1);
+    for (int y = 0; y < v.rows; ++y) {
+      const uint16_t* row = v.ptr<uint16_t>(y);
+      for (int x = 0; x < v.cols; ++x) all |= row[x];
+    }
+  }
+  int zeros = 0;
+  while (zeros < 16 && !(all & (1u << zeros))) ++zeros;
+  return zeros;
+}
+
+double MaxValue(const std::vector<ExposureFrame>& frames, std::string* file) {
+  double top = 0;
+  for (const auto& f : frames) {
+    double m = 0;
+    cv::minMaxLoc(f.image.reshape(1), nullptr, &m);
+    if (m > top) {
+      top = m;
+      *file = f.file;
+    }
+  }
+  return top;
+}
+
+}  // namespace
+
+int ResolveBitDepth(int stated, const std::string& stated_by, std::vector<ExposureFrame>* frames,
+                    ValuePacking* packing) {
+  if (packing) *packing = ValuePacking::kNative;
+  const bool eight = frames->front().image.depth() == CV_8U;
+  if (eight) {
+    if (stated != 0 && stated != 8) {
+      throw InputError(fmt::format("{}: states {} bits, but {} holds 8-bit values", stated_by,
+                                   stated, frames->front().file));
+    }
+    return 8;
+  }
+  std::string top_file;
+  const double top = MaxValue(*frames, &top_file);
+  const int zeros = CommonTrailingZeroBits(*frames);
+  if (stated == 0 || stated == 16) {
+    // Frames whose values all have their low bits zero are N < 16 bits MSB-aligned.
+    if (zeros >= 2 && zeros < 16 && top > 0) {
+      throw InputError(fmt::format(
+          "{}: every value is a multiple of {}: {}-bit values MSB-aligned in 16 bits; gonio reads "
+          "LSB-aligned values, shift the frames right by {} bits and state bit_depth {}",
+          frames->front().file, 1 << zeros, 16 - zeros, zeros, 16 - zeros));
+    }
+    return 16;
+  }
+  const double max_value = std::ldexp(1.0, stated) - 1;
+  if (top <= max_value) {
+    if (packing) *packing = ValuePacking::kLsbAligned;
+    return stated;
+  }
+  if (zeros >= 16 - stated) {
+    throw InputError(fmt::format(
+        "{}: {}-bit values MSB-aligned in 16 bits (every value a multiple of {}); gonio reads "
+        "LSB-aligned values: shift the frames right by {} bits",
+        top_file, stated, 1 << (16 - stated), 16 - stated));
+  }
+  throw InputError(fmt::format("{}: value {} does not fit the {} bits {} states", top_file, top,
+                               stated, stated_by));
+}
+
 double ResponseResult::Linearize(int channel, double value) const {
   const auto& t = inverse_response.at(channel);
   const double z = std::clamp(value, 0.0, static_cast<double>(t.size() - 1));
@@ -70,8 +182,10 @@ std::string ResponseResult::Report() const {
   for (double b : black_level) s << fmt::format(" {:.1f}", b);
   s << fmt::format("; fit rms {:.4f} (ln units)\n", rms_log_residual);
   s << fmt::format(
-      "linearity check: worst neighbouring pair |median ratio - exposure ratio| {:.2f}%\n",
-      100 * median_ratio_error);
+      "pair consistency over values {:.0f}..{:.0f}: median pair {:.2f}%, worst pair {:.2f}%; "
+      "worst value-band bias {:.2f}%\n",
+      consistency.range_lo, consistency.range_hi, 100 * consistency.median_pair,
+      100 * consistency.worst_pair, 100 * consistency.worst_band_bias);
   for (const auto& f : frames) {
     s << fmt::format(
         "  {:<20} listed {:>10.5g} s  used {:>10.5g} s  {}\n", f.file, f.listed_s, f.estimated_s,
@@ -92,20 +206,15 @@ nlohmann::json ResponseResult::ToJson() const {
                   {"used", f.used},
                   {"note", f.note}});
   }
-  nlohmann::json pairs = nlohmann::json::array();
-  for (double e : pair_ratio_error)
-    pairs.push_back(std::isfinite(e) ? nlohmann::json(e) : nlohmann::json());
-  return {
-      {"bit_depth", bit_depth},
-      {"channels", channels},
-      {"black_level", black_level},
-      {"saturation_level", saturation_level},
-      {"inverse_response", inverse_response},
-      {"frames", fr},
-      {"median_ratio_error",
-       std::isfinite(median_ratio_error) ? nlohmann::json(median_ratio_error) : nlohmann::json()},
-      {"pair_ratio_error", pairs},
-      {"rms_log_residual", rms_log_residual}};
+  return {{"bit_depth", bit_depth},
+          {"channels", channels},
+          {"black_level", black_level},
+          {"saturation_level", saturation_level},
+          {"inverse_response", inverse_response},
+          {"frames", fr},
+          {"consistency", consistency.ToJson()},
+          {"regional_mapping_difference", regional_mapping_difference},
+          {"rms_log_residual", rms_log_residual}};
 }
 
 ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::string& source) {

@@ -1,0 +1,52 @@
+// Internals of the inverse-response fit shared by response.cc (the fit of one channel, the
+// table) and response_times.cc (screening of the listed exposure times); not a public API.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "calib/response.h"
+
+namespace gonio {
+
+struct ChannelFit {
+  std::vector<double> h;       // knots
+  std::vector<double> ln_t;    // per frame
+  std::vector<double> counts;  // observations per knot (for the isotonic weights)
+  // Per frame: median over its pixels of h(Z) - ln t - ln E, with ln E from the pixel's other
+  // frames (leave one out), ln units; NaN for a frame without such pixels.
+  std::vector<double> frame_offset;
+  // Per frame: whether enough sampled pixels (a quarter) are well exposed in it to judge its time.
+  std::vector<bool> judgeable;
+  double rms = 0;
+};
+
+struct Setup {
+  int bit_depth, max_value, num_knots;
+  double dark_limit, saturation_limit;
+  double min_range_fraction;
+  std::vector<int> usable;  // frame indices in the fit
+};
+
+// One channel's fit (response.cc). The listed times of usable frames with `free_time` false are
+// held exactly; with `times_unknown` every time floats and h is held at two knots instead.
+ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<ExposureFrame>& frames,
+                      const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
+                      const std::vector<cv::Point>& pixels, const ResponseOptions& o);
+
+// Fits every channel while releasing the frames whose listed time the others contradict
+// (response_times.cc): `s->usable` loses left-out frames, `free_time` marks released ones.
+std::vector<ChannelFit> FitWithTimeScreening(const std::vector<std::vector<cv::Mat>>& planes,
+                                             const std::vector<ExposureFrame>& frames,
+                                             const std::vector<Setup>& setups,
+                                             const std::vector<std::vector<cv::Point>>& pixels,
+                                             const ResponseOptions& o, Setup* s,
+                                             std::vector<bool>* free_time);
+
+// The released frames' final times (median over channels) and verdicts.
+void ReportFrames(const std::vector<ChannelFit>& fits, const std::vector<bool>& free_time,
+                  const std::vector<ExposureFrame>& frames, const Setup& s,
+                  const ResponseOptions& o, ResponseResult* result);
+
+}  // namespace gonio
