@@ -7,7 +7,7 @@
 //
 // | model              | tabulated part                            | variables        |
 // |--------------------|-------------------------------------------|------------------|
-// | van-ginneken       | diffuse term / shadowing (eq. 31-33)      | log r, u, q, phi |
+// | van-ginneken(-fresnel) | diffuse term / shadowing (eq. 31-33)  | log r, u, q, phi |
 // |                    | x cos u cos v                             |                  |
 // | oren-nayar-vcavity | direct and interreflection slope averages | sigma, u, q      |
 // |                    | (eq. 25) at phi = 0, pi/2, pi, x cos v    |                  |
@@ -99,8 +99,23 @@ T Lookup4(Table4& table, const T& x0, const Angles<T>& a) {
 
 }  // namespace tabulation
 
-// van-ginneken with the diffuse integral from VanGinnekenDiffuseTable(); shadowing and the
-// specular term in closed form as in vg::Evaluate.
+namespace tabulation {
+// Shadowing, specular and (tabulated) diffuse terms of van Ginneken's model, as vg::Evaluate.
+template <typename T>
+vg::Terms<T> VanGinnekenTerms(const T& r, const Angles<T>& a_in) {
+  using std::cos;
+  using std::log;
+  const Angles<T> a = vg::Normalized(a_in);
+  vg::Terms<T> t;
+  t.shadowing = vg::ShadowingIllVis(r, a.theta_i, a.theta_r, a.phi);
+  t.specular = vg::Specular(r, a, t.shadowing, vg::SpecularNorm::kEq8);
+  t.diffuse = t.shadowing * Lookup4(VanGinnekenDiffuseTable(), log(r), a) /
+              (cos(a.theta_i) * cos(a.theta_r));
+  return t;
+}
+}  // namespace tabulation
+
+// van-ginneken with the diffuse integral from VanGinnekenDiffuseTable().
 struct TabulatedVanGinneken {
   static constexpr int kNumParams = VanGinneken::kNumParams;
   static ModelInfo Info() { return VanGinneken::Info(); }
@@ -108,17 +123,25 @@ struct TabulatedVanGinneken {
     return VanGinneken::Invalid(p, a);
   }
   template <typename T>
-  static T Evaluate(const T* p, const Angles<T>& a_in) {
-    const T& r = p[1];
-    const Angles<T> a = vg::Normalized(a_in);
-    const T shadowing = vg::ShadowingIllVis(r, a.theta_i, a.theta_r, a.phi);
-    const T specular = vg::Specular(r, a, shadowing, vg::SpecularNorm::kEq8);
+  static T Evaluate(const T* p, const Angles<T>& a) {
+    const vg::Terms<T> t = tabulation::VanGinnekenTerms(p[1], a);
+    return p[0] * (p[2] * t.specular + (T(1.0) - p[2]) * t.diffuse);
+  }
+};
+
+// van-ginneken-fresnel with the same table (eq. 35-36 as VanGinnekenFresnel).
+struct TabulatedVanGinnekenFresnel {
+  static constexpr int kNumParams = VanGinnekenFresnel::kNumParams;
+  static ModelInfo Info() { return VanGinnekenFresnel::Info(); }
+  static const char* Invalid(const double* p, const Angles<double>& a) {
+    return VanGinnekenFresnel::Invalid(p, a);
+  }
+  template <typename T>
+  static T Evaluate(const T* p, const Angles<T>& a) {
     using std::cos;
-    using std::log;
-    const T diffuse = shadowing *
-                      tabulation::Lookup4(tabulation::VanGinnekenDiffuseTable(), log(r), a) /
-                      (cos(a.theta_i) * cos(a.theta_r));
-    return p[0] * (p[2] * specular + (T(1.0) - p[2]) * diffuse);
+    const vg::Terms<T> t = tabulation::VanGinnekenTerms(p[1], a);
+    const T f = vg::FresnelUnpolarized(p[3], cos(vg::Normalized(a).theta_i));
+    return p[0] * (f * t.specular + (T(1.0) - f) * p[2] * t.diffuse);
   }
 };
 
@@ -169,6 +192,10 @@ struct Tabulated {
 template <>
 struct Tabulated<VanGinneken> {
   using type = TabulatedVanGinneken;
+};
+template <>
+struct Tabulated<VanGinnekenFresnel> {
+  using type = TabulatedVanGinnekenFresnel;
 };
 template <>
 struct Tabulated<OrenNayarVCavity> {

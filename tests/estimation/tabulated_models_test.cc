@@ -83,6 +83,21 @@ TEST(TabulatedModels, VanGinnekenOneDirectionGrazing) {
   EXPECT_LT(s.rms_rel, 6e-4);
 }
 
+// van-ginneken-fresnel shares the table; its diffuse weight (1 - F) albedo <= 1 keeps the error
+// at or below the diffuse term's (measured max 3e-4 to 80 deg).
+TEST(TabulatedModels, VanGinnekenFresnelSharesTheTable) {
+  const ErrorStats s = Compare<TabulatedVanGinnekenFresnel, VanGinnekenFresnel>(
+      [](double a, double b) {
+        return std::vector<double>{1.0, std::exp(std::log(0.02) + std::log(50.0) * b),
+                                   0.3 + 0.7 * a, 1.2 + a};
+      },
+      0.0, 80.0, 80.0, 2000, 5);
+  EXPECT_LT(s.max_rel, 6e-4);
+  EXPECT_LT(s.rms_rel, 4e-5);
+  testing::ExpectJetMatchesFiniteDifference<TabulatedVanGinnekenFresnel>(
+      {0.8, 0.3, 0.6, 1.5}, Angles<double>{0.4, 1.1, 2.0}, 1e-5);
+}
+
 // oren-nayar-vcavity: its documented error against the exact facet model is 0.034 max,
 // 0.0075 RMS albedo/pi (docs/models/oren-nayar.md); the table's is far below (measured max
 // 3.3e-4, RMS 1.0e-5 to 80 deg; 4.0e-3, 2.1e-4 with one direction beyond).
@@ -180,6 +195,7 @@ TEST(TabulatedModels, SameNamesAndParametersAsTheDirectModels) {
   EXPECT_EQ(TabulatedOrenNayarVCavity::Info().name, "oren-nayar-vcavity");
   EXPECT_EQ(TabulatedVanGinneken::Info().num_params(), VanGinneken::Info().num_params());
   static_assert(std::is_same_v<Tabulated<VanGinneken>::type, TabulatedVanGinneken>);
+  static_assert(std::is_same_v<Tabulated<VanGinnekenFresnel>::type, TabulatedVanGinnekenFresnel>);
   static_assert(std::is_same_v<Tabulated<PittedExact>::type, PittedExact>);
 }
 
