@@ -58,6 +58,13 @@ inline void SetGhosts(double* line, int n, long stride, int dims, const Axis& ax
   }
 }
 
+// What a table has cost so far.
+struct TableStats {
+  int slabs_built = 0, slabs_total = 0;
+  double build_seconds = 0;  // summed over slabs (ghost slabs included)
+  size_t bytes = 0;          // of the slabs built
+};
+
 // Builds slab k of the first axis from `fill`; shared by the 3-D and 4-D tables.
 struct SlabStore {
   explicit SlabStore(const Axis& a0, size_t slab_values)
@@ -95,14 +102,12 @@ struct SlabStore {
     });
     return slabs[k + 1];
   }
-  size_t BytesBuilt() const { return size_t(built.load()) * values * sizeof(double); }
-};
-
-// What a table has cost so far.
-struct TableStats {
-  int slabs_built = 0, slabs_total = 0;
-  double build_seconds = 0;  // summed over slabs (ghost slabs included)
-  size_t bytes = 0;          // of the slabs built
+  TableStats Stats() const {
+    return {built.load(), axis.n + 2, build_ns.load() * 1e-9,
+            size_t(built.load()) * values * sizeof(double)};
+  }
+  // Memory of the whole table once every slab is built.
+  size_t FullBytes() const { return (axis.n + 2) * values * sizeof(double); }
 };
 
 // f(x0, x1, x2) -> R^D on a regular grid. fill(x, out) evaluates the function at x[0..2].
@@ -136,12 +141,8 @@ class Table3 {
     }
   }
 
-  TableStats Stats() const {
-    return {store_.built.load(), store_.axis.n + 2, store_.build_ns.load() * 1e-9,
-            store_.BytesBuilt()};
-  }
-  // Memory of the whole table once every slab is built.
-  size_t FullBytes() const { return (store_.axis.n + 2) * store_.values * sizeof(double); }
+  TableStats Stats() const { return store_.Stats(); }
+  size_t FullBytes() const { return store_.FullBytes(); }
 
  private:
   const std::vector<double>& Slab(int k) {
@@ -207,11 +208,8 @@ class Table4 {
     return v[0];
   }
 
-  TableStats Stats() const {
-    return {store_.built.load(), store_.axis.n + 2, store_.build_ns.load() * 1e-9,
-            store_.BytesBuilt()};
-  }
-  size_t FullBytes() const { return (store_.axis.n + 2) * store_.values * sizeof(double); }
+  TableStats Stats() const { return store_.Stats(); }
+  size_t FullBytes() const { return store_.FullBytes(); }
 
  private:
   const std::vector<double>& Slab(int k) {
