@@ -4,6 +4,7 @@
 #include "estimation/tabulated_models.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -13,6 +14,7 @@
 
 #include "bench/bench_tabulation.h"
 #include "common/math.h"
+#include "common/parallel.h"
 #include "estimation/joint_fit.h"
 #include "reflectance/pitted.h"
 #include "tests/reflectance/jet_finite_util.h"
@@ -219,6 +221,30 @@ TEST(TabulatedModels, JointFitUnchangedBeyondItsUncertainty) {
       EXPECT_LT(shift, 0.01) << model << " " << k;
     }
   }
+}
+
+// Slabs built concurrently on first use (the joint fit evaluates residuals on several threads)
+// give the same values as a table filled by one thread.
+TEST(TabulatedModels, LazySlabsAreThreadSafe) {
+  const tabulation::GridSpec grid{10, 12, 8, 0};
+  const auto serial = tabulation::MakeVCavityTable(grid);
+  const auto parallel = tabulation::MakeVCavityTable(grid);
+  std::vector<std::array<double, 3>> points(4000);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u01(0, 1);
+  for (auto& x : points) x = {0.9 * u01(rng), kHalfPi * u01(rng), u01(rng)};
+  std::vector<double> got(points.size()), want(points.size());
+  auto eval = [](tabulation::Table3<6>& t, const std::array<double, 3>& x) {
+    double f[6], d0[6], d1[6], d2[6];
+    t.Evaluate(x.data(), f, d0, d1, d2);
+    return f[0] + f[3] + d0[5];
+  };
+  ParallelFor(points.size(), 4, [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) got[k] = eval(*parallel, points[k]);
+  });
+  for (size_t k = 0; k < points.size(); ++k) want[k] = eval(*serial, points[k]);
+  EXPECT_EQ(got, want);
+  EXPECT_EQ(parallel->Stats().slabs_built, grid.n_param + 2);
 }
 
 TEST(TabulatedModels, SameNamesAndParametersAsTheDirectModels) {
