@@ -1,16 +1,16 @@
 // Tabulated versions of the expensive numerical models, for fitting.
 //
-// Each model's cost is one numerical integral; the closed-form rest (albedo, coverage, the
-// interreflection factor, the shadowing and specular terms) stays exact. The integral is
+// Each model's cost is one numerical integral; the closed-form rest (albedo, the shadowing,
+// specular and Fresnel terms) stays exact. The integral is
 // tabulated over its natural variables and interpolated with Ceres' cubic Hermite splines
 // (estimation/smooth_table.h), so ceres::Jet derivatives flow through the table:
 //
-// | model              | tabulated part                            | variables        |
-// |--------------------|-------------------------------------------|------------------|
-// | van-ginneken(-fresnel) | diffuse term / shadowing (eq. 31-33)  | log r, u, q, phi |
-// |                    | x cos u cos v                             |                  |
-// | oren-nayar-vcavity | direct and interreflection slope averages | sigma, u, q      |
-// |                    | (eq. 25) at phi = 0, pi/2, pi, x cos v    |                  |
+// | model                  | tabulated part                            | variables        |
+// |------------------------|-------------------------------------------|------------------|
+// | van-ginneken(-fresnel) | diffuse term / shadowing (eq. 31-33)      | log r, u, q, phi |
+// |                        | x cos u cos v                             |                  |
+// | oren-nayar-vcavity     | direct and interreflection slope averages | sigma, u, q      |
+// |                        | (eq. 25) at phi = 0, pi/2, pi, x cos v    |                  |
 //
 // u = max(theta_i, theta_r), v = min, q = v / u in [0, 1]: both integrals are reciprocal.
 // oren-nayar-vcavity's f_r is linear in |cos phi| on each side of phi = pi/2, so three
@@ -64,9 +64,9 @@ double VanGinnekenDiffuseDirect(double r, double u, double q, double phi);
 void VCavityDirect(double sigma, double u, double q, double out[6]);
 
 // The value part of a scalar (the table interpolates in double and chains the derivatives).
-inline double ceres_value(double x) { return x; }
+inline double ValuePart(double x) { return x; }
 template <int N>
-double ceres_value(const ceres::Jet<double, N>& x) {
+double ValuePart(const ceres::Jet<double, N>& x) {
   return x.a;
 }
 
@@ -90,16 +90,13 @@ template <typename T>
 T Lookup4(Table4& table, const T& x0, const Angles<T>& a) {
   T u, v, q, phi;
   Reciprocal(a, &u, &v, &q, &phi);
-  const double x[4] = {ceres_value(x0), ceres_value(u), ceres_value(q), ceres_value(phi)};
+  const double x[4] = {ValuePart(x0), ValuePart(u), ValuePart(q), ValuePart(phi)};
   double df[4];
   const double f = table.Evaluate(x, df);
   const T* args[4] = {&x0, &u, &q, &phi};
   return Chain(f, df, args, 4);
 }
 
-}  // namespace tabulation
-
-namespace tabulation {
 // Shadowing, specular and (tabulated) diffuse terms of van Ginneken's model, as vg::Evaluate.
 template <typename T>
 vg::Terms<T> VanGinnekenTerms(const T& r, const Angles<T>& a_in) {
@@ -162,8 +159,8 @@ struct TabulatedOrenNayarVCavity {
     if (sigma < T(1e-12)) return rho * T(kInvPi);  // as OrenNayarVCavity: Lambert
     T u, v, q, phi;
     tabulation::Reciprocal(a, &u, &v, &q, &phi);
-    const double x[3] = {tabulation::ceres_value(sigma), tabulation::ceres_value(u),
-                         tabulation::ceres_value(q)};
+    const double x[3] = {tabulation::ValuePart(sigma), tabulation::ValuePart(u),
+                         tabulation::ValuePart(q)};
     double g[6], d0[6], d1[6], d2[6];
     tabulation::VCavityTable().Evaluate(x, g, d0, d1, d2);
     const T* args[3] = {&sigma, &u, &q};
