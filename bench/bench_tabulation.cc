@@ -200,6 +200,7 @@ ObservationSet SynthesizeJointObservations(const std::string& model, const std::
         o.white = ix < 2;
         o.p_in_board = Eigen::Vector3d(0.06 + 0.015 * ix, 0.05 + 0.02 * iy, 0);
         o.camera_in_board = cam;
+        o.board_from_cam_aa = Eigen::Vector3d::Zero();  // lamp fixed in the board frame
         const Eigen::Vector3d l = *light - o.p_in_board, v = cam - o.p_in_board;
         const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
         const double e = ls[2] / std::pow(l.norm(), 3);
