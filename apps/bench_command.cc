@@ -10,6 +10,7 @@
 #include "bench/bench_lib.h"
 #include "bench/bench_pipeline.h"
 #include "bench/bench_plan.h"
+#include "bench/bench_tabulation.h"
 #include "common/error.h"
 
 namespace gonio::cli {
@@ -82,6 +83,7 @@ void RunBench(const BenchArgs& args) {
   const auto loops = bench::RunReferenceLoops(sizes);
   const auto fits = args.evaluation ? std::vector<bench::FitRow>{} : bench::RunFittingBench(sizes);
   bench::WriteBenchOutputs(args.out, opt, eval, loops, fits);
+  if (!args.evaluation) bench::AddTabulationToBenchJson(args.out, bench::RunTabulationBench(sizes));
   nlohmann::json ratios;
   for (const auto& r : loops) {
     spdlog::info(

@@ -5,6 +5,7 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <type_traits>
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
@@ -17,6 +18,7 @@
 #include "common/stats.h"
 #include "estimation/joint_fit_problem.h"
 #include "estimation/option_words.h"
+#include "estimation/tabulated_models.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
@@ -448,6 +450,10 @@ template <typename M>
 JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
                         const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
                         const JointFitOptions& o, bool cross_validate) {
+  using Fast = typename Tabulated<M>::type;  // estimation/tabulated_models.h
+  if constexpr (!std::is_same_v<Fast, M>) {
+    if (o.tabulated_models) return FitModel<Fast>(info, data, use, light_start, o, cross_validate);
+  }
   State s = InitialState<M>(info, data, use, light_start, o);
   Solve<M>(data, use, info, o, &s);
   JointFitResult r = ResultFromState(info, s, o, use.size());

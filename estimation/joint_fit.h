@@ -69,6 +69,9 @@ struct JointFitOptions {
   // Fit every candidate (a comparison table, `--models all`) instead of the staged search,
   // which stops at the first parameter count whose best model explains the data to the noise.
   bool exhaustive = false;
+  // Fit van-ginneken and oren-nayar-vcavity through their smooth tables
+  // (estimation/tabulated_models.h): same model within the tabulation error, many times faster.
+  bool tabulated_models = true;
   int cv_folds = 4;
   int max_iterations = 100;
   int threads = 0;

@@ -189,6 +189,25 @@ T ArcHalfWidth(const T& tan_theta, const T& tan_a) {
   return acos(T(-1.0) / q);
 }
 
+// Specular term f_s of eq. 25-29 for normalized angles `a` (Normalized) and the shadowing
+// P_ill+vis. The facet normal bisects source and viewer; with h = l + v,
+// tan^2(theta_a_spec) = (hx^2 + hy^2)/hz^2 and 1/cos^4 = (1 + tan^2)^2, equal to eq. 25.
+// C_s: eq. 27 with eq. 26 and eq. 8 gives E0 / (4 sqrt(pi) U r^2); the converted eq. 29
+// shows no r^2 (lost in conversion or print), we follow the derivation from eq. 8.
+template <typename T>
+T Specular(const T& r, const Angles<T>& a, const T& shadowing, SpecularNorm norm) {
+  using std::cos;
+  using std::exp;
+  using std::sin;
+  const T ci = cos(a.theta_i), si = sin(a.theta_i);
+  const T cr = cos(a.theta_r), sr = sin(a.theta_r);
+  const T hx = si + sr * cos(a.phi), hy = sr * sin(a.phi), hz = ci + cr;
+  const T tan2 = (hx * hx + hy * hy) / (hz * hz);
+  const T lobe = exp(-tan2 / (T(2.0) * r * r)) * (T(1.0) + tan2) * (T(1.0) + tan2);
+  const T n_r = norm == SpecularNorm::kEq8 ? SlopeNormalization(r) : T(2.0 * kPi) * r * r;
+  return shadowing * lobe / (T(4.0) * n_r * ci * cr);
+}
+
 // All three terms. Order: Gauss-Legendre points per panel of the theta_a integral.
 template <typename T, int Order = 12>
 Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = SpecularNorm::kEq8) {
@@ -204,17 +223,7 @@ Terms<T> Evaluate(const T& r, const Angles<T>& a_in, SpecularNorm norm = Specula
   Terms<T> out;
   out.shadowing = ShadowingIllVis(r, a.theta_i, a.theta_r, a.phi);
 
-  // Specular, eq. 25-29. The facet normal bisects source and viewer; with h = l + v,
-  // tan^2(theta_a_spec) = (hx^2 + hy^2)/hz^2 and 1/cos^4 = (1 + tan^2)^2, equal to eq. 25.
-  // C_s: eq. 27 with eq. 26 and eq. 8 gives E0 / (4 sqrt(pi) U r^2); the converted eq. 29
-  // shows no r^2 (lost in conversion or print), we follow the derivation from eq. 8.
-  {
-    const T hx = si + sr * cp, hy = sr * sp, hz = ci + cr;
-    const T tan2 = (hx * hx + hy * hy) / (hz * hz);
-    const T lobe = exp(-tan2 / (T(2.0) * r * r)) * (T(1.0) + tan2) * (T(1.0) + tan2);
-    const T n_r = norm == SpecularNorm::kEq8 ? SlopeNormalization(r) : T(2.0 * kPi) * r * r;
-    out.specular = out.shadowing * lobe / (T(4.0) * n_r * ci * cr);
-  }
+  out.specular = Specular(r, a, out.shadowing, norm);
 
   // Diffuse, eq. 30-33. With t = tan(theta_a)/r, P_theta_a d theta_a (eq. 7) is the
   // Rayleigh density t exp(-t^2/2) dt; t is integrated on [0, 8] (tail < 1e-13) in three
