@@ -1,5 +1,6 @@
 #include "calib/photometric.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <opencv2/imgcodecs.hpp>
@@ -72,7 +73,14 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
 
 double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
                                                 double vignette_rms_relative) {
-  return std::hypot(response.median_ratio_error, vignette_rms_relative);
+  return std::hypot(ResponseAccuracy(response), vignette_rms_relative);
+}
+
+double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) {
+  const PairConsistency& c = response.consistency;
+  if (std::isfinite(c.worst_band_bias)) return std::min(std::abs(c.worst_band_bias), 0.99);
+  if (std::isfinite(c.median_pair)) return std::min(std::abs(c.median_pair), 0.99);
+  return 0;
 }
 
 PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path& path) {

@@ -28,8 +28,12 @@ struct PhotometricCalibration {
   // by the renderer.
   std::optional<double> relative_accuracy;
 
-  // sqrt(response^2 + vignetting^2): the response's worst neighbouring-pair ratio error and the
-  // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
+  // The response's own relative accuracy: its self-check's worst band bias (the ratio error of
+  // neighbouring exposures, free of pixel noise, anywhere in the returned range), else the
+  // median pair consistency when no band could be checked (docs/photometric.md).
+  static double ResponseAccuracy(const ResponseResult& response);
+  // sqrt(response^2 + vignetting^2): ResponseAccuracy and the vignetting fit's RMS relative
+  // residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);
 
   // A linear camera with the given black level and no vignetting (bit_depth 8..16).

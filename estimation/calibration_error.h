@@ -14,7 +14,7 @@
 // Error modes (each normalised to an RMS of 1 over the observations used):
 //   response: u and u^2 - mean(u^2), u = log2(L / median L) (octaves); a slope error a of
 //             ln X shows as a ratio error of about a per octave, the quantity response.json's
-//             median_ratio_error measures (docs/formats.md);
+//             consistency.worst_band_bias measures (docs/formats.md);
 //   vignetting: r^2 and r^4 about the principal point (r in half-diagonals, as the radial
 //             model of docs/formats.md), and the two linear tilts in x and y (a flat field lit
 //             unevenly).

@@ -29,6 +29,9 @@ State HypothesisState(const DesignHypothesis& h) {
   s.chan.assign(1, h.params);
   s.light = h.light;
   s.intensity = h.intensity;
+  // No ambient light in a plan (one grey channel; docs/plan.md): the terms exist, held at 0.
+  s.ambient_sample.assign(1, 0.0);
+  s.ambient_irradiance.assign(1, 0.0);
   s.usable = true;
   return s;
 }
@@ -62,6 +65,14 @@ DesignInformation Information(const ModelInfo& info, const ObservationSet& data,
   State s = HypothesisState(h);
   ceres::Problem problem;
   BuildProblem<M>(data, use, info, o, &s, /*plain=*/true, &problem);
+  // A plan models neither ambient light nor a height correction: without the fit's
+  // constraints those blocks would be free wherever a residual touches them.
+  std::vector<double*> held = {&s.height_offset};
+  for (double& a : s.ambient_sample) held.push_back(&a);
+  for (double& a : s.ambient_irradiance) held.push_back(&a);
+  for (double* b : held) {
+    if (problem.HasParameterBlock(b)) problem.SetParameterBlockConstant(b);
+  }
   std::vector<double*> blocks;
   const std::vector<FreeColumn> cols = FreeColumns(info, problem, &s, light_range, &blocks);
   double cost = 0;

@@ -150,14 +150,16 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
 }
 
 // The calibration's own error into the reported uncertainty (estimation/calibration_error.h),
-// when photometric.json says how accurate it is: response.json's worst-pair ratio error for
-// the response, and the rest of relative_accuracy for the vignetting.
+// when photometric.json says how accurate it is: the response's own accuracy
+// (PhotometricCalibration::ResponseAccuracy) and the rest of relative_accuracy for the
+// vignetting.
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
                           const JointFitOptions& fit_options, RunResult* r) {
   const auto& accuracy = in.photometric.relative_accuracy;
   if (!accuracy || o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
   CalibrationErrorModel e;
-  e.response_ratio_error = std::min(in.photometric.response.median_ratio_error, *accuracy);
+  e.response_ratio_error =
+      std::min(PhotometricCalibration::ResponseAccuracy(in.photometric.response), *accuracy);
   e.vignette_rms =
       std::sqrt(*accuracy * *accuracy - e.response_ratio_error * e.response_ratio_error);
   e.principal_point = {r->camera.intrinsics[2], r->camera.intrinsics[3]};

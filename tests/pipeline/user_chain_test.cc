@@ -1,0 +1,196 @@
+// The user chain (docs/pipeline.md "The user's own calibrations"): a session and an exposure
+// sweep of one camera, rendered by data_synth, calibrated the way a user does it with the CLI
+// (camera from the session's photos with `gonio calibrate`, poses with `gonio locate`, the
+// response from the sweep with `gonio photometric response`, vignetting from the session's
+// board with `gonio photometric vignette`) and then `gonio run`. truth.json only judges.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "common/io.h"
+#include "common/math.h"
+#include "data_synth/board_renderer.h"
+#include "pipeline/run.h"
+#include "tests/pipeline/pipeline_test_util.h"
+#include "tests/test_util.h"
+
+namespace gonio {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CameraKind {
+  const char* name;
+  int bit_depth;
+  const char* response;
+};
+
+std::ostream& operator<<(std::ostream& os, const CameraKind& k) { return os << k.name; }
+
+struct Recovered {
+  std::string model;
+  double sigma_error_deg = 0, albedo_error = 0, lamp_error = 0;  // albedo, lamp: relative
+  double sigma_z = 0, albedo_z = 0, lamp_z = 0;  // |error| / reported stddev (lamp: worst axis)
+};
+
+std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+void Gonio(const std::string& args) {
+  const auto r = testing::RunGonio(args);
+  ASSERT_EQ(r.exit_code, 0) << "gonio " << args << "\n" << r.err;
+}
+
+// The sweep's frames as `photometric response` lists them (file, exposure) from session.json.
+void WriteImageList(const fs::path& sweep) {
+  const nlohmann::json s = ReadJsonFile(sweep / "session.json");
+  std::ofstream list(sweep / "image_list.txt");
+  for (const auto& f : s["frames"]) {
+    list << f["file"].get<std::string>() << " " << f["exposure_s"].get<double>() << "\n";
+  }
+}
+
+// What a user has after calibrating: the session, and their camera model and photometric
+// calibration in cal/.
+struct UserChainDirs {
+  synth::Scene scene;
+  fs::path session, sweep, cal;
+};
+
+// Renders session and sweep of one camera and calibrates them like a user, with the CLI.
+UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind) {
+  UserChainDirs d;
+  d.scene = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
+  d.scene.photometric.bit_depth = kind.bit_depth;
+  d.scene.photometric.response = kind.response;
+  synth::Scene sweep = synth::PresetScene("exposure-sweep");
+  sweep.camera = d.scene.camera;
+  sweep.photometric = d.scene.photometric;
+  d.session = dir / "session", d.sweep = dir / "sweep", d.cal = dir / "cal";
+  synth::RenderBoardSession(d.scene, d.session, 0);
+  synth::RenderBoardSession(sweep, d.sweep, 0);
+  WriteImageList(d.sweep);
+  fs::remove(d.session / "camera.cameramodel");  // the renderer's geometry is not the user's
+  fs::create_directories(d.cal);
+  Gonio(fmt::format("calibrate --images {} --board {} --out {}", Q(d.session / "*.png"),
+                    Q(d.session / "board.json"), Q(d.cal / "camera.cameramodel")));
+  Gonio(fmt::format("locate --session {} --camera {} --out {}", Q(d.session),
+                    Q(d.cal / "camera.cameramodel"), Q(d.cal / "poses.json")));
+  Gonio(fmt::format("photometric response --sweep {} --bit-depth {} --out {}", Q(d.sweep),
+                    kind.bit_depth, Q(d.cal / "response.json")));
+  Gonio(fmt::format(
+      "photometric vignette --session {} --camera {} --board {} --poses {} --response {} --out "
+      "{} --photometric-out {}",
+      Q(d.session), Q(d.cal / "camera.cameramodel"), Q(d.session / "board.json"),
+      Q(d.cal / "poses.json"), Q(d.cal / "response.json"), Q(d.cal / "vignette.tiff"),
+      Q(d.cal / "photometric.json")));
+  return d;
+}
+
+// fit.json against truth.json.
+Recovered Judge(const UserChainDirs& d, const nlohmann::json& fit, const std::string& label) {
+  const nlohmann::json truth = ReadJsonFile(d.session / "truth.json");
+  Recovered r;
+  const auto& fin = fit["final"];
+  r.model = fin["model"].get<std::string>();
+  if (r.model != "oren-nayar") {
+    std::cout << label << ": " << r.model << " selected\n";
+    return r;
+  }
+  const double sigma = fin["params"]["sigma"].get<double>();
+  const double albedo = fin["params"]["albedo"].get<double>();
+  r.sigma_error_deg = RadToDeg(sigma) - 30.0;
+  r.albedo_error = albedo / 0.6 - 1;
+  r.sigma_z = std::abs(sigma - DegToRad(30)) / fin["stddev"]["sigma"].get<double>();
+  r.albedo_z = std::abs(albedo - 0.6) / fin["stddev"]["albedo"].get<double>();
+  const auto& lt = truth["light"]["position_in_board"];
+  const auto& lf = fit["light"]["position"];
+  const Eigen::Vector3d light_true(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
+  const Eigen::Vector3d light(lf[0].get<double>(), lf[1].get<double>(), lf[2].get<double>());
+  const auto& sr = d.scene.board.sample_region;
+  const Eigen::Vector3d centre(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0.0);
+  r.lamp_error = (light - light_true).norm() / (light_true - centre).norm();
+  for (int k = 0; k < 3; ++k) {
+    const double sd = fit["light"]["stddev"][k].get<double>();
+    r.lamp_z = std::max(r.lamp_z, std::abs(light[k] - light_true[k]) / sd);
+  }
+  std::cout << fmt::format(
+      "{}: {} sigma {:+.3f} deg (z {:.1f}), albedo {:+.2f}% (z {:.1f}), lamp {:.2f}% of its "
+      "distance (z {:.1f}); noise floor {}\n",
+      label, r.model, r.sigma_error_deg, r.sigma_z, 100 * r.albedo_error, r.albedo_z,
+      100 * r.lamp_error, r.lamp_z, fit["noise_floor"].dump());
+  return r;
+}
+
+class UserChain : public ::testing::TestWithParam<CameraKind> {};
+
+// Targets: sigma within 0.5 deg, albedo within 1%, lamp within 0.5% of its distance, the right
+// model, and error bars that cover the truth (within 3 reported standard deviations).
+TEST_P(UserChain, RecoversTheMaterialThroughTheUsersCalibrations) {
+  testing::TempDir dir;
+  const UserChainDirs d = RenderAndCalibrate(dir.path(), GetParam());
+  Gonio(fmt::format("run --session {} --camera {} --photometric {} --white-albedo 0.8 --out {}",
+                    Q(d.session), Q(d.cal / "camera.cameramodel"), Q(d.cal / "photometric.json"),
+                    Q(dir.path() / "out")));
+  const Recovered r = Judge(d, ReadJsonFile(dir.path() / "out" / "fit.json"), GetParam().name);
+  ASSERT_EQ(r.model, "oren-nayar");
+  EXPECT_LT(std::abs(r.sigma_error_deg), 0.5);
+  EXPECT_LT(std::abs(r.albedo_error), 0.01);
+  EXPECT_LT(r.lamp_error, 0.005);
+  EXPECT_LT(r.sigma_z, 3.0);
+  EXPECT_LT(r.albedo_z, 3.0);
+  EXPECT_LT(r.lamp_z, 3.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Cameras, UserChain,
+                         ::testing::Values(CameraKind{"gamma12in16", 12, "gamma"},
+                                           CameraKind{"srgb8", 8, "srgb"},
+                                           CameraKind{"linear16", 16, "linear"}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+// How far each of the user's calibrations moves the result (docs/pipeline.md, the table of
+// "The user's own calibrations"): each stage's user result swapped into the renderer's chain
+// on the default camera kind. The renderer's chain itself must meet the targets.
+TEST(UserChainStages, EachCalibrationsShareOfTheError) {
+  testing::TempDir dir;
+  const UserChainDirs d = RenderAndCalibrate(dir.path(), {"gamma12in16", 12, "gamma"});
+  const CameraModel user_camera = CameraModel::Read(d.cal / "camera.cameramodel");
+  const CameraModel true_camera = CameraModel::Read(d.sweep / "camera.cameramodel");
+  const PhotometricCalibration user = PhotometricCalibration::Read(d.cal / "photometric.json");
+  const PhotometricCalibration truth = PhotometricFromSynthTruth(
+      ReadJsonFile(d.session / "truth.json"), true_camera.width, true_camera.height);
+  PhotometricCalibration user_response = truth, user_vignette = truth;
+  user_response.response = user.response;
+  user_vignette.vignette = user.vignette;
+  struct Stage {
+    const char* label;
+    const CameraModel* camera;
+    const PhotometricCalibration* photometric;
+  };
+  const Stage stages[] = {{"renderer's calibrations", &true_camera, &truth},
+                          {"user camera model", &user_camera, &truth},
+                          {"user response", &true_camera, &user_response},
+                          {"user vignetting", &true_camera, &user_vignette},
+                          {"all the user's", &user_camera, &user}};
+  for (const Stage& s : stages) {
+    RunInputs in = LoadRunInputs(d.session, (d.cal / "camera.cameramodel").string(),
+                                 (d.cal / "photometric.json").string());
+    in.camera = *s.camera;
+    in.photometric = *s.photometric;
+    RunOptions o;
+    o.fit.white_albedo = 0.8;
+    const Recovered r = Judge(d, gonio::Run(in, o).ToJson(), s.label);
+    if (s.camera == &true_camera && s.photometric == &truth) {
+      ASSERT_EQ(r.model, "oren-nayar");
+      EXPECT_LT(std::abs(r.sigma_error_deg), 0.5);
+      EXPECT_LT(std::abs(r.albedo_error), 0.01);
+      EXPECT_LT(r.lamp_error, 0.005);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace gonio
