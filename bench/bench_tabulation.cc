@@ -256,7 +256,7 @@ nlohmann::json TabulationRow::ToJson() const {
 std::vector<TabulationRow> RunTabulationBench(const BenchSizes& sizes) {
   std::vector<TabulationRow> rows;
   {
-    const ParamInfo& r = VanGinneken::Info().params[1];
+    const ParamInfo r = VanGinneken::Info().params[1];  // a copy: Info() returns by value
     TabulationRow row = RunModel<TabulatedVanGinneken, VanGinneken>(
         "van-ginneken", {0.6, 0.3, 0.1},
         [&](double a, double b) {

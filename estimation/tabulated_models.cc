@@ -50,7 +50,7 @@ void VCavityDirect(double sigma, double u, double q, double out[6]) {
 std::unique_ptr<Table4> MakeVanGinnekenDiffuseTable(const GridSpec& g) {
   // In log r: the diffuse term changes on the scale of r itself (its departure from Lambert
   // goes as r^2 tan^2 theta), so equal steps in log r are equally informative.
-  const ParamInfo& r = VanGinneken::Info().params[1];
+  const ParamInfo r = VanGinneken::Info().params[1];  // a copy: Info() returns by value
   return std::make_unique<Table4>(
       Axis{std::log(r.min), std::log(r.max), g.n_param, Edge::kExtrapolate, Edge::kExtrapolate},
       AngleAxis(g.n_u), RatioAxis(g.n_q), PhiAxis(g.n_phi),
@@ -58,7 +58,7 @@ std::unique_ptr<Table4> MakeVanGinnekenDiffuseTable(const GridSpec& g) {
 }
 
 std::unique_ptr<Table3<6>> MakeVCavityTable(const GridSpec& g) {
-  const ParamInfo& sigma = OrenNayarVCavity::Info().params[1];
+  const ParamInfo sigma = OrenNayarVCavity::Info().params[1];  // a copy, as above
   return std::make_unique<Table3<6>>(
       Axis{sigma.min, sigma.max, g.n_param, Edge::kExtrapolate, Edge::kExtrapolate},
       AngleAxis(g.n_u), RatioAxis(g.n_q),
