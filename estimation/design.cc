@@ -65,14 +65,6 @@ DesignInformation Information(const ModelInfo& info, const ObservationSet& data,
   State s = HypothesisState(h);
   ceres::Problem problem;
   BuildProblem<M>(data, use, info, o, &s, /*plain=*/true, &problem);
-  // A plan models neither ambient light nor a height correction: without the fit's
-  // constraints those blocks would be free wherever a residual touches them.
-  std::vector<double*> held = {&s.height_offset};
-  for (double& a : s.ambient_sample) held.push_back(&a);
-  for (double& a : s.ambient_irradiance) held.push_back(&a);
-  for (double* b : held) {
-    if (problem.HasParameterBlock(b)) problem.SetParameterBlockConstant(b);
-  }
   std::vector<double*> blocks;
   const std::vector<FreeColumn> cols = FreeColumns(info, problem, &s, light_range, &blocks);
   double cost = 0;

@@ -294,18 +294,6 @@ void AnalyzeJointUncertainty(const ModelInfo& info, const ObservationSet& data,
   BuildProblem<M>(data, use, info, o, &plain, true, &problem);
   std::vector<double*> blocks;
   const double light_distance = (s.light - data.observations[use[0]].p_in_board).norm();
-  // The plain problem has no constant blocks: the ambient terms are free columns only when
-  // fitted.
-  if (o.ambient != AmbientTerm::kFit) {
-    for (auto* ambient : {&plain.ambient_sample, &plain.ambient_irradiance}) {
-      for (double& a : *ambient) {
-        if (problem.HasParameterBlock(&a)) problem.SetParameterBlockConstant(&a);
-      }
-    }
-  }
-  if (!o.fit_sample_height && problem.HasParameterBlock(&plain.height_offset)) {
-    problem.SetParameterBlockConstant(&plain.height_offset);
-  }
   const std::vector<FreeColumn> cols = FreeColumns(info, problem, &plain, light_distance, &blocks);
   double cost = 0;
   const Eigen::MatrixXd J = FreeJacobian(&problem, blocks, cols, &cost);

@@ -188,26 +188,30 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
   }
 }
 
-// Registry bounds on every parameter, the intensity positive, the ambient terms held at zero
-// unless fitted, and manifolds that hold the entries of each block that belong to the other
+// The ambient terms (held at zero) and the sample-height correction are parameters only when
+// the options fit them; otherwise constant, in the solved and in the plain problem alike, so
+// neither the solve nor the uncertainty analysis sees them.
+inline void HoldUnfittedTerms(const JointFitOptions& o, State* s, ceres::Problem* problem) {
+  std::vector<double*> held;
+  if (o.ambient != AmbientTerm::kFit) {
+    for (double& a : s->ambient_sample) held.push_back(&a);
+    for (double& a : s->ambient_irradiance) held.push_back(&a);
+  }
+  if (!o.fit_sample_height) held.push_back(&s->height_offset);
+  for (double* b : held) {
+    if (problem->HasParameterBlock(b)) problem->SetParameterBlockConstant(b);
+  }
+}
+
+// Registry bounds on every parameter, the intensity positive, the height correction bounded
+// when fitted, and manifolds that hold the entries of each block that belong to the other
 // block constant.
 inline void ConstrainParameters(const ModelInfo& info, const JointFitOptions& o, State* s,
                                 ceres::Problem* problem) {
-  for (auto* ambient : {&s->ambient_sample, &s->ambient_irradiance}) {
-    for (double& a : *ambient) {
-      if (o.ambient != AmbientTerm::kFit && problem->HasParameterBlock(&a)) {
-        problem->SetParameterBlockConstant(&a);
-      }
-    }
-  }
-  if (problem->HasParameterBlock(&s->height_offset)) {
-    if (o.fit_sample_height) {
-      // The sample's top stays in front of the board's far side and within a sane thickness.
-      problem->SetParameterLowerBound(&s->height_offset, 0, -kMaxSampleHeightOffset);
-      problem->SetParameterUpperBound(&s->height_offset, 0, kMaxSampleHeightOffset);
-    } else {
-      problem->SetParameterBlockConstant(&s->height_offset);
-    }
+  if (o.fit_sample_height && problem->HasParameterBlock(&s->height_offset)) {
+    // The sample's top stays in front of the board's far side and within a sane thickness.
+    problem->SetParameterLowerBound(&s->height_offset, 0, -kMaxSampleHeightOffset);
+    problem->SetParameterUpperBound(&s->height_offset, 0, kMaxSampleHeightOffset);
   }
   const int n = info.num_params();
   std::vector<int> channel_idx, shared_idx;
@@ -247,6 +251,7 @@ template <typename M>
 void BuildProblem(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
                   const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
   AddResiduals<M>(data, use, info, o, s, plain, problem);
+  HoldUnfittedTerms(o, s, problem);
   if (!plain) ConstrainParameters(info, o, s, problem);
 }
 
