@@ -144,6 +144,33 @@ std::string Footnote(const std::vector<std::string>& left_out) {
   return out.str();
 }
 
+// One line per front key through the Pareto-optimal points of that key's (cost, error) pairs;
+// `longest_key` grows with the key labels (the plot area estimate needs it).
+void AddFronts(
+    const std::map<std::string, std::pair<std::vector<double>, std::vector<double>>>& fronts,
+    const std::map<std::string, std::string>& front_style, PlotSpec* spec, size_t* longest_key) {
+  int dash = 2;  // one dash pattern per front
+  for (const auto& [key, ce] : fronts) {
+    PlotSeries front;
+    const auto fs_it = front_style.find(key);
+    // A front in its own style shares the colour of its points, whose key entry names it.
+    front.label = fs_it != front_style.end() ? ""
+                  : key.empty()              ? "Pareto front"
+                                             : "Pareto front: " + key;
+    front.style = fs_it != front_style.end()
+                      ? fs_it->second
+                      : "lines lw 2 dt " + std::to_string(dash) + " lc rgb '#444444'";
+    dash = dash % 5 + 2;
+    for (size_t k : ParetoFront(ce.first, ce.second)) {
+      front.x.push_back(ce.first[k]);
+      front.y.push_back(ce.second[k]);
+    }
+    *longest_key = std::max(*longest_key, front.label.size());
+    // One point is trivially its own front: no line.
+    if (front.x.size() >= 2) spec->series.push_back(front);
+  }
+}
+
 }  // namespace
 
 void ParetoChart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
@@ -186,26 +213,7 @@ void ParetoChart(const std::string& title, const std::string& xlabel, const std:
   for (auto& [name, s] : series) spec.series.push_back(s);
   size_t longest_key = 0;
   for (const auto& s : spec.series) longest_key = std::max(longest_key, s.label.size());
-  int dash = 2;  // one dash pattern per front
-  for (const auto& [key, ce] : fronts) {
-    PlotSeries front;
-    const auto fs_it = front_style.find(key);
-    // A front in its own style shares the colour of its points, whose key entry names it.
-    front.label = fs_it != front_style.end() ? ""
-                  : key.empty()              ? "Pareto front"
-                                             : "Pareto front: " + key;
-    front.style = fs_it != front_style.end()
-                      ? fs_it->second
-                      : "lines lw 2 dt " + std::to_string(dash) + " lc rgb '#444444'";
-    dash = dash % 5 + 2;
-    for (size_t k : ParetoFront(ce.first, ce.second)) {
-      front.x.push_back(ce.first[k]);
-      front.y.push_back(ce.second[k]);
-    }
-    longest_key = std::max(longest_key, front.label.size());
-    // One point is trivially its own front: no line.
-    if (front.x.size() >= 2) spec.series.push_back(front);
-  }
+  AddFronts(fronts, front_style, &spec, &longest_key);
   std::ostringstream extra;
   extra << "set format y '%.0e'\nset key outside right top font ',9' noenhanced\n";
   if (!shown.empty()) {
