@@ -8,6 +8,8 @@
 #include <random>
 #include <string>
 
+#include <gtest/gtest.h>
+
 namespace gonio::testing {
 
 inline std::filesystem::path SharedData() { return GONIO_SHARED_DATA_DIR; }
@@ -37,6 +39,12 @@ inline CommandResult RunGonio(const std::string& args) {
   }
   std::filesystem::remove(err_file);
   return r;
+}
+
+// Runs gonio and fails the test (fatally, in the calling function) unless it exits with 0.
+inline void RunGonioOk(const std::string& args) {
+  const CommandResult r = RunGonio(args);
+  ASSERT_EQ(r.exit_code, 0) << "gonio " << args << "\n" << r.err;
 }
 
 // Lines of stderr that are not log lines ("[hh:mm:ss] level ..."): what the user is told.

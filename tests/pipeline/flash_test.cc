@@ -26,6 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::RunGonio;
+using testing::RunGonioOk;
 
 // What the fit recovered against truth.json.
 struct Recovered {
@@ -54,16 +55,11 @@ Recovered Judge(const fs::path& fit_json, const fs::path& truth_json) {
   return r;
 }
 
-void RunOk(const std::string& args) {
-  const auto r = RunGonio(args);
-  ASSERT_EQ(r.exit_code, 0) << "gonio " << args << "\n" << r.err;
-}
-
 // `gonio synth --preset P --write-scene` with the flash preset's camera and photometric chain
 // put in: another session of the same camera.
 json SceneWithFlashCamera(const std::string& preset, const json& flash_scene,
                           const fs::path& scene_file) {
-  RunOk(fmt::format("synth --preset {} --write-scene {}", preset, scene_file.string()));
+  RunGonioOk(fmt::format("synth --preset {} --write-scene {}", preset, scene_file.string()));
   json scene = ReadJsonFile(scene_file);
   scene["camera"] = flash_scene.at("camera");
   scene["photometric"] = flash_scene.at("photometric");
@@ -72,7 +68,7 @@ json SceneWithFlashCamera(const std::string& preset, const json& flash_scene,
 
 void RenderScene(const json& scene, const fs::path& scene_file, const fs::path& out) {
   WriteJsonAtomically(scene_file, scene);
-  RunOk(fmt::format("synth --scene {} --out {}", scene_file.string(), out.string()));
+  RunGonioOk(fmt::format("synth --scene {} --out {}", scene_file.string(), out.string()));
 }
 
 // The three sessions a user records: the flash session (without its true camera model), an
@@ -86,10 +82,10 @@ FlashSessions RenderSessions(const std::string& preset, const fs::path& dir) {
   FlashSessions s;
   s.flash = dir / "flash", s.sweep = dir / "sweep", s.flat = dir / "flat";
   const fs::path flash_scene_file = dir / "flash_scene.json";
-  RunOk(fmt::format("synth --preset {} --write-scene {}", preset, flash_scene_file.string()));
+  RunGonioOk(fmt::format("synth --preset {} --write-scene {}", preset, flash_scene_file.string()));
   const json flash_scene = ReadJsonFile(flash_scene_file);
   s.bit_depth = flash_scene.at("photometric").at("bit_depth").get<int>();
-  RunOk(fmt::format("synth --preset {} --out {}", preset, s.flash.string()));
+  RunGonioOk(fmt::format("synth --preset {} --out {}", preset, s.flash.string()));
   fs::rename(s.flash / "camera.cameramodel", dir / "true.cameramodel");
   // The sweep in third stops (40 exposures, 0.5 ms .. 4.1 s) rather than the preset's whole
   // stops: this board scene holds few distinct radiances, and with whole stops the inverse
@@ -125,8 +121,8 @@ FlashSessions RenderSessions(const std::string& preset, const fs::path& dir) {
 void ExpectFlashVignetteRefused(const FlashSessions& s, const fs::path& camera,
                                 const fs::path& response, const fs::path& dir) {
   const fs::path poses = dir / "flash_poses.json", out = dir / "refused" / "vignette.tiff";
-  RunOk(fmt::format("locate --session {} --camera {} --out {}", s.flash.string(), camera.string(),
-                    poses.string()));
+  RunGonioOk(fmt::format("locate --session {} --camera {} --out {}", s.flash.string(),
+                         camera.string(), poses.string()));
   const std::string common = fmt::format("photometric vignette --camera {} --response {} --out {}",
                                          camera.string(), response.string(), out.string());
   auto r = RunGonio(fmt::format("{} --session {} --board {} --poses {}", common, s.flash.string(),
@@ -149,12 +145,12 @@ void ExpectFlashVignetteRefused(const FlashSessions& s, const fs::path& camera,
 Recovered UserChain(const FlashSessions& s, const fs::path& dir) {
   const fs::path camera = dir / "camera.cameramodel", response = dir / "response.json",
                  photometric = dir / "photometric.json", out = dir / "user_run";
-  RunOk(fmt::format("calibrate --images '{}/frame_*.png' --board {} --out {}", s.flash.string(),
-                    (s.flash / "board.json").string(), camera.string()));
-  RunOk(fmt::format("photometric response --sweep {} --bit-depth {} --out {}", s.sweep.string(),
-                    s.bit_depth, response.string()));
+  RunGonioOk(fmt::format("calibrate --images '{}/frame_*.png' --board {} --out {}",
+                         s.flash.string(), (s.flash / "board.json").string(), camera.string()));
+  RunGonioOk(fmt::format("photometric response --sweep {} --bit-depth {} --out {}",
+                         s.sweep.string(), s.bit_depth, response.string()));
   ExpectFlashVignetteRefused(s, camera, response, dir);
-  RunOk(fmt::format(
+  RunGonioOk(fmt::format(
       "photometric vignette --session {} --camera {} --board {} --poses {} --response {} --out {} "
       "--photometric-out {}",
       s.flat.string(), camera.string(), (s.flat / "board.json").string(), s.flat_poses.string(),
@@ -163,7 +159,7 @@ Recovered UserChain(const FlashSessions& s, const fs::path& dir) {
   const json lamp_test = ReadJsonFile(dir / "vignette.json").at("lamp_test");
   EXPECT_TRUE(lamp_test.at("detectable").get<bool>()) << lamp_test;
   EXPECT_NEAR(lamp_test.at("camera_lamp_exponent").get<double>(), 0.0, 0.02) << lamp_test;
-  RunOk(
+  RunGonioOk(
       fmt::format("run --session {} --out {} --camera {} --photometric {} --light-frame camera "
                   "--white-albedo 0.8",
                   s.flash.string(), out.string(), camera.string(), photometric.string()));
@@ -177,7 +173,7 @@ Recovered OracleChain(const FlashSessions& s, const fs::path& dir) {
   const CameraModel camera = CameraModel::Read(dir / "true.cameramodel");
   PhotometricFromSynthTruth(ReadJsonFile(s.flash / "truth.json"), camera.width, camera.height)
       .Write(photometric);
-  RunOk(fmt::format(
+  RunGonioOk(fmt::format(
       "run --session {} --out {} --camera {} --photometric {} --light-frame camera "
       "--white-albedo 0.8",
       s.flash.string(), out.string(), (dir / "true.cameramodel").string(), photometric.string()));

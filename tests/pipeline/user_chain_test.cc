@@ -39,11 +39,6 @@ struct Recovered {
 
 std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
 
-void Gonio(const std::string& args) {
-  const auto r = testing::RunGonio(args);
-  ASSERT_EQ(r.exit_code, 0) << "gonio " << args << "\n" << r.err;
-}
-
 // What a user has after calibrating: the session, and their camera model and photometric
 // calibration in cal/.
 struct UserChainDirs {
@@ -71,14 +66,15 @@ UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind) {
   synth::RenderBoardSession(sweep, d.sweep, 0);
   fs::remove(d.session / "camera.cameramodel");  // the renderer's geometry is not the user's
   fs::create_directories(d.cal);
-  Gonio(fmt::format("calibrate --images {} --board {} --out {}", Q(d.session / "*.png"),
-                    Q(d.session / "board.json"), Q(d.cal / "camera.cameramodel")));
-  Gonio(fmt::format("locate --session {} --camera {} --out {}", Q(d.session),
-                    Q(d.cal / "camera.cameramodel"), Q(d.cal / "poses.json")));
+  testing::RunGonioOk(fmt::format("calibrate --images {} --board {} --out {}",
+                                  Q(d.session / "*.png"), Q(d.session / "board.json"),
+                                  Q(d.cal / "camera.cameramodel")));
+  testing::RunGonioOk(fmt::format("locate --session {} --camera {} --out {}", Q(d.session),
+                                  Q(d.cal / "camera.cameramodel"), Q(d.cal / "poses.json")));
   // Frames, exposure times and bit depth from the sweep's session.json.
-  Gonio(fmt::format("photometric response --sweep {} --out {}", Q(d.sweep),
-                    Q(d.cal / "response.json")));
-  Gonio(fmt::format(
+  testing::RunGonioOk(fmt::format("photometric response --sweep {} --out {}", Q(d.sweep),
+                                  Q(d.cal / "response.json")));
+  testing::RunGonioOk(fmt::format(
       "photometric vignette --session {} --camera {} --board {} --poses {} --response {} --out "
       "{} --photometric-out {}",
       Q(d.session), Q(d.cal / "camera.cameramodel"), Q(d.session / "board.json"),
@@ -129,9 +125,9 @@ class UserChain : public ::testing::TestWithParam<CameraKind> {};
 TEST_P(UserChain, RecoversTheMaterialThroughTheUsersCalibrations) {
   testing::TempDir dir;
   const UserChainDirs d = RenderAndCalibrate(dir.path(), GetParam());
-  Gonio(fmt::format("run --session {} --camera {} --photometric {} --white-albedo 0.8 --out {}",
-                    Q(d.session), Q(d.cal / "camera.cameramodel"), Q(d.cal / "photometric.json"),
-                    Q(dir.path() / "out")));
+  testing::RunGonioOk(fmt::format(
+      "run --session {} --camera {} --photometric {} --white-albedo 0.8 --out {}", Q(d.session),
+      Q(d.cal / "camera.cameramodel"), Q(d.cal / "photometric.json"), Q(dir.path() / "out")));
   const Recovered r = Judge(d, ReadJsonFile(dir.path() / "out" / "fit.json"), GetParam().name);
   ASSERT_EQ(r.model, "oren-nayar");
   EXPECT_LT(std::abs(r.sigma_error_deg), 0.5);
