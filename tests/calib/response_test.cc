@@ -185,6 +185,26 @@ TEST(ResponseSynthetic, TwelveBitWithGivenBlackLevelRecoveredWithinOnePercent) {
   EXPECT_EQ(r.Linearize(0, 60.0), 0.0);
 }
 
+// The smoothness weighs h's curvature, not its second differences per knot: one knot per value
+// (Debevec-Malik's layout for 8 bits) smooths as much as the default 128 knots, so the two curves
+// agree. Measured: 0.06 % apart over 10-90 % of the range (0.9 % with the former per-knot
+// weight, which smoothed 16x less at twice the knots); each within 1.8 % of the truth.
+TEST(ResponseSynthetic, KnotCountDoesNotChangeTheSmoothing) {
+  const auto sweep = MakeSweep(8, 0.0, 3);
+  ResponseOptions fine;
+  fine.num_knots = 256;
+  const ResponseResult coarse_fit = CalibrateResponse(sweep.frames, {});
+  const ResponseResult fine_fit = CalibrateResponse(sweep.frames, fine);
+  double worst = 0;
+  for (int z = 26; z <= 230; ++z) {
+    const double coarse = coarse_fit.Linearize(0, z) / coarse_fit.Linearize(0, 128);
+    const double fine_x = fine_fit.Linearize(0, z) / fine_fit.Linearize(0, 128);
+    worst = std::max(worst, std::abs(coarse / fine_x - 1));
+  }
+  EXPECT_LE(worst, 0.002);
+  EXPECT_LE(MaxResponseError(fine_fit, sweep, 0.0), 0.02) << fine_fit.Report();
+}
+
 TEST(ResponseSynthetic, WrongListedExposureIsFoundAndRetimed) {
   auto sweep = MakeSweep(8, 0.0, 5);
   sweep.frames[3].exposure_s = 8.0;  // truly 2 s
