@@ -71,8 +71,12 @@ TEST(ResponseReal, DesktopAtOrBelowDebevec) {
   }
 }
 
-// Memorial: the median pair is below Debevec's; the worst pair (the two shortest exposures,
-// mostly film toe) is measured 0.3 points above it (24.6 % vs 24.3 %; Robertson 22.4 %).
+// Memorial: the median pair is below Debevec's. gonio's worst pair (the two shortest exposures,
+// three quarters of its pixels within ten values of black, where the figure is mostly noise
+// times the curve's slope) is measured 0.27 points above Debevec's worst (the two longest): 24.57
+// vs 24.30 %, with pixel-bootstrap standard deviations of 0.45 and 0.56 points, and Debevec's
+// own figure 24.0-28.5 % over sample counts and placements (docs/photometric.md, "The Memorial
+// worst pair"). Hence the allowance of 0.5 points, under one standard deviation of the gap (0.7).
 TEST(ResponseReal, MemorialMedianPairBelowDebevec) {
   const auto m = Compare("memorial", true);
   EXPECT_LE(m[0].consistency.median_pair, m[1].consistency.median_pair);
