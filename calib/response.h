@@ -45,7 +45,7 @@ struct ResponseOptions {
   std::optional<double> black_level;  // given, or estimated
   int num_knots = 128;                // knots of h over [0, 2^bit_depth)
   int num_pixels = 1500;              // sampled pixels per channel
-  double smoothness = 1.0;            // weight of h's second differences
+  double smoothness = 1.0;            // weight of h's curvature (the same at any num_knots)
   double exposure_tolerance = 0.05;   // relative mismatch that marks a frame inconsistent
   bool drop_inconsistent = false;     // leave inconsistent frames out instead of re-timing
   double saturation_margin = 0.02;  // fraction of the range below the maximum treated as saturated

@@ -71,8 +71,12 @@ TEST(ResponseReal, DesktopAtOrBelowDebevec) {
   }
 }
 
-// Memorial: the median pair is below Debevec's; the worst pair (the two shortest exposures,
-// mostly film toe) is measured 0.3 points above it (24.6 % vs 24.3 %; Robertson 22.4 %).
+// Memorial: the median pair is below Debevec's. gonio's worst pair (the two shortest exposures,
+// three quarters of its pixels within ten values of black, where the figure is mostly noise
+// times the curve's slope) is measured 0.27 points above Debevec's worst (the two longest): 24.57
+// vs 24.30 %, with pixel-bootstrap standard deviations of 0.45 and 0.56 points, and Debevec's
+// own figure 24.0-28.5 % over sample counts and placements (docs/photometric.md, "The Memorial
+// worst pair"). Hence the allowance of 0.5 points, under one standard deviation of the gap (0.7).
 TEST(ResponseReal, MemorialMedianPairBelowDebevec) {
   const auto m = Compare("memorial", true);
   EXPECT_LE(m[0].consistency.median_pair, m[1].consistency.median_pair);
@@ -183,6 +187,26 @@ TEST(ResponseSynthetic, TwelveBitWithGivenBlackLevelRecoveredWithinOnePercent) {
   EXPECT_LE(MaxResponseError(r, sweep, 64.0), 0.01) << r.Report();
   EXPECT_EQ(r.black_level[0], 64.0);
   EXPECT_EQ(r.Linearize(0, 60.0), 0.0);
+}
+
+// The smoothness weighs h's curvature, not its second differences per knot: one knot per value
+// (Debevec-Malik's layout for 8 bits) smooths as much as the default 128 knots, so the two curves
+// agree. Measured: 0.06 % apart over 10-90 % of the range (0.9 % with the former per-knot
+// weight, which smoothed 16x less at twice the knots); each within 1.8 % of the truth.
+TEST(ResponseSynthetic, KnotCountDoesNotChangeTheSmoothing) {
+  const auto sweep = MakeSweep(8, 0.0, 3);
+  ResponseOptions fine;
+  fine.num_knots = 256;
+  const ResponseResult coarse_fit = CalibrateResponse(sweep.frames, {});
+  const ResponseResult fine_fit = CalibrateResponse(sweep.frames, fine);
+  double worst = 0;
+  for (int z = 26; z <= 230; ++z) {
+    const double coarse = coarse_fit.Linearize(0, z) / coarse_fit.Linearize(0, 128);
+    const double fine_x = fine_fit.Linearize(0, z) / fine_fit.Linearize(0, 128);
+    worst = std::max(worst, std::abs(coarse / fine_x - 1));
+  }
+  EXPECT_LE(worst, 0.002);
+  EXPECT_LE(MaxResponseError(fine_fit, sweep, 0.0), 0.02) << fine_fit.Report();
 }
 
 TEST(ResponseSynthetic, WrongListedExposureIsFoundAndRetimed) {
