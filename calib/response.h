@@ -128,9 +128,10 @@ void MaskColour(const cv::Scalar& bgr, std::vector<ExposureFrame>* frames);
 
 // The bit depth to calibrate with: `stated` (session.json or option; 0: none) checked against
 // every frame. In a 16-bit container N < 16 bits are LSB-aligned (values < 2^N) or MSB-aligned
-// (every value a multiple of 2^(16 - N)); MSB-aligned values are shifted down in place. Without
-// a stated depth the container's is used. InputError naming the frame on a value the stated
-// depth cannot hold in either packing, or an 8-bit container with another stated depth.
+// (every value a multiple of 2^(16 - N)). Without a stated depth the container's is used.
+// InputError naming the frame on MSB-aligned values (with the shift to apply: gonio reads
+// LSB-aligned values), on a value the stated depth cannot hold, or on an 8-bit container with
+// another stated depth.
 int ResolveBitDepth(int stated, const std::string& stated_by, std::vector<ExposureFrame>* frames,
                     ValuePacking* packing = nullptr);
 
