@@ -364,46 +364,7 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
       std::min(static_cast<double>(k_hi) * s.max_value / (K - 1), s.saturation_limit);
   CheckSupportedRange(h, k_lo, k_hi, z_lo, z_hi, s);
   *z_top = z_hi;
-  if (!black_given) {
-    // Near the dark end a response behaves like a power law, X = c (Z - black)^p (p = 1 for a
-    // linear sensor, p ~ 2.2 for a gamma curve): choose the black level whose log-log fit over
-    // the lowest supported fifth of the range is straightest.
-    const double z_top = z_lo + 0.2 * (z_hi - z_lo);
-    std::vector<double> zs, lx;
-    for (int k = 0; k < K; ++k) {
-      const double z = static_cast<double>(k) * s.max_value / (K - 1);
-      if (z >= z_lo && z <= z_top && fit.counts[k] >= 1.0) {
-        zs.push_back(z);
-        lx.push_back(std::log(X(z)));
-      }
-    }
-    double best_b = 0.0, best_sse = INFINITY;
-    const int steps = 200;
-    for (int i = 0; i < steps && zs.size() >= 3; ++i) {
-      const double b = (z_lo - 0.5) * i / steps;
-      double sx = 0, sy = 0, sxx = 0, sxy = 0;
-      const double n = zs.size();
-      for (size_t q = 0; q < zs.size(); ++q) {
-        const double u = std::log(zs[q] - b);
-        sx += u;
-        sy += lx[q];
-        sxx += u * u;
-        sxy += u * lx[q];
-      }
-      const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-      const double icpt = (sy - slope * sx) / n;
-      double sse = 0;
-      for (size_t q = 0; q < zs.size(); ++q) {
-        const double e = icpt + slope * std::log(zs[q] - b) - lx[q];
-        sse += e * e;
-      }
-      if (sse < best_sse) {
-        best_sse = sse;
-        best_b = b;
-      }
-    }
-    *black_level = best_b;
-  }
+  if (!black_given) *black_level = EstimateBlackLevel(h, fit.counts, s, z_lo, z_hi);
   std::vector<double> table(s.max_value + 1);
   const double x_lo = X(z_lo), x_hi = X(z_hi);
   for (int z = 0; z <= s.max_value; ++z) {

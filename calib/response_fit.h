@@ -49,4 +49,10 @@ void ReportFrames(const std::vector<ChannelFit>& fits, const std::vector<bool>& 
                   const std::vector<ExposureFrame>& frames, const Setup& s,
                   const ResponseOptions& o, ResponseResult* result);
 
+// The black level from the shape of the monotone curve `h` (knots) near its dark end
+// (response_black.cc): the b whose log-log power law X = c (Z - b)^p over the lowest fifth of the
+// supported values [z_lo, z_hi] is straightest. `counts`: observations per knot.
+double EstimateBlackLevel(const std::vector<double>& h, const std::vector<double>& counts,
+                          const Setup& s, double z_lo, double z_hi);
+
 }  // namespace gonio
