@@ -28,6 +28,10 @@ struct Camera {
   double black_level;
 };
 
+std::ostream& operator<<(std::ostream& os, const Camera& c) {
+  return os << c.bit_depth << "-bit " << c.response << ", black " << c.black_level;
+}
+
 // The exposure-sweep preset at a quarter of the resolution, with `dark` dark frames.
 void RenderSweep(const Camera& cam, int dark, const fs::path& dir) {
   synth::Scene scene = testing::SmallPreset("exposure-sweep", 4);
