@@ -308,8 +308,7 @@ void AddPhotometricCommand(CLI::App& app) {
   resp->add_option("--out", args->out, "response.json")->required();
   resp->add_option("--plot", args->plot, "PNG of the curve (default: OUT with .png)");
   resp->add_option("--black-level", args->black_level,
-                   "Black level in pixel values (default: SWEEP/session.json black_level, else "
-                   "measured on its dark_frames, else estimated)");
+                   "Black level (default: session.json's, else its dark_frames', else estimated)");
   resp->add_option("--bit-depth", args->bit_depth,
                    "Significant bits per value (default: SWEEP/session.json, else the container)");
   resp->add_option("--exclude-rgb", args->exclude_rgb,

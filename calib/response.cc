@@ -594,6 +594,7 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   for (const auto& f : frames) listed.push_back(f.exposure_s);
   std::vector<Setup> setups(result.channels, s);
   std::vector<std::vector<cv::Point>> pixels(result.channels);
+  const bool black_given = o.black_level || !o.channel_black_level.empty();
   if (!o.channel_black_level.empty() &&
       static_cast<int>(o.channel_black_level.size()) != result.channels) {
     throw InputError(fmt::format("{} black levels for {}-channel frames",
@@ -603,7 +604,12 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
     if (!o.channel_black_level.empty()) {
       setups[c].dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
     }
-    setups[c].darkest_value = DarkestValue(frames, c, bit_depth);
+    setups[c].darkest_value = DarkestValue(frames, c, bit_depth, &setups[c].darkest_piled);
+    if (!black_given && setups[c].darkest_piled) {
+      // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
+      // clipped noise, as those above a measured black level do.
+      setups[c].dark_limit = setups[c].darkest_value + 0.02 * s.max_value;
+    }
     setups[c].saturation_limit = ChannelSaturation(planes[c], s, listed);
     pixels[c] = SamplePixels(planes[c], frames, setups[c], o.num_pixels);
   }

@@ -69,11 +69,24 @@ const char* BlackLevelSourceName(BlackLevelSource source) {
   return "estimated";
 }
 
-double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth) {
+double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
+                    bool* piled) {
   double darkest = INFINITY;
+  if (piled) *piled = false;
   for (const auto& f : frames) {
     const auto counts = ValueCounts(f.image, channel, f.mask, bit_depth);
-    darkest = std::min(darkest, CountsQuantile(counts, 0.001));
+    double total = 0;
+    for (double c : counts) total += c;
+    if (total == 0) continue;  // masked everywhere
+    const double q = CountsQuantile(counts, 0.001);
+    // A spike, not the edge of a dense histogram (a mask cut there makes one of those).
+    const size_t v = static_cast<size_t>(q);
+    const bool pile =
+        counts[v] >= 0.01 * total && (v + 1 == counts.size() || counts[v] >= 2 * counts[v + 1]);
+    if (q < darkest || (q == darkest && pile)) {
+      if (piled) *piled = pile || (q == darkest && *piled);
+      darkest = q;
+    }
   }
   return darkest;
 }
@@ -223,6 +236,11 @@ BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
   if (std::isfinite(s.darkest_value)) {
     e.lo = std::min(e.lo, s.darkest_value);
     e.hi = std::max(e.hi, s.darkest_value);
+    // A pile of values (1 % of a frame, twice the next value's) on the darkest value above the
+    // straightest power law's black, with nothing between them: the pipeline clips there, no
+    // exposure gives less, so it is the black level of the table (the sRGB camera with black 64: 48
+    // -> 64). Real sweeps that pile up on 0 keep their estimate.
+    if (s.darkest_piled && s.darkest_value > e.value) e.value = s.darkest_value;
   }
   return e;
 }

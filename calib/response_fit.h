@@ -28,8 +28,10 @@ struct Setup {
   double dark_limit, saturation_limit;
   double min_range_fraction;
   std::vector<int> usable;  // frame indices in the fit
-  // The channel's darkest values in the sweep (DarkestValue): the black level lies below.
+  // The channel's darkest values in the sweep (DarkestValue): the black level lies below; piled:
+  // 1 % of a frame's values sit on it, twice the next value's (a pipeline that clips there).
   double darkest_value = INFINITY;
+  bool darkest_piled = false;
 };
 
 // One channel's fit (response.cc). The listed times of usable frames with `free_time` false are
@@ -65,7 +67,9 @@ BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
                                       double z_lo, double z_hi);
 
 // The 0.1 % quantile of one channel's values inside the masks, lowest over the frames: light
-// only adds to the black level, so it lies at or below (to within the noise).
-double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth);
+// only adds to the black level, so it lies at or below (to within the noise). `piled`: whether
+// a frame whose quantile it is holds 1 % of its values on it, and twice as many as on the next.
+double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
+                    bool* piled = nullptr);
 
 }  // namespace gonio
