@@ -13,6 +13,7 @@
 #include "calib/response.h"
 #include "common/error.h"
 #include "common/io.h"
+#include "common/session.h"
 #include "data_synth/board_renderer.h"
 #include "tests/calib/photometric_test_util.h"
 #include "tests/test_util.h"
@@ -192,6 +193,68 @@ TEST(EstimatedBlackLevel, WithoutAPedestalInViewTheRangeStillCoversTheTruth) {
   EXPECT_LE(r.black_level_range[0][0], r.black_level[0]);
   EXPECT_GE(r.black_level_range[0][1], 64.0);
   EXPECT_TRUE(r.BlackLevelUncertain());
+}
+
+// Through the CLI: a lit dark frame and contradicting levels are one line naming the file or
+// option and exit 2 with nothing written; the source lands in response.json, and an estimate
+// with a wide range is warned about.
+TEST(BlackLevelCli, RefusalsSourcesAndTheWarning) {
+  testing::TempDir dir;
+  const fs::path sweep = dir.path() / "sweep", out = dir.path() / "response.json";
+  RenderSweep({8, "srgb", 64}, 2, sweep);
+  const std::string base =
+      fmt::format("photometric response --sweep '{}' --out '{}'", sweep.string(), out.string());
+
+  const testing::CommandResult measured = testing::RunGonio(base);
+  ASSERT_EQ(measured.exit_code, 0) << measured.err;
+  const nlohmann::json j = ReadJsonFile(out);
+  EXPECT_EQ(j["black_level_source"], "dark frames");
+  EXPECT_EQ(j["black_level"][0], 64.0);
+  EXPECT_EQ(measured.err.find("warning"), std::string::npos) << measured.err;
+  fs::remove(out);
+
+  const testing::CommandResult contradicting = testing::RunGonio(base + " --black-level 60");
+  EXPECT_EQ(contradicting.exit_code, 2);
+  EXPECT_NE(contradicting.err.find("the dark frames show black level 64.0, but --black-level "
+                                   "states 60"),
+            std::string::npos)
+      << contradicting.err;
+  EXPECT_EQ(testing::MessageLines(contradicting.err), 1) << contradicting.err;
+  EXPECT_FALSE(fs::exists(out));
+
+  fs::copy_file(sweep / "frame_0006.png", sweep / "dark_0001.png",
+                fs::copy_options::overwrite_existing);
+  const testing::CommandResult lit = testing::RunGonio(base);
+  EXPECT_EQ(lit.exit_code, 2);
+  EXPECT_NE(lit.err.find("dark_0001.png: not dark"), std::string::npos) << lit.err;
+  EXPECT_EQ(testing::MessageLines(lit.err), 1) << lit.err;
+  EXPECT_FALSE(fs::exists(out));
+
+  // Without dark frames: estimated, with its range, and the warning.
+  nlohmann::json session = ReadJsonFile(sweep / "session.json");
+  session.erase("dark_frames");
+  WriteJsonAtomically(sweep / "session.json", session);
+  const testing::CommandResult estimated = testing::RunGonio(base);
+  ASSERT_EQ(estimated.exit_code, 0) << estimated.err;
+  const nlohmann::json e = ReadJsonFile(out);
+  EXPECT_EQ(e["black_level_source"], "estimated");
+  EXPECT_LT(e["black_level_range"][0][0].get<double>(), 60.0);
+  EXPECT_NE(estimated.err.find("shoot dark frames"), std::string::npos) << estimated.err;
+}
+
+// session.json's black_level and dark_frames survive WriteSession / ReadSession.
+TEST(BlackLevelSession, RoundTrip) {
+  testing::TempDir dir;
+  RenderSweep({8, "srgb", 64}, 1, dir.path());
+  Session s = ReadSession(dir.path());
+  ASSERT_EQ(s.dark_frames, std::vector<std::string>{"dark_0000.png"});
+  s.black_level = 64;
+  WriteSession(dir.path(), s);
+  const Session back = ReadSession(dir.path());
+  EXPECT_EQ(back.black_level, 64.0);
+  EXPECT_EQ(back.dark_frames, s.dark_frames);
+  s.black_level = 300;  // beyond 8 bits
+  EXPECT_THROW(WriteSession(dir.path(), s), InputError);
 }
 
 }  // namespace
