@@ -3,6 +3,8 @@
 // the curve's shape with the range of black levels that estimate cannot tell apart.
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <utility>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -99,6 +101,11 @@ std::vector<double> MeasureBlackLevel(const std::vector<ExposureFrame>& dark,
     if (d.image.size() != first.size() || d.image.type() != first.type()) {
       throw InputError(d.file + ": dark frame's size or type differs from " + frames.front().file);
     }
+    double top = 0;
+    cv::minMaxLoc(d.image.reshape(1), nullptr, &top);
+    if (top > max_value) {
+      throw InputError(fmt::format("{}: value {} exceeds bit depth {}", d.file, top, bit_depth));
+    }
   }
   std::vector<double> black(first.channels());
   for (int c = 0; c < first.channels(); ++c) {
@@ -135,11 +142,12 @@ void ResolveBlackLevel(const ExposureSweep& sweep, std::optional<double> option,
     throw InputError(fmt::format("--black-level {} contradicts black_level {} in {}", *option,
                                  *sweep.black_level, sweep.session_file));
   }
-  for (const auto& stated : {option, sweep.black_level}) {
-    if (stated && !(*stated >= 0 && *stated < max_value)) {
-      throw InputError(fmt::format("{}: black level {} is outside the {}-bit range",
-                                   option ? "--black-level" : sweep.session_file, *stated,
-                                   bit_depth));
+  const std::pair<std::optional<double>, std::string> stated[] = {
+      {option, "--black-level"}, {sweep.black_level, sweep.session_file}};
+  for (const auto& [level, by] : stated) {
+    if (level && !(*level >= 0 && *level < max_value)) {
+      throw InputError(
+          fmt::format("{}: black level {} is outside the {}-bit range", by, *level, bit_depth));
     }
   }
   o->black_level.reset();
