@@ -94,12 +94,20 @@ void RunResponse(const ResponseArgs& args) {
   // Checked here too so that a mismatch names the file that stated the depth.
   std::vector<ExposureFrame> checked = sweep.frames;
   o.bit_depth = ResolveBitDepth(o.bit_depth, stated_by, &checked);
-  if (args.black_level >= 0) o.black_level = args.black_level;
+  ResolveBlackLevel(sweep,
+                    args.black_level >= 0 ? std::optional<double>(args.black_level) : std::nullopt,
+                    checked, o.bit_depth, &o);
   o.drop_inconsistent = args.drop_inconsistent;
   o.exposure_tolerance = args.tolerance;
   spdlog::info("calibrating the inverse response from {} frames ({} bit)", sweep.frames.size(),
                o.bit_depth);
   const ResponseResult r = CalibrateResponse(sweep.frames, o);
+  if (r.BlackLevelUncertain()) {
+    spdlog::warn(
+        "the black level is estimated from the curve's shape and the data allow a wide range "
+        "(see below): shoot dark frames with the lens capped and list them in session.json "
+        "dark_frames, or give --black-level (docs/capture.md)");
+  }
   nlohmann::json j = r.ToJson();
   j["sweep"] = args.sweep;
   if (!args.list.empty()) j["list"] = args.list;
@@ -300,7 +308,7 @@ void AddPhotometricCommand(CLI::App& app) {
   resp->add_option("--out", args->out, "response.json")->required();
   resp->add_option("--plot", args->plot, "PNG of the curve (default: OUT with .png)");
   resp->add_option("--black-level", args->black_level,
-                   "Black level in pixel values (default: estimate)");
+                   "Black level (default: session.json's, else its dark_frames', else estimated)");
   resp->add_option("--bit-depth", args->bit_depth,
                    "Significant bits per value (default: SWEEP/session.json, else the container)");
   resp->add_option("--exclude-rgb", args->exclude_rgb,

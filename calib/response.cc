@@ -354,9 +354,11 @@ void CheckSupportedRange(const std::vector<double>& h, int k_lo, int k_hi, doubl
 
 // Table of relative exposure for every value: exp(h) where data exist, a straight line down to
 // the black level below, held constant above the highest supported value (`z_top`, which the
-// result then treats as saturation).
+// result then treats as saturation). Without `black_given` the black level and its range are
+// estimated (EstimateBlackLevel).
 std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* black_level,
-                               bool black_given, double* z_top) {
+                               std::array<double, 2>* black_range, bool black_given,
+                               double* z_top) {
   const int K = s.num_knots;
   std::vector<double> w(K);
   for (int k = 0; k < K; ++k) w[k] = fit.counts[k] + 1e-6;
@@ -376,45 +378,11 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
       std::min(static_cast<double>(k_hi) * s.max_value / (K - 1), s.saturation_limit);
   CheckSupportedRange(h, k_lo, k_hi, z_lo, z_hi, s);
   *z_top = z_hi;
+  *black_range = {*black_level, *black_level};
   if (!black_given) {
-    // Near the dark end a response behaves like a power law, X = c (Z - black)^p (p = 1 for a
-    // linear sensor, p ~ 2.2 for a gamma curve): choose the black level whose log-log fit over
-    // the lowest supported fifth of the range is straightest.
-    const double z_top = z_lo + 0.2 * (z_hi - z_lo);
-    std::vector<double> zs, lx;
-    for (int k = 0; k < K; ++k) {
-      const double z = static_cast<double>(k) * s.max_value / (K - 1);
-      if (z >= z_lo && z <= z_top && fit.counts[k] >= 1.0) {
-        zs.push_back(z);
-        lx.push_back(std::log(X(z)));
-      }
-    }
-    double best_b = 0.0, best_sse = INFINITY;
-    const int steps = 200;
-    for (int i = 0; i < steps && zs.size() >= 3; ++i) {
-      const double b = (z_lo - 0.5) * i / steps;
-      double sx = 0, sy = 0, sxx = 0, sxy = 0;
-      const double n = zs.size();
-      for (size_t q = 0; q < zs.size(); ++q) {
-        const double u = std::log(zs[q] - b);
-        sx += u;
-        sy += lx[q];
-        sxx += u * u;
-        sxy += u * lx[q];
-      }
-      const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-      const double icpt = (sy - slope * sx) / n;
-      double sse = 0;
-      for (size_t q = 0; q < zs.size(); ++q) {
-        const double e = icpt + slope * std::log(zs[q] - b) - lx[q];
-        sse += e * e;
-      }
-      if (sse < best_sse) {
-        best_sse = sse;
-        best_b = b;
-      }
-    }
-    *black_level = best_b;
+    const BlackLevelEstimate e = EstimateBlackLevel(h, fit.counts, fit.rms, s, z_lo, z_hi);
+    *black_level = e.value;
+    *black_range = {e.lo, e.hi};
   }
   std::vector<double> table(s.max_value + 1);
   const double x_lo = X(z_lo), x_hi = X(z_hi);
@@ -467,7 +435,14 @@ Setup MakeSetup(const ResponseOptions& o, int bit_depth) {
   s.max_value = (1 << s.bit_depth) - 1;
   s.num_knots = std::min(o.num_knots, s.max_value + 1);
   s.saturation_limit = s.max_value * (1.0 - o.saturation_margin);
-  s.dark_limit = (o.black_level ? *o.black_level : 0.0) + 0.02 * s.max_value;
+  // The lowest channel's (each channel's own in CalibrateResponse). Without a black level, 0: a
+  // refit with the dark limit above the estimated black level did
+  // worse on the real sweeps (docs/photometric.md).
+  double black = o.black_level.value_or(0.0);
+  if (!o.channel_black_level.empty()) {
+    black = *std::min_element(o.channel_black_level.begin(), o.channel_black_level.end());
+  }
+  s.dark_limit = black + 0.02 * s.max_value;
   s.min_range_fraction = o.min_range_fraction;
   return s;
 }
@@ -557,14 +532,19 @@ void ScreenFrames(const std::vector<ExposureFrame>& frames, const std::vector<cv
 void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<ChannelFit>& fits,
                     const std::vector<Setup>& setups, const ResponseOptions& o,
                     ResponseResult* result) {
+  const bool black_given = o.black_level || !o.channel_black_level.empty();
+  result->black_level_source = black_given ? o.black_level_source : BlackLevelSource::kEstimated;
   result->black_level.assign(result->channels, o.black_level.value_or(0.0));
+  if (!o.channel_black_level.empty()) result->black_level = o.channel_black_level;
+  result->black_level_range.resize(result->channels);
   result->saturation_level.assign(result->channels, 0.0);
   double rms = 0;
   std::vector<double> lo(result->channels), hi(result->channels);
   for (int c = 0; c < result->channels; ++c) {
     double z_top = 0;
-    result->inverse_response.push_back(
-        BuildTable(fits[c], setups[c], &result->black_level[c], o.black_level.has_value(), &z_top));
+    result->inverse_response.push_back(BuildTable(fits[c], setups[c], &result->black_level[c],
+                                                  &result->black_level_range[c], black_given,
+                                                  &z_top));
     result->saturation_level[c] = std::floor(z_top) + 1;
     rms += fits[c].rms * fits[c].rms;
     lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
@@ -588,6 +568,9 @@ void ResponseOptions::Check() const {
     throw InputError("bit depth must be between 8 and 16");
   }
   if (black_level && !(*black_level >= 0)) throw InputError("black level must be >= 0");
+  for (double b : channel_black_level) {
+    if (!(b >= 0)) throw InputError("black level must be >= 0");
+  }
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
   if (num_pixels < 50) throw InputError("at least 50 pixels are needed");
   if (!(smoothness >= 0)) throw InputError("smoothness must be >= 0");
@@ -623,7 +606,22 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   for (const auto& f : frames) listed.push_back(f.exposure_s);
   std::vector<Setup> setups(result.channels, s);
   std::vector<std::vector<cv::Point>> pixels(result.channels);
+  const bool black_given = o.black_level || !o.channel_black_level.empty();
+  if (!o.channel_black_level.empty() &&
+      static_cast<int>(o.channel_black_level.size()) != result.channels) {
+    throw InputError(fmt::format("{} black levels for {}-channel frames",
+                                 o.channel_black_level.size(), result.channels));
+  }
   for (int c = 0; c < result.channels; ++c) {
+    if (!o.channel_black_level.empty()) {
+      setups[c].dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
+    }
+    setups[c].darkest_value = DarkestValue(frames, c, bit_depth, &setups[c].darkest_piled);
+    if (!black_given && setups[c].darkest_piled) {
+      // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
+      // clipped noise, as those above a measured black level do.
+      setups[c].dark_limit = setups[c].darkest_value + 0.02 * s.max_value;
+    }
     setups[c].saturation_limit = ChannelSaturation(planes[c], s, listed);
     pixels[c] = SamplePixels(planes[c], frames, setups[c], o.num_pixels);
   }

@@ -14,6 +14,7 @@
 // describes the method, its self-check and its refusals.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,25 +31,39 @@ struct ExposureFrame {
   cv::Mat mask;           // CV_8U, non-zero where the frame may be used; empty: everywhere
 };
 
-// A sweep as read from a folder: the frames and the bit depth the session states (0: none).
+// A sweep as read from a folder: the frames, and the bit depth (0: none), black level and dark
+// frames (lens capped, same settings) its session.json states.
 struct ExposureSweep {
   std::vector<ExposureFrame> frames;
   int bit_depth = 0;
   std::string bit_depth_source;  // the file that stated it
+  std::optional<double> black_level;
+  std::vector<ExposureFrame> dark_frames;  // exposure_s 0
+  std::string session_file;                // empty: no session.json
 };
+
+// Where a black level came from: measured on dark frames, stated (session.json, the
+// --black-level option) or estimated from the response curve's shape.
+enum class BlackLevelSource { kEstimated, kOption, kSession, kDarkFrames };
+// "estimated", "option", "session.json", "dark frames" (response.json black_level_source).
+const char* BlackLevelSourceName(BlackLevelSource source);
 
 // How N significant bits sit in the frames' container.
 enum class ValuePacking { kNative, kLsbAligned, kMsbAligned };
 
 struct ResponseOptions {
-  int bit_depth = 0;                  // 0: from the image type (8 or 16); see ResolveBitDepth
-  std::optional<double> black_level;  // given, or estimated
-  int num_knots = 128;                // knots of h over [0, 2^bit_depth)
-  int num_pixels = 1500;              // sampled pixels per channel
-  double smoothness = 1.0;            // weight of h's curvature (the same at any num_knots)
-  double exposure_tolerance = 0.05;   // relative mismatch that marks a frame inconsistent
-  bool drop_inconsistent = false;     // leave inconsistent frames out instead of re-timing
-  double saturation_margin = 0.02;  // fraction of the range below the maximum treated as saturated
+  int bit_depth = 0;  // 0: from the image type (8 or 16); see ResolveBitDepth
+  // Given for every channel (black_level_source says by whom) or, when empty and
+  // channel_black_level is empty too, estimated from the curve's shape.
+  std::optional<double> black_level;
+  std::vector<double> channel_black_level;  // per channel (dark frames); overrides black_level
+  BlackLevelSource black_level_source = BlackLevelSource::kOption;
+  int num_knots = 128;               // knots of h over [0, 2^bit_depth)
+  int num_pixels = 1500;             // sampled pixels per channel
+  double smoothness = 1.0;           // weight of h's curvature (the same at any num_knots)
+  double exposure_tolerance = 0.05;  // relative mismatch that marks a frame inconsistent
+  bool drop_inconsistent = false;    // leave inconsistent frames out instead of re-timing
+  double saturation_margin = 0.02;   // fraction of the range below the maximum treated as saturated
   // Refused (InputError) when the values the fit is supported by span less than this fraction
   // of the stated range: the bit depth is wrong or the sweep too narrow.
   double min_range_fraction = 0.25;
@@ -91,7 +106,12 @@ struct PairConsistency {
 struct ResponseResult {
   int bit_depth = 8;
   int channels = 1;
-  std::vector<double> black_level;       // per channel, in pixel values
+  std::vector<double> black_level;  // per channel, in pixel values
+  BlackLevelSource black_level_source = BlackLevelSource::kEstimated;
+  // Per channel [lo, hi]: the black levels the data allow. Measured or stated: the value itself;
+  // estimated: those whose power law fits the dark end as straight as the best within the
+  // fit's noise, capped by the pedestal the darkest frame shows (response_black.cc).
+  std::vector<std::array<double, 2>> black_level_range;
   std::vector<double> saturation_level;  // per channel: values at or above are saturated
   std::vector<std::vector<double>> inverse_response;  // [channel][value]: relative exposure
   std::vector<FrameExposureReport> frames;
@@ -106,6 +126,9 @@ struct ResponseResult {
   double Linearize(int channel, double value) const;
   // Derivative dX/dZ at a value (for propagating pixel noise).
   double Slope(int channel, double value) const;
+  // Whether the black levels the data allow span more than 2 % of the range in a channel (the
+  // CLI then warns and recommends dark frames).
+  bool BlackLevelUncertain() const;
   std::string Report() const;
   nlohmann::json ToJson() const;
   // InputError naming `source` on a malformed file.
@@ -121,6 +144,24 @@ std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::
 // times; else the list file (default DIR/image_list.txt). Either way the bit depth is the one
 // DIR/session.json states, if any.
 ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_file);
+
+// The black level to calibrate with (docs/photometric.md "Black level"): `option` (--black-level),
+// the sweep's session.json black_level and its dark frames. Option and session must agree (within
+// half a value); dark frames are measured (MeasureBlackLevel) and must agree with a stated level
+// within 1 % of the range. Sets o->black_level or o->channel_black_level and
+// o->black_level_source; leaves both empty (estimate) when nothing is given. `frames`: the sweep
+// after ResolveBitDepth. InputError naming the file or option otherwise.
+void ResolveBlackLevel(const ExposureSweep& sweep, std::optional<double> option,
+                       const std::vector<ExposureFrame>& frames, int bit_depth, ResponseOptions* o);
+
+// Per channel, the black level dark frames show: where at least 30 % of their values pile up on
+// the lowest value (a pipeline that clips noise at its pedestal), that value; otherwise the
+// median. InputError naming a dark frame whose size or type differs from the sweep's, whose
+// values reach more than 10 % of the range above its black level, or whose black level lies
+// more than 2 % of the range above the darkest values of the sweep's shortest frame (light
+// reaching the sensor).
+std::vector<double> MeasureBlackLevel(const std::vector<ExposureFrame>& dark,
+                                      const std::vector<ExposureFrame>& frames, int bit_depth);
 
 // Marks pixels of exactly colour `bgr` as unusable in each frame's mask (e.g. the pure blue
 // borders of the registered Memorial Church scans).

@@ -2,6 +2,7 @@
 // table) and response_times.cc (screening of the listed exposure times); not a public API.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -27,6 +28,10 @@ struct Setup {
   double dark_limit, saturation_limit;
   double min_range_fraction;
   std::vector<int> usable;  // frame indices in the fit
+  // The channel's darkest values in the sweep (DarkestValue): the black level lies below; piled:
+  // 1 % of a frame's values sit on it, twice the next value's (a pipeline that clips there).
+  double darkest_value = INFINITY;
+  bool darkest_piled = false;
 };
 
 // One channel's fit (response.cc). The listed times of usable frames with `free_time` false are
@@ -48,5 +53,23 @@ std::vector<ChannelFit> FitWithTimeScreening(const std::vector<std::vector<cv::M
 void ReportFrames(const std::vector<ChannelFit>& fits, const std::vector<bool>& free_time,
                   const std::vector<ExposureFrame>& frames, const Setup& s,
                   const ResponseOptions& o, ResponseResult* result);
+
+// The black level from the shape of the monotone curve `h` (knots) near its dark end
+// (response_black.cc): the b whose log-log power law X = c (Z - b)^p over the lowest fifth of the
+// supported values [z_lo, z_hi] is straightest, and the range [lo, hi] of black levels the data
+// cannot tell from it (docs/photometric.md "Black level"). `counts`: observations per knot;
+// `rms`: the fit's residual (ln units).
+struct BlackLevelEstimate {
+  double value, lo, hi;
+};
+BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
+                                      const std::vector<double>& counts, double rms, const Setup& s,
+                                      double z_lo, double z_hi);
+
+// The 0.1 % quantile of one channel's values inside the masks, lowest over the frames: light
+// only adds to the black level, so it lies at or below (to within the noise). `piled`: whether
+// a frame whose quantile it is holds 1 % of its values on it, and twice as many as on the next.
+double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
+                    bool* piled = nullptr);
 
 }  // namespace gonio

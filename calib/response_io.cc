@@ -58,7 +58,16 @@ ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_fi
   if (fs::exists(session_file)) {
     const Session session = ReadSession(session_file);
     sweep.bit_depth = session.bit_depth;
-    sweep.bit_depth_source = session_file.string();
+    sweep.bit_depth_source = sweep.session_file = session_file.string();
+    if (session.black_level >= 0) sweep.black_level = session.black_level;
+    for (size_t i = 0; i < session.dark_frames.size(); ++i) {
+      ExposureFrame f;
+      f.file = session.dark_frames[i];
+      f.image = cv::imread(session.DarkFramePath(i).string(), cv::IMREAD_UNCHANGED);
+      if (f.image.empty()) throw InputError(session.DarkFramePath(i).string() + ": not an image");
+      if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
+      sweep.dark_frames.push_back(std::move(f));
+    }
     if (list_file.empty()) {
       for (size_t i = 0; i < session.frames.size(); ++i) {
         ExposureFrame f;
@@ -176,11 +185,25 @@ double ResponseResult::Slope(int channel, double value) const {
   return t[k + 1] - t[k];
 }
 
+bool ResponseResult::BlackLevelUncertain() const {
+  const double max_value = std::ldexp(1.0, bit_depth) - 1;
+  for (const auto& r : black_level_range) {
+    if (r[1] - r[0] > 0.02 * max_value) return true;
+  }
+  return false;
+}
+
 std::string ResponseResult::Report() const {
   std::ostringstream s;
   s << fmt::format("inverse response: {} channel(s), {} bit, black level", channels, bit_depth);
   for (double b : black_level) s << fmt::format(" {:.1f}", b);
-  s << fmt::format("; fit rms {:.4f} (ln units)\n", rms_log_residual);
+  s << fmt::format(" ({}); fit rms {:.4f} (ln units)\n", BlackLevelSourceName(black_level_source),
+                   rms_log_residual);
+  if (black_level_source == BlackLevelSource::kEstimated) {
+    s << "  black level estimated from the curve's shape; the data allow";
+    for (const auto& r : black_level_range) s << fmt::format(" {:.1f}..{:.1f}", r[0], r[1]);
+    s << (BlackLevelUncertain() ? ": shoot dark frames (docs/capture.md) or state it\n" : "\n");
+  }
   s << fmt::format(
       "pair consistency over values {:.0f}..{:.0f}: median pair {:.2f}%, worst pair {:.2f}%; "
       "worst value-band bias {:.2f}%\n",
@@ -209,6 +232,8 @@ nlohmann::json ResponseResult::ToJson() const {
   return {{"bit_depth", bit_depth},
           {"channels", channels},
           {"black_level", black_level},
+          {"black_level_source", BlackLevelSourceName(black_level_source)},
+          {"black_level_range", black_level_range},
           {"saturation_level", saturation_level},
           {"inverse_response", inverse_response},
           {"frames", fr},
@@ -226,6 +251,15 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
       throw InputError(source + ": bit_depth must be 8..16, not " + std::to_string(r.bit_depth));
     }
     r.black_level = j.at("black_level").get<std::vector<double>>();
+    // Written since the black level can be measured; older files held estimates or options.
+    const std::string named = j.value("black_level_source", "estimated");
+    bool known = false;
+    for (auto b : {BlackLevelSource::kEstimated, BlackLevelSource::kOption,
+                   BlackLevelSource::kSession, BlackLevelSource::kDarkFrames}) {
+      if (named == BlackLevelSourceName(b)) r.black_level_source = b, known = true;
+    }
+    if (!known) throw InputError(source + ": black_level_source '" + named + "' is unknown");
+    r.black_level_range = j.value("black_level_range", std::vector<std::array<double, 2>>());
     r.inverse_response = j.at("inverse_response").get<std::vector<std::vector<double>>>();
     r.channels = static_cast<int>(r.inverse_response.size());
     r.saturation_level =
@@ -233,8 +267,12 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
   } catch (const nlohmann::json::exception&) {
     throw InputError(source + ": needs bit_depth, black_level and inverse_response");
   }
+  if (r.black_level_range.empty()) {
+    for (double b : r.black_level) r.black_level_range.push_back({b, b});
+  }
   if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
-      static_cast<int>(r.black_level.size()) != r.channels) {
+      static_cast<int>(r.black_level.size()) != r.channels ||
+      static_cast<int>(r.black_level_range.size()) != r.channels) {
     throw InputError(source + ": inconsistent bit_depth, black_level and inverse_response");
   }
   for (const auto& t : r.inverse_response) {

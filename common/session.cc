@@ -61,6 +61,10 @@ void Session::Check(const std::string& what) const {
   if (bit_depth != 0 && (bit_depth < 8 || bit_depth > 16)) {
     throw InputError(what + ": bit_depth must be 8..16");
   }
+  if (black_level >= 0 && !(std::isfinite(black_level) &&
+                            (bit_depth == 0 || black_level < std::ldexp(1.0, bit_depth) - 1))) {
+    throw InputError(what + ": black_level must be below the largest value of bit_depth");
+  }
   if (frames.empty()) throw InputError(what + ": the session has no frames");
   std::set<std::string> seen;
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -94,6 +98,14 @@ void Session::Check(const std::string& what) const {
       throw InputError(fw + ": lamp_off '" + off + "' is paired with two frames");
     }
   }
+  // A dark frame is not a frame either: listed once, neither as a frame nor as a lamp-off frame.
+  std::set<std::string> dark_seen;
+  for (const std::string& dark : dark_frames) {
+    CheckRelative(what, "dark_frames", dark);
+    if (seen.count(dark) || lamp_off_seen.count(dark) || !dark_seen.insert(dark).second) {
+      throw InputError(what + ": dark frame '" + dark + "' is listed twice");
+    }
+  }
 }
 
 Session ReadSession(const fs::path& dir_or_file) {
@@ -102,8 +114,8 @@ Session ReadSession(const fs::path& dir_or_file) {
   const nlohmann::json j = ReadJsonFile(file);
   if (!j.is_object()) throw InputError(what + ": not a JSON object");
   RejectUnknownKeys(what, j,
-                    {"format", "version", "camera_id", "board", "gain_unit", "bit_depth", "frames",
-                     "provenance"});
+                    {"format", "version", "camera_id", "board", "gain_unit", "bit_depth",
+                     "black_level", "dark_frames", "frames", "provenance"});
   if (Get<std::string>(what, j, "format") != kFormat) {
     throw InputError(what + ": format is not '" + std::string(kFormat) + "'");
   }
@@ -118,6 +130,13 @@ Session ReadSession(const fs::path& dir_or_file) {
   if (j.contains("board") && !j["board"].is_null()) s.board = Get<std::string>(what, j, "board");
   if (j.contains("gain_unit")) s.gain_unit = Get<std::string>(what, j, "gain_unit");
   if (j.contains("bit_depth")) s.bit_depth = Get<int>(what, j, "bit_depth");
+  if (j.contains("black_level")) {
+    s.black_level = Get<double>(what, j, "black_level");
+    if (!(s.black_level >= 0)) throw InputError(what + ": black_level must be >= 0");
+  }
+  if (j.contains("dark_frames")) {
+    s.dark_frames = Get<std::vector<std::string>>(what, j, "dark_frames");
+  }
   const nlohmann::json frames = j.contains("frames") ? j["frames"] : nlohmann::json();
   if (!frames.is_array()) throw InputError(what + ": 'frames' must be an array");
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -141,6 +160,11 @@ Session ReadSession(const fs::path& dir_or_file) {
     }
     if (!s.frames[i].lamp_off.empty() && !fs::is_regular_file(s.LampOffPath(i))) {
       throw InputError(what + ": lamp-off file " + s.frames[i].lamp_off + " does not exist");
+    }
+  }
+  for (size_t i = 0; i < s.dark_frames.size(); ++i) {
+    if (!fs::is_regular_file(s.DarkFramePath(i))) {
+      throw InputError(what + ": dark frame " + s.dark_frames[i] + " does not exist");
     }
   }
   if (!s.board.empty() && !fs::is_regular_file(s.BoardPath())) {
@@ -171,6 +195,11 @@ void WriteSession(const fs::path& dir, const Session& session) {
   if (!session.board.empty() && !fs::is_regular_file(dir / session.board)) {
     throw InputError(file.string() + ": board file " + session.board + " is not in the folder");
   }
+  for (const std::string& dark : session.dark_frames) {
+    if (!fs::is_regular_file(dir / dark)) {
+      throw InputError(file.string() + ": dark frame " + dark + " is not in the folder");
+    }
+  }
   nlohmann::json j = {{"format", kFormat},
                       {"version", kVersion},
                       {"camera_id", session.camera_id},
@@ -178,6 +207,8 @@ void WriteSession(const fs::path& dir, const Session& session) {
                       {"frames", frames}};
   if (!session.board.empty()) j["board"] = session.board;
   if (session.bit_depth > 0) j["bit_depth"] = session.bit_depth;
+  if (session.black_level >= 0) j["black_level"] = session.black_level;
+  if (!session.dark_frames.empty()) j["dark_frames"] = session.dark_frames;
   WriteJsonAtomically(file, j);
 }
 

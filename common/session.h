@@ -33,6 +33,13 @@ struct Session {
   std::string board;  // board file relative to the folder; empty when the session has none
   std::string gain_unit = kGainAnalogue;
   int bit_depth = 0;  // significant bits of the pixel values (docs/formats.md); 0: not given
+  // The camera's black level in pixel values, as the RAW converter or the camera states it;
+  // < 0: not given.
+  double black_level = -1;
+  // Frames taken with the lens capped at the frames' settings, relative to the session folder:
+  // they show the black level (docs/formats.md, docs/capture.md "Dark frames"). Not frames of
+  // their own.
+  std::vector<std::string> dark_frames;
   std::vector<SessionFrame> frames;
 
   // Folder the session was read from (set by ReadSession); the paths below resolve against it.
@@ -42,6 +49,7 @@ struct Session {
   std::filesystem::path LampOffPath(size_t i) const {
     return frames.at(i).lamp_off.empty() ? std::filesystem::path() : dir / frames.at(i).lamp_off;
   }
+  std::filesystem::path DarkFramePath(size_t i) const { return dir / dark_frames.at(i); }
   std::filesystem::path BoardPath() const {
     return board.empty() ? std::filesystem::path() : dir / board;
   }

@@ -354,16 +354,18 @@ json LightTruthJson(const LightSpec& light) {
 // board.json, camera.cameramodel, session.json and truth.json of a rendered session.
 void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material& material,
                        const PhotometricChain& chain, const json& session_frames,
-                       const json& truth_frames, const fs::path& out_dir) {
+                       const json& dark_frames, const json& truth_frames, const fs::path& out_dir) {
   WriteJsonAtomically(out_dir / "board.json", board.BoardJson());
   scene.camera.Write(out_dir / "camera.cameramodel",
                      "gonio synth: the camera that rendered this session");
-  WriteJsonAtomically(out_dir / "session.json", {{"format", "gonio-session"},
-                                                 {"version", 1},
-                                                 {"camera_id", "synthetic"},
-                                                 {"board", "board.json"},
-                                                 {"bit_depth", scene.photometric.bit_depth},
-                                                 {"frames", session_frames}});
+  json session = {{"format", "gonio-session"},
+                  {"version", 1},
+                  {"camera_id", "synthetic"},
+                  {"board", "board.json"},
+                  {"bit_depth", scene.photometric.bit_depth},
+                  {"frames", session_frames}};
+  if (!dark_frames.empty()) session["dark_frames"] = dark_frames;
+  WriteJsonAtomically(out_dir / "session.json", session);
   WriteJsonAtomically(out_dir / "truth.json",
                       {{"format", "gonio-synth-truth"},
                        {"version", 1},
@@ -393,6 +395,26 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
                           "box over the pixel square; radiance per surface at the "
                           "footprint centre"}}},
                        {"scene", SceneToJson(scene)}});
+}
+
+// Frames with the lens capped: no light reaches the sensor, so the chain gives the black level
+// with read noise and quantisation. Their own noise: frame numbers beyond the lit and lamp-off
+// frames' seed the generator.
+json WriteDarkFrames(const Scene& scene, const PhotometricChain& chain, const fs::path& out_dir,
+                     int threads) {
+  json names = json::array();
+  const cv::Mat no_light = cv::Mat::zeros(scene.camera.height, scene.camera.width, CV_64F);
+  for (int k = 0; k < scene.views.dark_frames; ++k) {
+    size_t saturated = 0;
+    const cv::Mat dark = ExposeFrame(scene, chain, no_light, scene.views.exposures_s.front(),
+                                     (2 << 20) + k, threads, &saturated);
+    char name[32];
+    std::snprintf(name, sizeof(name), "dark_%04d.png", k);
+    WriteAtomically(out_dir / name,
+                    [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), dark); });
+    names.push_back(name);
+  }
+  return names;
 }
 
 }  // namespace
@@ -475,7 +497,9 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
   }
   progress.Done();
   result.frames = frame;
-  WriteSessionFiles(scene, board, material, chain, session_frames, truth_frames, out_dir);
+  const json dark_frames = WriteDarkFrames(scene, chain, out_dir, threads);
+  WriteSessionFiles(scene, board, material, chain, session_frames, dark_frames, truth_frames,
+                    out_dir);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -388,7 +388,10 @@ void AddViewsAndSfsFields(std::vector<Field>* f) {
                         std::all_of(e.begin(), e.end(), [](double t) { return t > 0; });
                },
                "needs at least one exposure, all > 0"),
-           AnyScene);
+           AnyScene)
+      .Add("dark_frames", &V::dark_frames,
+           Must([](int v, const Scene&) { return v >= 0 && v <= 100; }, "must be in [0, 100]"),
+           BoardScene);
   Section<SfsSpec>("sfs", &Scene::sfs, SfsScene, f)
       .Add("shape", &SfsSpec::shape, OneOf({"sphere", "vase", "bumps"}))
       .Add("distance", &SfsSpec::distance,

@@ -108,6 +108,9 @@ struct ViewsSpec {
   std::vector<Rigid3d> cam_from_board;
   // Every pose is rendered at each of these exposures (an exposure sweep when several).
   std::vector<double> exposures_s = {0.01};
+  // Board scenes: this many frames with the lens capped (no light; the black level, read noise
+  // and quantisation of the photometric chain), listed in session.json as dark_frames.
+  int dark_frames = 0;
 };
 
 struct SfsSpec {
