@@ -179,7 +179,8 @@ bool AllRaw(const std::vector<fs::path>& files, const fs::path& dir) {
 // the frames were scaled to (the sensor's true read noise is not in the file).
 void WriteRawPhotometric(const fs::path& first_raw, const fs::path& session_dir) {
   const RawMetadata m = ReadRawMetadata(first_raw);
-  PhotometricCalibration p = PhotometricCalibration::Linear(16, 3, 0.0);
+  PhotometricCalibration p =
+      PhotometricCalibration::Linear(16, 3, 0.0, BlackLevelSource::kRawMetadata);
   p.read_noise_dn = 65535.0 / (m.white_level - m.black_level) * std::sqrt(1.0 + 1.0 / 12.0);
   p.Write(session_dir / "photometric.json");
 }

@@ -11,9 +11,10 @@
 namespace gonio {
 
 PhotometricCalibration PhotometricCalibration::Linear(int bit_depth, int channels,
-                                                      double black_level) {
+                                                      double black_level, BlackLevelSource source) {
   PhotometricCalibration p;
   ResponseResult& r = p.response;
+  r.black_level_source = source;
   r.bit_depth = bit_depth;
   r.channels = channels;
   const int n = 1 << bit_depth;

@@ -36,8 +36,10 @@ struct PhotometricCalibration {
   // residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);
 
-  // A linear camera with the given black level and no vignetting (bit_depth 8..16).
-  static PhotometricCalibration Linear(int bit_depth, int channels, double black_level);
+  // A linear camera with the given black level and no vignetting (bit_depth 8..16); `source`
+  // says where the black level came from (response.json black_level_source).
+  static PhotometricCalibration Linear(int bit_depth, int channels, double black_level,
+                                       BlackLevelSource source);
 
   // radiance: CV_32FC(channels), variance: same, valid: CV_8U (0 where a channel is saturated
   // or at/below the black level, where no radiance can be read).

@@ -43,9 +43,11 @@ struct ExposureSweep {
 };
 
 // Where a black level came from: measured on dark frames, stated (session.json, the
-// --black-level option) or estimated from the response curve's shape.
-enum class BlackLevelSource { kEstimated, kOption, kSession, kDarkFrames };
-// "estimated", "option", "session.json", "dark frames" (response.json black_level_source).
+// --black-level option, the RAW file's metadata, subtracted on import), assumed (no calibration
+// given; the run records the assumption) or estimated from the response curve's shape.
+enum class BlackLevelSource { kEstimated, kOption, kSession, kDarkFrames, kRawMetadata, kAssumed };
+// "estimated", "option", "session.json", "dark frames", "RAW metadata", "assumed"
+// (response.json black_level_source).
 const char* BlackLevelSourceName(BlackLevelSource source);
 
 // How N significant bits sit in the frames' container.

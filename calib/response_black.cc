@@ -65,6 +65,10 @@ const char* BlackLevelSourceName(BlackLevelSource source) {
       return "session.json";
     case BlackLevelSource::kDarkFrames:
       return "dark frames";
+    case BlackLevelSource::kRawMetadata:
+      return "RAW metadata";
+    case BlackLevelSource::kAssumed:
+      return "assumed";
     case BlackLevelSource::kEstimated:
       break;
   }

@@ -255,7 +255,8 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
     const std::string named = j.value("black_level_source", "estimated");
     bool known = false;
     for (auto b : {BlackLevelSource::kEstimated, BlackLevelSource::kOption,
-                   BlackLevelSource::kSession, BlackLevelSource::kDarkFrames}) {
+                   BlackLevelSource::kSession, BlackLevelSource::kDarkFrames,
+                   BlackLevelSource::kRawMetadata, BlackLevelSource::kAssumed}) {
       if (named == BlackLevelSourceName(b)) r.black_level_source = b, known = true;
     }
     if (!known) throw InputError(source + ": black_level_source '" + named + "' is unknown");

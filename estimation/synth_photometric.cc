@@ -16,7 +16,8 @@ PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, in
   const int bits = p.at("bit_depth").get<int>();
   const double black = p.at("black_level").get<double>();
   const double maxv = p.at("max_value").get<double>();
-  PhotometricCalibration cal = PhotometricCalibration::Linear(bits, 1, black);
+  PhotometricCalibration cal = PhotometricCalibration::Linear(
+      bits, 1, black, BlackLevelSource::kOption);  // given by truth.json
   const std::string type = p.at("response").at("type").get<std::string>();
   const double gamma = type == "gamma" ? p.at("response").at("gamma").get<double>() : 1.0;
   if (type != "gamma" && type != "linear" && type != "srgb") {

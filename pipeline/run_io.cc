@@ -51,7 +51,7 @@ PhotometricCalibration LoadPhotometricFor(const Session& session, const std::str
       "({} bit) was assumed",
       bits));
   spdlog::warn("{}", in->assumptions.back());
-  return PhotometricCalibration::Linear(bits, 1, 0.0);
+  return PhotometricCalibration::Linear(bits, 1, 0.0, BlackLevelSource::kAssumed);
 }
 
 RunInputs LoadRunInputs(const fs::path& session_dir, const std::string& camera_path,

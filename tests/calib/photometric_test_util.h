@@ -36,7 +36,8 @@ inline synth::Scene SmallPreset(const std::string& preset, int div) {
 // The inverse of the scene's response (gamma only), scaled so X = 1 is full well.
 inline PhotometricCalibration TruthCalibration(const synth::Scene& s, int channels = 1) {
   const auto& p = s.photometric;
-  PhotometricCalibration c = PhotometricCalibration::Linear(p.bit_depth, channels, p.black_level);
+  PhotometricCalibration c = PhotometricCalibration::Linear(p.bit_depth, channels, p.black_level,
+                                                            BlackLevelSource::kOption);
   const double maxv = (1 << p.bit_depth) - 1.0;
   for (int ch = 0; ch < channels; ++ch) {
     for (size_t z = 0; z < c.response.inverse_response[ch].size(); ++z) {

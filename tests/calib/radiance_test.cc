@@ -137,11 +137,12 @@ TEST(PhotometricSynthetic, ToRadianceOfPaperEqualsTruthRadiance) {
 TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {
   testing::TempDir dir;
   const fs::path path = dir.path() / "photometric.json";
-  PhotometricCalibration::Linear(12, 1, 64).Write(path);
+  PhotometricCalibration::Linear(12, 1, 64, BlackLevelSource::kOption).Write(path);
   const nlohmann::json good = ReadJsonFile(path);
   EXPECT_DOUBLE_EQ(PhotometricCalibration::Read(path).read_noise_dn, 0.5);
   EXPECT_FALSE(PhotometricCalibration::Read(path).relative_accuracy.has_value());
-  PhotometricCalibration with_accuracy = PhotometricCalibration::Linear(12, 1, 64);
+  PhotometricCalibration with_accuracy =
+      PhotometricCalibration::Linear(12, 1, 64, BlackLevelSource::kOption);
   with_accuracy.relative_accuracy = 0.004;
   with_accuracy.Write(path);
   EXPECT_DOUBLE_EQ(PhotometricCalibration::Read(path).relative_accuracy.value(), 0.004);

@@ -199,6 +199,8 @@ TEST(RawImport, CaptureFromFolderWritesLinear16BitFramesWithExposureAndIso) {
   const PhotometricCalibration p = PhotometricCalibration::Read(out / "photometric.json");
   EXPECT_EQ(p.response.bit_depth, 16);
   EXPECT_EQ(p.response.channels, 3);
+  // Its black level is the RAW file's, already subtracted, and says so.
+  EXPECT_EQ(p.response.black_level_source, BlackLevelSource::kRawMetadata);
   for (int c = 0; c < 3; ++c) {
     EXPECT_DOUBLE_EQ(p.response.black_level[c], 0.0);
     EXPECT_DOUBLE_EQ(p.response.saturation_level[c], 65535.0);
