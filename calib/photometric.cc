@@ -74,7 +74,15 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
 
 double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
                                                 double vignette_rms_relative) {
-  return std::hypot(ResponseAccuracy(response), vignette_rms_relative);
+  return std::min(
+      std::sqrt(std::pow(ResponseAccuracy(response), 2) + std::pow(SmoothingError(response), 2) +
+                vignette_rms_relative * vignette_rms_relative),
+      0.99);
+}
+
+double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
+  const double s = response.smoothing_sensitivity;
+  return std::isfinite(s) ? std::min(s, 0.99) : 0.0;
 }
 
 double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) {

@@ -28,12 +28,18 @@ struct PhotometricCalibration {
   // by the renderer.
   std::optional<double> relative_accuracy;
 
-  // The response's own relative accuracy: its self-check's worst band bias (the ratio error of
-  // neighbouring exposures, free of pixel noise, anywhere in the returned range), else the
-  // median pair consistency when no band could be checked (docs/photometric.md).
+  // The response's own relative accuracy where the sweep has values: its self-check's worst
+  // band bias (the ratio error of neighbouring exposures, free of pixel noise, anywhere in the
+  // returned range), else the median pair consistency when no band could be checked
+  // (docs/photometric.md). A smooth error over the radiance range: gonio run propagates it as
+  // the response's error modes (estimation/calibration_error.h).
   static double ResponseAccuracy(const ResponseResult& response);
-  // sqrt(response^2 + vignetting^2): ResponseAccuracy and the vignetting fit's RMS relative
-  // residual, as independent relative errors of a radiance.
+  // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
+  // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
+  // radiance to the next, so they enter the noise floor, not the smooth error modes.
+  static double SmoothingError(const ResponseResult& response);
+  // sqrt(response^2 + smoothing^2 + vignetting^2): ResponseAccuracy, SmoothingError and the
+  // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);
 
   // A linear camera with the given black level and no vignetting (bit_depth 8..16); `source`

@@ -629,6 +629,9 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   const auto fits = FitWithTimeScreening(planes, frames, setups, pixels, o, &s, &free_time);
   ReportFrames(fits, free_time, frames, s, o, &result);
   FinishResponse(frames, fits, setups, o, &result);
+  for (auto& cs : setups) cs.usable = s.usable;
+  result.smoothing_sensitivity =
+      SmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, result, o);
   return result;
 }
 

@@ -103,6 +103,9 @@ struct PairConsistency {
   double worst_band_bias = NAN;       // largest |band_bias|
   double range_lo = 0, range_hi = 0;  // the checked value range
   nlohmann::json ToJson() const;
+  // What ToJson wrote (null: NaN); InputError naming `source` on a wrong type or a negative
+  // or non-finite figure.
+  static PairConsistency FromJson(const nlohmann::json& j, const std::string& source);
 };
 
 struct ResponseResult {
@@ -123,6 +126,11 @@ struct ResponseResult {
   // Largest difference between image regions of the value-to-value mapping of neighbouring
   // frames (fraction of the range; see RegionalMappingDifference).
   double regional_mapping_difference = 0;
+  // Relative change of the curve when refitted with a 4x stiffer smoothing prior, worst value
+  // band (SmoothingSensitivity, docs/photometric.md): the part of its error between the values
+  // the sweep holds, which the self-check cannot see. NaN: not measured (older files,
+  // smoothness 0).
+  double smoothing_sensitivity = NAN;
 
   // Relative exposure of a (possibly fractional) pixel value, linear between table entries.
   double Linearize(int channel, double value) const;

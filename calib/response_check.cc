@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/photo.hpp>
 
@@ -115,6 +116,36 @@ nlohmann::json PairConsistency::ToJson() const {
           {"band_bias", bands},
           {"worst_band_bias", num(worst_band_bias)},
           {"value_range", {range_lo, range_hi}}};
+}
+
+PairConsistency PairConsistency::FromJson(const nlohmann::json& j, const std::string& source) {
+  // A figure, or null for "none" (NaN in memory); anything else would reach the error bars.
+  auto figure = [&](const nlohmann::json& v, const char* key, bool signed_ok) {
+    if (v.is_null()) return static_cast<double>(NAN);
+    if (!v.is_number() || !std::isfinite(v.get<double>()) || (!signed_ok && v.get<double>() < 0)) {
+      throw InputError(fmt::format("{}: consistency '{}' must be a finite{} number or null", source,
+                                   key, signed_ok ? "" : " non-negative"));
+    }
+    return v.get<double>();
+  };
+  if (!j.is_object()) throw InputError(source + ": 'consistency' must be an object");
+  PairConsistency c;
+  c.median_pair = figure(j.value("median_pair", nlohmann::json()), "median_pair", false);
+  c.worst_pair = figure(j.value("worst_pair", nlohmann::json()), "worst_pair", false);
+  c.worst_band_bias = figure(j.value("worst_band_bias", nlohmann::json()), "worst_band_bias", true);
+  for (const auto& v : j.value("per_pair", nlohmann::json::array())) {
+    c.per_pair.push_back(figure(v, "per_pair", false));
+  }
+  for (const auto& v : j.value("band_bias", nlohmann::json::array())) {
+    c.band_bias.push_back(figure(v, "band_bias", true));
+  }
+  const auto range = j.value("value_range", nlohmann::json::array({0.0, 0.0}));
+  if (!range.is_array() || range.size() != 2) {
+    throw InputError(source + ": consistency 'value_range' must be [lo, hi]");
+  }
+  c.range_lo = figure(range[0], "value_range", false);
+  c.range_hi = figure(range[1], "value_range", false);
+  return c;
 }
 
 PairConsistency MeasurePairConsistency(const std::vector<ExposureFrame>& frames,

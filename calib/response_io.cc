@@ -209,6 +209,13 @@ std::string ResponseResult::Report() const {
       "worst value-band bias {:.2f}%\n",
       consistency.range_lo, consistency.range_hi, 100 * consistency.median_pair,
       100 * consistency.worst_pair, 100 * consistency.worst_band_bias);
+  if (std::isfinite(smoothing_sensitivity)) {
+    s << fmt::format(
+        "smoothing sensitivity {:.2f}% (the curve's change under a 4x stiffer prior, worst value "
+        "band: its error between the values the sweep holds){}\n",
+        100 * smoothing_sensitivity,
+        smoothing_sensitivity > 0.01 ? "; more exposures (third stops) would pin it" : "");
+  }
   for (const auto& f : frames) {
     s << fmt::format(
         "  {:<20} listed {:>10.5g} s  used {:>10.5g} s  {}\n", f.file, f.listed_s, f.estimated_s,
@@ -239,6 +246,9 @@ nlohmann::json ResponseResult::ToJson() const {
           {"frames", fr},
           {"consistency", consistency.ToJson()},
           {"regional_mapping_difference", regional_mapping_difference},
+          {"smoothing_sensitivity", std::isfinite(smoothing_sensitivity)
+                                        ? nlohmann::json(smoothing_sensitivity)
+                                        : nlohmann::json()},
           {"rms_log_residual", rms_log_residual}};
 }
 
@@ -270,6 +280,17 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
   }
   if (r.black_level_range.empty()) {
     for (double b : r.black_level) r.black_level_range.push_back({b, b});
+  }
+  // The self-check and the smoothing sensitivity set the response's share of the calibration's
+  // accuracy (PhotometricCalibration::ResponseAccuracy), so they are read back, not dropped.
+  if (j.contains("consistency"))
+    r.consistency = PairConsistency::FromJson(j["consistency"], source);
+  if (j.contains("smoothing_sensitivity") && !j["smoothing_sensitivity"].is_null()) {
+    const auto& v = j["smoothing_sensitivity"];
+    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
+    }
+    r.smoothing_sensitivity = v.get<double>();
   }
   if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
       static_cast<int>(r.black_level.size()) != r.channels ||

@@ -160,8 +160,12 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   CalibrationErrorModel e;
   e.response_ratio_error =
       std::min(PhotometricCalibration::ResponseAccuracy(in.photometric.response), *accuracy);
-  e.vignette_rms =
-      std::sqrt(*accuracy * *accuracy - e.response_ratio_error * e.response_ratio_error);
+  // The rest of relative_accuracy is the vignetting's, less the response's wiggles between the
+  // sweep's values (SmoothingError), which are in the noise floor but are no smooth field.
+  const double smoothing = PhotometricCalibration::SmoothingError(in.photometric.response);
+  e.vignette_rms = std::sqrt(std::max(0.0, *accuracy * *accuracy -
+                                               e.response_ratio_error * e.response_ratio_error -
+                                               smoothing * smoothing));
   e.principal_point = {r->camera.intrinsics[2], r->camera.intrinsics[3]};
   e.radius_px = 0.5 * std::hypot(r->camera.width, r->camera.height);
   spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calib/photometric.h"
 #include "calib/response.h"
 #include "common/error.h"
 #include "common/io.h"
@@ -96,6 +97,22 @@ ResponseResult CalibrateRendered(const Camera& cam, TruthError* error) {
       100 * error->absolute, r.black_level[0], cam.black_level,
       100 * r.consistency.worst_band_bias);
   for (const auto& f : r.frames) EXPECT_TRUE(f.consistent) << f.file << "\n" << r.Report();
+  // The response's share of photometric.json's relative_accuracy (the fit's noise floor) must
+  // not claim far better than it is: the board scene's few radiances in whole stops leave the
+  // curve to the smoothing between them, which the band bias alone did not see (0.2-0.7 %
+  // against 3.8-4.3 % worst). A 1-sigma figure against a worst error: within a factor 3.
+  const double accuracy = PhotometricCalibration::CombinedAccuracy(r, 0.0);
+  std::cout << fmt::format("smoothing sensitivity {:.2f}%, accuracy {:.2f}%\n",
+                           100 * r.smoothing_sensitivity, 100 * accuracy);
+  EXPECT_GT(r.smoothing_sensitivity, std::abs(r.consistency.worst_band_bias));
+  EXPECT_GT(3 * accuracy, error->relative);
+  // What response.json holds is what a reader gets back, accuracy included.
+  const ResponseResult back = ResponseResult::FromJson(r.ToJson(), "response.json");
+  EXPECT_DOUBLE_EQ(back.smoothing_sensitivity, r.smoothing_sensitivity);
+  EXPECT_DOUBLE_EQ(back.consistency.worst_band_bias, r.consistency.worst_band_bias);
+  EXPECT_DOUBLE_EQ(PhotometricCalibration::CombinedAccuracy(back, 0.0), accuracy);
+  EXPECT_DOUBLE_EQ(PhotometricCalibration::ResponseAccuracy(back),
+                   PhotometricCalibration::ResponseAccuracy(r));
   return r;
 }
 
@@ -163,6 +180,25 @@ std::vector<ExposureFrame> ToneSweep(int bit_depth, const std::function<double(d
 // neighbouring frames map values differently in different regions. Refused; the same scene with
 // one curve passes the check (measured: 0.03 vs 0.59 of the step between frames; the real
 // sweeps 0.06-0.07).
+// The accuracy keys of response.json are read back and checked: a wrong type or a negative
+// figure would otherwise reach the error bars (docs/formats.md).
+TEST(ResponseJson, AccuracyKeysOfTheWrongTypeAreInputErrors) {
+  const nlohmann::json good =
+      PhotometricCalibration::Linear(8, 1, 0.0, BlackLevelSource::kOption).response.ToJson();
+  EXPECT_NO_THROW(ResponseResult::FromJson(good, "response.json"));
+  for (const auto& [key, value] : std::vector<std::pair<std::string, nlohmann::json>>{
+           {"worst_band_bias", "x"}, {"median_pair", -0.1}, {"band_bias", {1.0, "y"}}}) {
+    nlohmann::json bad = good;
+    bad["consistency"][key] = value;
+    EXPECT_THROW(ResponseResult::FromJson(bad, "response.json"), InputError) << key;
+  }
+  nlohmann::json bad = good;
+  bad["smoothing_sensitivity"] = -0.01;
+  EXPECT_THROW(ResponseResult::FromJson(bad, "response.json"), InputError);
+  bad["smoothing_sensitivity"] = nullptr;  // not measured
+  EXPECT_TRUE(std::isnan(ResponseResult::FromJson(bad, "response.json").smoothing_sensitivity));
+}
+
 TEST(ResponseRefusals, LocallyToneMappedSweepIsRefused) {
   const auto stationary = ToneSweep(8, [](double) { return 2.2; });
   const auto local = ToneSweep(8, [](double u) { return u < 0.5 ? 1.5 : 3.0; });
