@@ -34,6 +34,24 @@ struct Setup {
   bool darkest_piled = false;
 };
 
+// Before the fit (response_setup.cc). InputError unless the frames share size and type, have
+// exposure times > 0 and differ in exposure.
+void CheckSweep(const std::vector<ExposureFrame>& frames);
+// The setup of the options at a resolved bit depth (dark limit above the lowest given black).
+Setup MakeSetup(const ResponseOptions& o, int bit_depth);
+// InputError when the brightest value of the sweep lies below `min_range_fraction` of the range.
+void CheckValueSpan(const std::vector<ExposureFrame>& frames, const Setup& s);
+// A channel's saturation limit: below the value the longest exposure piles clipped pixels on.
+double ChannelSaturation(const std::vector<cv::Mat>& planes, const Setup& s,
+                         const std::vector<double>& exposures_s);
+// planes[channel][frame] as CV_32F; InputError for a value beyond the bit depth.
+std::vector<std::vector<cv::Mat>> ChannelPlanes(const std::vector<ExposureFrame>& frames,
+                                                const Setup& s, int channels);
+// One report per frame; frames saturated or dark everywhere are left out, the others listed in
+// s->usable. InputError when fewer than two remain.
+void ScreenFrames(const std::vector<ExposureFrame>& frames, const std::vector<cv::Mat>& gray,
+                  Setup* s, ResponseResult* result);
+
 // One channel's fit (response.cc). The listed times of usable frames with `free_time` false are
 // held exactly; with `times_unknown` every time floats and h is held at two knots instead.
 ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<ExposureFrame>& frames,
