@@ -121,10 +121,10 @@ Recovered Judge(const UserChainDirs& d, const nlohmann::json& fit, const std::st
     r.lamp_z = std::max(r.lamp_z, std::abs(light[k] - light_true[k]) / sd);
   }
   std::cout << fmt::format(
-      "{}: {} sigma {:+.3f} deg (z {:.1f}), albedo {:+.2f}% (z {:.1f}), lamp {:.2f}% of its "
-      "distance (z {:.1f}); noise floor {}\n",
-      label, r.model, r.sigma_error_deg, r.sigma_z, 100 * r.albedo_error, r.albedo_z,
-      100 * r.lamp_error, r.lamp_z, fit["noise_floor"].dump());
+      "{}: {} sigma {:+.3f} +- {:.3f} deg (z {:.2f}), albedo {:+.2f}% (z {:.2f}), lamp {:.2f}% of "
+      "its distance (z {:.2f}); noise floor {}\n",
+      label, r.model, r.sigma_error_deg, RadToDeg(fin["stddev"]["sigma"].get<double>()), r.sigma_z,
+      100 * r.albedo_error, r.albedo_z, 100 * r.lamp_error, r.lamp_z, fit["noise_floor"].dump());
   return r;
 }
 
