@@ -31,6 +31,7 @@ struct ResponseArgs {
   double black_level = -1;
   int bit_depth = 0;
   std::vector<int> exclude_rgb;
+  std::vector<std::string> dark;  // dark frames for a sweep without session.json's list
   bool drop_inconsistent = false;
   double tolerance = 0.05;
   ResponseOptions options;
@@ -84,6 +85,13 @@ nlohmann::json PrintComparison(const std::vector<ExposureFrame>& frames, const R
 
 void RunResponse(const ResponseArgs& args) {
   ExposureSweep sweep = LoadSweepFolder(args.sweep, args.list);
+  if (!args.dark.empty()) {
+    if (!sweep.dark_frames.empty()) {
+      throw InputError("--dark: " + sweep.session_file +
+                       " already lists dark_frames; give them in one place");
+    }
+    AddDarkFrames(args.sweep, args.dark, &sweep);
+  }
   if (!args.exclude_rgb.empty()) {
     MaskColour(cv::Scalar(args.exclude_rgb[2], args.exclude_rgb[1], args.exclude_rgb[0]),
                &sweep.frames);
@@ -309,6 +317,9 @@ void AddPhotometricCommand(CLI::App& app) {
   resp->add_option("--plot", args->plot, "PNG of the curve (default: OUT with .png)");
   resp->add_option("--black-level", args->black_level,
                    "Black level (default: session.json's, else its dark_frames', else estimated)");
+  resp->add_option("--dark", args->dark,
+                   "Dark frames (lens capped, the sweep's settings), relative to SWEEP: measure "
+                   "the black level of a sweep given by a list file");
   resp->add_option("--bit-depth", args->bit_depth,
                    "Significant bits per value (default: SWEEP/session.json, else the container)");
   resp->add_option("--exclude-rgb", args->exclude_rgb,

@@ -173,6 +173,11 @@ void ResolveBlackLevel(const ExposureSweep& sweep, std::optional<double> option,
 std::vector<double> MeasureBlackLevel(const std::vector<ExposureFrame>& dark,
                                       const std::vector<ExposureFrame>& frames, int bit_depth);
 
+// Reads dark frames (lens capped, the sweep's settings; docs/capture.md) into sweep->dark_frames:
+// `files` relative to `dir` or absolute. InputError naming a file that is not an image.
+void AddDarkFrames(const std::string& dir, const std::vector<std::string>& files,
+                   ExposureSweep* sweep);
+
 // Marks pixels of exactly colour `bgr` as unusable in each frame's mask (e.g. the pure blue
 // borders of the registered Memorial Church scans).
 void MaskColour(const cv::Scalar& bgr, std::vector<ExposureFrame>* frames);

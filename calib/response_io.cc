@@ -51,6 +51,19 @@ std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::
   return frames;
 }
 
+void AddDarkFrames(const std::string& dir, const std::vector<std::string>& files,
+                   ExposureSweep* sweep) {
+  for (const auto& file : files) {
+    const std::filesystem::path path = std::filesystem::path(dir) / file;  // absolute stays
+    ExposureFrame f;
+    f.file = file;
+    f.image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    if (f.image.empty()) throw InputError(path.string() + ": not an image");
+    if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
+    sweep->dark_frames.push_back(std::move(f));
+  }
+}
+
 ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_file) {
   namespace fs = std::filesystem;
   ExposureSweep sweep;
@@ -60,14 +73,7 @@ ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_fi
     sweep.bit_depth = session.bit_depth;
     sweep.bit_depth_source = sweep.session_file = session_file.string();
     if (session.black_level >= 0) sweep.black_level = session.black_level;
-    for (size_t i = 0; i < session.dark_frames.size(); ++i) {
-      ExposureFrame f;
-      f.file = session.dark_frames[i];
-      f.image = cv::imread(session.DarkFramePath(i).string(), cv::IMREAD_UNCHANGED);
-      if (f.image.empty()) throw InputError(session.DarkFramePath(i).string() + ": not an image");
-      if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
-      sweep.dark_frames.push_back(std::move(f));
-    }
+    AddDarkFrames(dir, session.dark_frames, &sweep);
     if (list_file.empty()) {
       for (size_t i = 0; i < session.frames.size(); ++i) {
         ExposureFrame f;

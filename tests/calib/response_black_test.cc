@@ -240,6 +240,27 @@ TEST(BlackLevelCli, RefusalsSourcesAndTheWarning) {
   EXPECT_EQ(e["black_level_source"], "estimated");
   EXPECT_LT(e["black_level_range"][0][0].get<double>(), 60.0);
   EXPECT_NE(estimated.err.find("shoot dark frames"), std::string::npos) << estimated.err;
+  fs::remove(out);
+
+  // Dark frames session.json does not list (an image-list sweep has no place for them) are
+  // named with --dark.
+  const testing::CommandResult listed = testing::RunGonio(base + " --dark dark_0000.png");
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  const nlohmann::json l = ReadJsonFile(out);
+  EXPECT_EQ(l["black_level_source"], "dark frames");
+  EXPECT_EQ(l["black_level"][0], 64.0);
+  fs::remove(out);
+  const testing::CommandResult missing = testing::RunGonio(base + " --dark no_such.png");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("no_such.png: not an image"), std::string::npos) << missing.err;
+  EXPECT_EQ(testing::MessageLines(missing.err), 1) << missing.err;
+  EXPECT_FALSE(fs::exists(out));
+  session["dark_frames"] = {"dark_0000.png"};
+  WriteJsonAtomically(sweep / "session.json", session);
+  const testing::CommandResult twice = testing::RunGonio(base + " --dark dark_0000.png");
+  EXPECT_EQ(twice.exit_code, 2);
+  EXPECT_NE(twice.err.find("give them in one place"), std::string::npos) << twice.err;
+  EXPECT_FALSE(fs::exists(out));
 }
 
 // session.json's black_level and dark_frames survive WriteSession / ReadSession.
