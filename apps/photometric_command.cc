@@ -302,11 +302,7 @@ void RunHdr(const HdrArgs& args) {
   WriteJsonAtomically(fs::path(args.out) / "hdr.json", index);
 }
 
-}  // namespace
-
-void AddPhotometricCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("photometric", "Photometric calibration: response, vignetting");
-  cmd->require_subcommand(1);
+void AddResponseCommand(CLI::App* cmd) {
   auto args = std::make_shared<ResponseArgs>();
   auto* resp = cmd->add_subcommand("response", "Inverse response from an exposure sweep");
   resp->add_option("--sweep", args->sweep, "Folder with the sweep's images")->required();
@@ -334,12 +330,20 @@ void AddPhotometricCommand(CLI::App& app) {
   resp->add_option("--pixels", args->options.num_pixels, "Sampled pixels per channel")
       ->capture_default_str();
   resp->add_option("--smoothness", args->options.smoothness,
-                   "Weight of the curve's second differences")
+                   "Weight of the curve's curvature (the same at any --knots)")
       ->capture_default_str();
   resp->add_flag("--drop-inconsistent", args->drop_inconsistent,
                  "Leave out frames whose brightness contradicts their listed exposure "
                  "(default: re-time them)");
   resp->callback([args] { RunResponse(*args); });
+}
+
+}  // namespace
+
+void AddPhotometricCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("photometric", "Photometric calibration: response, vignetting");
+  cmd->require_subcommand(1);
+  AddResponseCommand(cmd);
 
   auto vargs = std::make_shared<VignetteArgs>();
   auto* vig = cmd->add_subcommand("vignette", "Vignetting map from board frames of many poses");
