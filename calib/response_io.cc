@@ -14,6 +14,18 @@
 #include "common/session.h"
 
 namespace gonio {
+namespace {
+
+// One image of a sweep (frame or dark frame) as stored; 4 channels lose their alpha.
+// InputError naming the file when it cannot be read.
+cv::Mat ReadSweepImage(const std::string& path) {
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) throw InputError(path + ": not an image");
+  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
+  return image;
+}
+
+}  // namespace
 
 std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::string& list_file) {
   std::ifstream in(list_file);
@@ -33,12 +45,10 @@ std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::
           fmt::format("{}: line {}: expected 'file exposure_seconds'", list_file, line_no));
     }
     const std::string path = dir + "/" + f.file;
-    f.image = cv::imread(path, cv::IMREAD_UNCHANGED);
-    if (f.image.empty()) throw InputError(path + ": cannot be read as an image");
+    f.image = ReadSweepImage(path);
     if (f.image.depth() != CV_8U && f.image.depth() != CV_16U) {
       throw InputError(path + ": only 8- and 16-bit images are supported");
     }
-    if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
     if (!frames.empty() &&
         (f.image.size() != frames[0].image.size() || f.image.type() != frames[0].image.type())) {
       throw InputError(path + ": size or type differs from " + frames[0].file);
@@ -57,9 +67,7 @@ void AddDarkFrames(const std::string& dir, const std::vector<std::string>& files
     const std::filesystem::path path = std::filesystem::path(dir) / file;  // absolute stays
     ExposureFrame f;
     f.file = file;
-    f.image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-    if (f.image.empty()) throw InputError(path.string() + ": not an image");
-    if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
+    f.image = ReadSweepImage(path.string());
     sweep->dark_frames.push_back(std::move(f));
   }
 }
@@ -79,9 +87,7 @@ ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_fi
         ExposureFrame f;
         f.file = session.frames[i].file;
         f.exposure_s = session.frames[i].exposure_s * session.frames[i].gain;
-        f.image = cv::imread(session.FramePath(i).string(), cv::IMREAD_UNCHANGED);
-        if (f.image.empty()) throw InputError(session.FramePath(i).string() + ": not an image");
-        if (f.image.channels() == 4) cv::cvtColor(f.image, f.image, cv::COLOR_BGRA2BGR);
+        f.image = ReadSweepImage(session.FramePath(i).string());
         sweep.frames.push_back(std::move(f));
       }
       if (sweep.frames.size() < 2) {
