@@ -80,6 +80,15 @@ double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
       0.99);
 }
 
+double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) {
+  double sum = 0;
+  int n = 0;
+  for (double b : response.consistency.band_bias) {
+    if (std::isfinite(b)) sum += b * b, ++n;
+  }
+  return n > 0 ? std::min(std::sqrt(sum / n), 0.99) : ResponseAccuracy(response);
+}
+
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
   const double s = response.smoothing_sensitivity;
   return std::isfinite(s) ? std::min(s, 0.99) : 0.0;

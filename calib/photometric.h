@@ -34,6 +34,11 @@ struct PhotometricCalibration {
   // (docs/photometric.md). A smooth error over the radiance range: gonio run propagates it as
   // the response's error modes (estimation/calibration_error.h).
   static double ResponseAccuracy(const ResponseResult& response);
+  // The RMS of the response's band biases (its self-check's signed error per eighth of the
+  // value range): the size of the smooth error field gonio run's calibration-error propagation
+  // draws, whose modes have an RMS of 1. The worst band (ResponseAccuracy) is the largest of
+  // eight noisy figures. Without bands: ResponseAccuracy.
+  static double ResponseFieldRms(const ResponseResult& response);
   // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.

@@ -149,19 +149,6 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
   return fit;
 }
 
-// The RMS of the response's band biases (its self-check's signed error per eighth of the value
-// range): the size of the smooth error field the propagation draws, whose modes have an RMS of
-// 1. The worst band, which relative_accuracy uses, is the largest of eight noisy figures.
-// Without bands: ResponseAccuracy.
-double ResponseFieldRms(const ResponseResult& response) {
-  double sum = 0;
-  int n = 0;
-  for (double b : response.consistency.band_bias) {
-    if (std::isfinite(b)) sum += b * b, ++n;
-  }
-  return n > 0 ? std::sqrt(sum / n) : PhotometricCalibration::ResponseAccuracy(response);
-}
-
 // The calibration's own error into the reported uncertainty (estimation/calibration_error.h),
 // when photometric.json says how accurate it is: the response's band biases (their RMS) and the
 // rest of relative_accuracy for the vignetting.
@@ -171,7 +158,7 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   if (!accuracy || o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
   const ResponseResult& response = in.photometric.response;
   CalibrationErrorModel e;
-  e.response_ratio_error = std::min(ResponseFieldRms(response), *accuracy);
+  e.response_ratio_error = std::min(PhotometricCalibration::ResponseFieldRms(response), *accuracy);
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
   // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
   // are in the noise floor but are no smooth field.
