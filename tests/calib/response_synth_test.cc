@@ -120,8 +120,8 @@ TEST(ResponseSynthSweep, TwelveBitGammaInSixteenBitPng) {
   TruthError e;
   const ResponseResult r = CalibrateRendered({12, "gamma", 64}, &e);
   EXPECT_EQ(r.bit_depth, 12);
-  // Measured: 3.8 % relative (the curve wiggles between the few radiance levels of the board
-  // scene, docs/photometric.md), 2.6 % absolute (at the top of the range).
+  // Measured: 4.1 % relative (the curve wiggles between the few radiance levels of the board
+  // scene, docs/photometric.md), 2.7 % absolute (at the top of the range).
   EXPECT_LT(e.relative, 0.045);
   EXPECT_LT(e.absolute, 0.03);
 }
@@ -139,7 +139,7 @@ TEST(ResponseSynthSweep, SixteenBitLinear) {
   TruthError e;
   const ResponseResult r = CalibrateRendered({16, "linear", 256}, &e);
   EXPECT_EQ(r.bit_depth, 16);
-  // Measured: 2.6 % relative, 1.7 % absolute.
+  // Measured: 2.8 % relative, 1.9 % absolute.
   EXPECT_LT(e.relative, 0.03);
   EXPECT_LT(e.absolute, 0.02);
 }
