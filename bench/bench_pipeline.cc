@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "bench/bench_internal.h"
+#include "bench/bench_plan.h"
 #include "common/io.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
@@ -23,14 +24,11 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The default preset, smaller for the quick and smoke sizes (same physics, fewer pixels).
+// The default preset, smaller for the quick and smoke sizes (same physics, fewer pixels: the
+// plan bench's scene) and with fewer views.
 synth::Scene BenchScene(const std::string& size) {
-  synth::Scene s = synth::PresetScene("default");
-  if (size == "full") return s;
-  s.camera.width = 640;
-  s.camera.height = 480;
-  s.camera.intrinsics = {550, 550, 319.5, 239.5, -0.12, 0.05, 0.0005, -0.0003, -0.01, 0, 0, 0};
-  s.views.per_ring = size == "smoke" ? 1 : 3;
+  synth::Scene s = PlanBenchScene(size);
+  if (size != "full") s.views.per_ring = size == "smoke" ? 1 : 3;
   return s;
 }
 
