@@ -13,6 +13,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/session.h"
+#include "common/stats.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/tag_board.h"
 #include "estimation/extract.h"
@@ -47,17 +48,6 @@ double StddevOf(const JointFitResult& f, const std::string& name) {
     if (names[k] == name) return f.material.stddev[k].value_or(NAN);
   }
   return NAN;
-}
-
-// Sample standard deviation (n - 1).
-double Stddev(const std::vector<double>& x) {
-  if (x.size() < 2) return NAN;
-  double mean = 0;
-  for (double v : x) mean += v;
-  mean /= x.size();
-  double ss = 0;
-  for (double v : x) ss += (v - mean) * (v - mean);
-  return std::sqrt(ss / (x.size() - 1));
 }
 
 double Mean(const std::vector<double>& x) {
@@ -190,8 +180,9 @@ PlanScatterRow MeasurePlanScatter(const std::string& label, const synth::Scene& 
     row.fit_s += Seconds(start);
     fs::remove_all(dir);
   }
-  const double slx = Stddev(lx), sly = Stddev(ly), slz = Stddev(lz);
-  row.measured = {Stddev(sigma), Stddev(albedo), std::sqrt(slx * slx + sly * sly + slz * slz)};
+  const double slx = SampleStddev(lx), sly = SampleStddev(ly), slz = SampleStddev(lz);
+  row.measured = {SampleStddev(sigma), SampleStddev(albedo),
+                  std::sqrt(slx * slx + sly * sly + slz * slz)};
   row.mean_reported = {Mean(sd_sigma), Mean(sd_albedo), Mean(lamp_sd)};
   spdlog::info(
       "bench plan: {}: sigma scatter {:.3g} (predicted {:.3g}), albedo {:.3g} ({:.3g}), lamp "

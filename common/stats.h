@@ -1,5 +1,6 @@
-// Order statistics used across libraries: one definition of the median and of percentiles, so
-// every report and check computes them the same way (nearest rank, no interpolation).
+// Statistics used across libraries: one definition of the median and of percentiles, so every
+// report and check computes them the same way (nearest rank, no interpolation), and of the
+// sample standard deviation.
 #pragma once
 
 #include <algorithm>
@@ -25,6 +26,17 @@ inline double Median(std::vector<double> v) {
   const size_t mid = v.size() / 2;
   std::nth_element(v.begin(), v.begin() + mid, v.end());
   return v[mid];
+}
+
+// The sample standard deviation (n - 1 in the denominator); NaN for fewer than two values.
+inline double SampleStddev(const std::vector<double>& v) {
+  if (v.size() < 2) return std::nan("");
+  double mean = 0;
+  for (double x : v) mean += x;
+  mean /= v.size();
+  double ss = 0;
+  for (double x : v) ss += (x - mean) * (x - mean);
+  return std::sqrt(ss / (v.size() - 1));
 }
 
 }  // namespace gonio

@@ -103,15 +103,8 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   return out;
 }
 
-double StdDev(const std::vector<double>& v) {
-  if (v.size() < 2) return 0;
-  double mean = 0;
-  for (double x : v) mean += x;
-  mean /= v.size();
-  double ss = 0;
-  for (double x : v) ss += (x - mean) * (x - mean);
-  return std::sqrt(ss / (v.size() - 1));
-}
+// The refits' spread; 0 (nothing added) with fewer than two refits.
+double StdDev(const std::vector<double>& v) { return v.size() < 2 ? 0.0 : SampleStddev(v); }
 
 }  // namespace
 
