@@ -4,7 +4,9 @@
 #include <sys/wait.h>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <iostream>
 #include <random>
 #include <string>
 
@@ -12,7 +14,49 @@
 
 namespace gonio::testing {
 
-inline std::filesystem::path SharedData() { return GONIO_SHARED_DATA_DIR; }
+// The real reference data outside the repository (docs/testing.md "Test data"): the folder
+// named by the environment variable GONIO_TEST_DATA, else the CMake cache's GONIO_TEST_DATA
+// (by default ../shared/data beside the checkout). A test that reads it starts with
+// GONIO_REQUIRE_TEST_DATA(), so it is skipped, not failed, where the folder is absent.
+inline std::filesystem::path TestData() {
+  const char* env = std::getenv("GONIO_TEST_DATA");
+  return (env && *env) ? std::filesystem::path(env)
+                       : std::filesystem::path(GONIO_TEST_DATA_DEFAULT);
+}
+// The old name, kept for branches written before GONIO_TEST_DATA; new tests use TestData().
+inline std::filesystem::path SharedData() { return TestData(); }
+
+// Whether the test data are there; one line on stdout either way, which scripts/test counts in
+// CTest's log ("[gonio test data] Suite.Name used" / "... skipped").
+inline bool NoteTestDataUse() {
+  const std::filesystem::path dir = TestData();
+  std::error_code ec;
+  const bool present = std::filesystem::is_directory(dir, ec);
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string name =
+      info ? std::string(info->test_suite_name()) + "." + info->name() : std::string("?");
+  std::cout << "[gonio test data] " << name << (present ? " used " : " skipped ") << dir.string()
+            << std::endl;
+  return present;
+}
+
+inline std::string TestDataMissing() {
+  return "the real test data are absent: " + TestData().string() +
+         " is not a folder; set GONIO_TEST_DATA to the folder (README.md, \"Test data\")";
+}
+
+}  // namespace gonio::testing
+
+// First statement of a test that reads gonio::testing::TestData(): skips the test (CTest
+// reports it as Skipped) with a reason naming GONIO_TEST_DATA when the folder is absent.
+#define GONIO_REQUIRE_TEST_DATA()                          \
+  do {                                                     \
+    if (!::gonio::testing::NoteTestDataUse()) {            \
+      GTEST_SKIP() << ::gonio::testing::TestDataMissing(); \
+    }                                                      \
+  } while (0)
+
+namespace gonio::testing {
 
 struct CommandResult {
   int exit_code = -1;
@@ -20,11 +64,18 @@ struct CommandResult {
   std::string err;  // stderr
 };
 
+// The gonio executable the CLI tests run: this build's, or GONIO_TEST_BINARY's (to run a new
+// test against another build, e.g. to see it fail on the code before a fix).
+inline std::string GonioBinary() {
+  const char* env = std::getenv("GONIO_TEST_BINARY");
+  return (env && *env) ? std::string(env) : std::string(GONIO_BINARY);
+}
+
 // Runs `gonio ARGS` through the shell; stderr is captured through a temporary file.
 inline CommandResult RunGonio(const std::string& args) {
   const auto err_file = std::filesystem::temp_directory_path() /
                         ("gonio_test_err_" + std::to_string(std::random_device{}()));
-  const std::string cmd = std::string(GONIO_BINARY) + " " + args + " 2>" + err_file.string();
+  const std::string cmd = GonioBinary() + " " + args + " 2>" + err_file.string();
   CommandResult r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) return r;

@@ -18,8 +18,8 @@ namespace {
 using testing::RunGonio;
 namespace fs = std::filesystem;
 
-const fs::path kPhoto = testing::SharedData() / "apriltag/test_36h11.jpg";
-const fs::path kChess = testing::SharedData() / "opencv_chess";
+const fs::path kPhoto = testing::TestData() / "apriltag/test_36h11.jpg";
+const fs::path kChess = testing::TestData() / "opencv_chess";
 
 std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
 
@@ -51,6 +51,7 @@ void ExpectOneLineError(const testing::CommandResult& r, const std::string& need
 }
 
 TEST(DetectCli, AprilTagPhotoAll80IdsInJson) {
+  GONIO_REQUIRE_TEST_DATA();
   const auto r = RunGonio("detect --image " + Q(kPhoto) + " --family tag36h11 --decimate 4");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -66,6 +67,7 @@ TEST(DetectCli, AprilTagPhotoAll80IdsInJson) {
 }
 
 TEST(DetectCli, BadInputIsOneLineExit2) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   WriteFile(dir.path() / "broken.jpg", "not a jpeg");
   ExpectOneLineError(
@@ -81,6 +83,7 @@ TEST(DetectCli, BadInputIsOneLineExit2) {
 }
 
 TEST(CalibrateCli, RefusesASingleView) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   WritePhotoBoard(dir.path() / "board.json");
   ExpectOneLineError(
@@ -93,6 +96,7 @@ TEST(CalibrateCli, RefusesASingleView) {
 
 // A missing output folder is found before detection and calibration, not after them.
 TEST(CalibrateCli, MissingOutputFolderIsRefusedFirst) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   WritePhotoBoard(dir.path() / "board.json");
   const fs::path out = dir.path() / "no-such-folder" / "cam.cameramodel";
@@ -104,6 +108,7 @@ TEST(CalibrateCli, MissingOutputFolderIsRefusedFirst) {
 }
 
 TEST(CalibrateCli, CornersVnlToAModelMrcalReads) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   WriteFile(dir.path() / "board.json",
             R"({"type": "chessboard", "inner_corners": [9, 6], "square_size": 0.025})");
@@ -129,6 +134,7 @@ TEST(CalibrateCli, CornersVnlToAModelMrcalReads) {
 }
 
 TEST(LocateCli, PhotoSessionPosesAndSkipsABlankFrame) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   const fs::path session = dir.path() / "session";
   fs::create_directories(session);

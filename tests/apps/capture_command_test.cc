@@ -1,5 +1,5 @@
 // End-to-end tests of `gonio capture` on a machine without a camera, and of imports from the
-// real data in ../shared/data.
+// real test data (GONIO_TEST_DATA).
 #include <algorithm>
 #include <fstream>
 #include <sstream>
@@ -19,7 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::RunGonio;
-using testing::SharedData;
+using testing::TestData;
 
 size_t Lines(const std::string& text) {
   return static_cast<size_t>(std::count(text.begin(), text.end(), '\n'));
@@ -82,8 +82,9 @@ TEST(CaptureCommand, ArgumentErrorsExitTwo) {
 }
 
 TEST(CaptureCommand, ImportsTheHdrSweepWithItsExposureList) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
-  const fs::path src = SharedData() / "hdr_sweep" / "desktop";
+  const fs::path src = TestData() / "hdr_sweep" / "desktop";
   const fs::path out = dir.path() / "sweep";
   const auto r =
       RunGonio("capture --from-folder " + src.string() +
@@ -112,9 +113,10 @@ TEST(CaptureCommand, ImportsTheHdrSweepWithItsExposureList) {
 }
 
 TEST(CaptureCommand, ImportsExifExposureAndIsoFromTheNikonPhoto) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   const fs::path out = dir.path() / "nikon";
-  const auto r = RunGonio("capture --from-folder " + (SharedData() / "apriltag").string() +
+  const auto r = RunGonio("capture --from-folder " + (TestData() / "apriltag").string() +
                           " --exposures-from EXIF --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const Session s = ReadSession(out);
@@ -126,8 +128,9 @@ TEST(CaptureCommand, ImportsExifExposureAndIsoFromTheNikonPhoto) {
 }
 
 TEST(CaptureCommand, PhotosWithoutExifAreRefusedNamingTheFile) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
-  const auto r = RunGonio("capture --from-folder " + (SharedData() / "opencv_chess").string() +
+  const auto r = RunGonio("capture --from-folder " + (TestData() / "opencv_chess").string() +
                           " --exposures-from EXIF --out " + (dir.path() / "s").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(Lines(r.err), 1u) << r.err;

@@ -18,7 +18,7 @@ std::vector<BoardObservation> ChessViews(const Board& board) {
   for (const char* name : {"left01.jpg", "left02.jpg", "left03.jpg", "left04.jpg", "left05.jpg",
                            "left06.jpg", "left07.jpg", "left08.jpg", "left09.jpg", "left11.jpg",
                            "left12.jpg", "left13.jpg", "left14.jpg"}) {
-    const cv::Mat img = ReadGreyImage(testing::SharedData() / "opencv_chess" / name);
+    const cv::Mat img = ReadGreyImage(testing::TestData() / "opencv_chess" / name);
     views.push_back(DetectBoard(img, board, AprilTagOptions(), name));
   }
   return views;
@@ -46,6 +46,7 @@ void ExpectNearOpenCvReference(const CalibrationResult& r) {
 
 // OpenCV's reference used 5 distortion terms: LENSMODEL_OPENCV5 is the same model.
 TEST(Calibrate, RealChessboardMrcalMatchesOpenCvReference) {
+  GONIO_REQUIRE_TEST_DATA();
   const Board board = Chessboard();
   CalibrationOptions opt;
   opt.lens_model = "LENSMODEL_OPENCV5";
@@ -60,6 +61,7 @@ TEST(Calibrate, RealChessboardMrcalMatchesOpenCvReference) {
 }
 
 TEST(Calibrate, RealChessboardOpenCvSolverReproducesReference) {
+  GONIO_REQUIRE_TEST_DATA();
   const Board board = Chessboard();
   CalibrationOptions opt;
   opt.solver = "opencv";
@@ -71,6 +73,7 @@ TEST(Calibrate, RealChessboardOpenCvSolverReproducesReference) {
 }
 
 TEST(Calibrate, RefusesWhatTheDataCannotConstrain) {
+  GONIO_REQUIRE_TEST_DATA();
   const Board board = Chessboard();
   std::vector<BoardObservation> views = ChessViews(board);
   views.resize(2);

@@ -66,7 +66,8 @@ TEST(DetectAprilTags, CornerOrderAndPixelCentreConvention) {
 }
 
 TEST(DetectAprilTags, RealPhotoFindsAll80Ids) {
-  const cv::Mat img = ReadGreyImage(testing::SharedData() / "apriltag/test_36h11.jpg");
+  GONIO_REQUIRE_TEST_DATA();
+  const cv::Mat img = ReadGreyImage(testing::TestData() / "apriltag/test_36h11.jpg");
   AprilTagOptions opt;
   opt.decimate = 4.0;
   opt.threads = 2;
@@ -81,13 +82,14 @@ TEST(DetectAprilTags, RealPhotoFindsAll80Ids) {
 }
 
 TEST(DetectBoard, RealChessboardsAllFound) {
+  GONIO_REQUIRE_TEST_DATA();
   const Board board = Board::FromJson(
       {{"type", "chessboard"}, {"inner_corners", {9, 6}}, {"square_size", 0.025}}, "test");
   int found = 0;
   for (const char* name : {"left01.jpg", "left02.jpg", "left03.jpg", "left04.jpg", "left05.jpg",
                            "left06.jpg", "left07.jpg", "left08.jpg", "left09.jpg", "left11.jpg",
                            "left12.jpg", "left13.jpg", "left14.jpg"}) {
-    const cv::Mat img = ReadGreyImage(testing::SharedData() / "opencv_chess" / name);
+    const cv::Mat img = ReadGreyImage(testing::TestData() / "opencv_chess" / name);
     const auto obs = DetectBoard(img, board, AprilTagOptions(), name);
     if (obs.pixels.size() == 54u) ++found;
   }
@@ -143,7 +145,8 @@ namespace {
 // sweep): the real tag photo's values mapped to 0..511. Divided by 256 it would reach
 // libapriltag with two grey levels and no tag; scaled by its own bright level every id is found.
 TEST(GreyForDetection, DarkTwelveBitFrameKeepsEveryTag) {
-  const cv::Mat eight = ReadGreyImage(testing::SharedData() / "apriltag/test_36h11.jpg");
+  GONIO_REQUIRE_TEST_DATA();
+  const cv::Mat eight = ReadGreyImage(testing::TestData() / "apriltag/test_36h11.jpg");
   cv::Mat twelve;
   eight.convertTo(twelve, CV_16U, 511.0 / 255.0);
   AprilTagOptions opt;

@@ -102,6 +102,7 @@ TEST(EstimateBoardPose, SyntheticChessboard) {
 }
 
 TEST(EstimateBoardPose, RealChessboardsWithTheirCalibration) {
+  GONIO_REQUIRE_TEST_DATA();
   // Each OpenCV photo posed through the camera calibrated from all of them: the residuals are
   // the detector's (OpenCV's calibration RMS is 0.39 px).
   const Board board = Board::FromJson(
@@ -110,7 +111,7 @@ TEST(EstimateBoardPose, RealChessboardsWithTheirCalibration) {
   for (const char* name : {"left01.jpg", "left02.jpg", "left03.jpg", "left04.jpg", "left05.jpg",
                            "left06.jpg", "left07.jpg", "left08.jpg", "left09.jpg", "left11.jpg",
                            "left12.jpg", "left13.jpg", "left14.jpg"}) {
-    views.push_back(DetectBoard(ReadGreyImage(testing::SharedData() / "opencv_chess" / name), board,
+    views.push_back(DetectBoard(ReadGreyImage(testing::TestData() / "opencv_chess" / name), board,
                                 AprilTagOptions(), name));
   }
   CalibrationOptions opt;
@@ -180,7 +181,8 @@ BoardPose PhotoPose(double pitch_in_tag_widths, const cv::Mat& img) {
 }
 
 TEST(EstimateBoardPose, RealAprilTagPhotoWithGridLayout) {
-  const cv::Mat img = ReadGreyImage(testing::SharedData() / "apriltag/test_36h11.jpg");
+  GONIO_REQUIRE_TEST_DATA();
+  const cv::Mat img = ReadGreyImage(testing::TestData() / "apriltag/test_36h11.jpg");
   const BoardPose readme = PhotoPose(1.2, img);
   EXPECT_EQ(readme.num_points, 320);
   // The board is in front, facing the camera (board z points away from it), seen in

@@ -17,11 +17,12 @@ namespace {
 
 using testing::RunGonio;
 
-std::string SweepDir() { return (testing::SharedData() / "hdr_sweep" / "desktop").string(); }
+std::string SweepDir() { return (testing::TestData() / "hdr_sweep" / "desktop").string(); }
 
 // Real sweep: the frames listed as 32..2 s are not what their brightness says (the issue's
 // warning); gonio must notice, and on what it uses, neighbouring exposures must agree.
 TEST(ResponseReal, DesktopSweepFlagsWrongExposuresAndLinearizesWithin3Percent) {
+  GONIO_REQUIRE_TEST_DATA();
   const auto frames = LoadExposureSweep(SweepDir(), SweepDir() + "/image_list.txt");
   ASSERT_EQ(frames.size(), 13u);
   const ResponseResult r = CalibrateResponse(frames, {});
@@ -49,7 +50,7 @@ TEST(ResponseReal, DesktopSweepFlagsWrongExposuresAndLinearizesWithin3Percent) {
 // (OpenCV's methods take no mask; their sampled pixels may fall there). `trusted` restricts
 // the desktop sweep to the seven frames whose listed times gonio confirms.
 std::vector<MethodConsistency> Compare(const std::string& sweep, bool mask_blue, int first = 0) {
-  const std::string dir = (testing::SharedData() / "hdr_sweep" / sweep).string();
+  const std::string dir = (testing::TestData() / "hdr_sweep" / sweep).string();
   auto frames = LoadExposureSweep(dir, dir + "/image_list.txt");
   frames.erase(frames.begin(), frames.begin() + first);
   if (mask_blue) MaskColour(cv::Scalar(255, 0, 0), &frames);
@@ -64,6 +65,7 @@ std::vector<MethodConsistency> Compare(const std::string& sweep, bool mask_blue,
 }
 
 TEST(ResponseReal, DesktopAtOrBelowDebevec) {
+  GONIO_REQUIRE_TEST_DATA();
   for (int first : {0, 6}) {
     const auto m = Compare("desktop", false, first);
     EXPECT_LE(m[0].consistency.median_pair, m[1].consistency.median_pair);
@@ -78,6 +80,7 @@ TEST(ResponseReal, DesktopAtOrBelowDebevec) {
 // own figure 24.0-28.5 % over sample counts and placements (docs/photometric.md, "The Memorial
 // worst pair"). Hence the allowance of 0.5 points, under one standard deviation of the gap (0.7).
 TEST(ResponseReal, MemorialMedianPairBelowDebevec) {
+  GONIO_REQUIRE_TEST_DATA();
   const auto m = Compare("memorial", true);
   EXPECT_LE(m[0].consistency.median_pair, m[1].consistency.median_pair);
   EXPECT_LE(m[0].consistency.worst_pair, m[1].consistency.worst_pair + 0.005);
@@ -243,6 +246,7 @@ TEST(ResponseJson, RoundTripAndValidation) {
 }
 
 TEST(ResponseCli, RealSweepWritesJsonAndPlot) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   const auto out = dir.path() / "response.json";
   const auto r = RunGonio("photometric response --sweep " + SweepDir() + " --out " + out.string());
@@ -256,6 +260,7 @@ TEST(ResponseCli, RealSweepWritesJsonAndPlot) {
 }
 
 TEST(ResponseCli, BadSweepsExitTwo) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   // One exposure.
   std::ofstream(dir.path() / "one.txt") << "DSC_0110.png 0.5\n";

@@ -13,10 +13,11 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(Exif, ReadsExposureTimeFromTheNikonPhoto) {
+  GONIO_REQUIRE_TEST_DATA();
   // apriltag/test_36h11.jpg was taken with a Nikon D80 and keeps its EXIF block. The expected
   // values were read with an independent parser (Python struct walking the TIFF IFDs):
   // ExposureTime 1/160 s, ISOSpeedRatings 1250, DateTimeOriginal 2015:09:01 17:51:23.
-  const ExifExposure exif = ReadExif(testing::SharedData() / "apriltag" / "test_36h11.jpg");
+  const ExifExposure exif = ReadExif(testing::TestData() / "apriltag" / "test_36h11.jpg");
   ASSERT_TRUE(exif.exposure_s.has_value());
   EXPECT_DOUBLE_EQ(*exif.exposure_s, 1.0 / 160.0);
   ASSERT_TRUE(exif.iso.has_value());
@@ -27,10 +28,11 @@ TEST(Exif, ReadsExposureTimeFromTheNikonPhoto) {
 }
 
 TEST(Exif, PhotosWithoutExifGiveNothingAndMissingFilesAnError) {
+  GONIO_REQUIRE_TEST_DATA();
   const ExifExposure exif =
-      ReadExif(testing::SharedData() / "hdr_sweep" / "desktop" / "DSC_0104.png");
+      ReadExif(testing::TestData() / "hdr_sweep" / "desktop" / "DSC_0104.png");
   EXPECT_FALSE(exif.exposure_s.has_value());
-  const fs::path missing = testing::SharedData() / "nope.jpg";
+  const fs::path missing = testing::TestData() / "nope.jpg";
   try {
     ReadExif(missing);
     FAIL();
@@ -40,7 +42,8 @@ TEST(Exif, PhotosWithoutExifGiveNothingAndMissingFilesAnError) {
 }
 
 TEST(ExposureList, ReadsTheHdrSweepList) {
-  const fs::path dir = testing::SharedData() / "hdr_sweep" / "desktop";
+  GONIO_REQUIRE_TEST_DATA();
+  const fs::path dir = testing::TestData() / "hdr_sweep" / "desktop";
   const auto list = ReadExposureList(dir / "image_list.txt", dir);
   ASSERT_EQ(list.size(), 13u);
   EXPECT_EQ(list.front().file.filename(), "DSC_0104.png");
@@ -76,7 +79,8 @@ TEST(ExposureList, BadListsNameTheLine) {
 }
 
 TEST(FolderSource, DeliversImagesUnchangedWithTheirExposures) {
-  const fs::path dir = testing::SharedData() / "hdr_sweep" / "desktop";
+  GONIO_REQUIRE_TEST_DATA();
+  const fs::path dir = testing::TestData() / "hdr_sweep" / "desktop";
   FolderSource source(
       "folder:test", "analogue",
       {{dir / "DSC_0110.png", 0.5, 1.0, 0.0}, {dir / "DSC_0111.png", 0.25, 1.0, 1.0}});
@@ -91,10 +95,11 @@ TEST(FolderSource, DeliversImagesUnchangedWithTheirExposures) {
 }
 
 TEST(ListImages, FindsImagesSortedByName) {
-  const auto images = ListImages(testing::SharedData() / "hdr_sweep" / "desktop");
+  GONIO_REQUIRE_TEST_DATA();
+  const auto images = ListImages(testing::TestData() / "hdr_sweep" / "desktop");
   ASSERT_EQ(images.size(), 13u);
   EXPECT_EQ(images.front().filename(), "DSC_0104.png");
-  EXPECT_THROW(ListImages(testing::SharedData() / "no_such_folder"), InputError);
+  EXPECT_THROW(ListImages(testing::TestData() / "no_such_folder"), InputError);
 }
 
 }  // namespace

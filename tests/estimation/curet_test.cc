@@ -1,4 +1,5 @@
-// Real measured BRDFs (CURET, ../shared/data/curet): relative scale, 205 geometries each.
+// Real measured BRDFs (CURET, curet/ in the test data, GONIO_TEST_DATA): relative scale, 205
+// geometries each.
 #include <cmath>
 #include <set>
 
@@ -14,7 +15,7 @@ namespace gonio {
 namespace {
 
 std::vector<BrdfSample> Curet(const std::string& sample) {
-  const CsvTable csv = CsvTable::Read(testing::SharedData() / "curet" / "curet_subset.csv");
+  const CsvTable csv = CsvTable::Read(testing::TestData() / "curet" / "curet_subset.csv");
   BrdfTableOptions o;
   o.sample = sample;
   return LoadBrdfTable(csv, o).samples;
@@ -24,6 +25,7 @@ std::vector<BrdfSample> Curet(const std::string& sample) {
 // be a rough-diffuse model (Oren-Nayar body, with or without a weak lobe), never Lambert, with
 // rel_rms <= 0.06 and sigma between 15 and 35 deg.
 TEST(Curet, PlasterSelectsRoughDiffuse) {
+  GONIO_REQUIRE_TEST_DATA();
   ModelSelectionOptions o;
   o.fit.relative_scale = true;
   const auto sel = SelectModel(Curet("10"), o);
@@ -45,6 +47,7 @@ TEST(Curet, PlasterSelectsRoughDiffuse) {
 // Every sample: the cheap candidates converge with finite figures, and a model with a rough
 // body always beats Lambert on these rough, real materials (rel_rms figures in docs/curet.md).
 TEST(Curet, EverySampleFitsAndRoughBeatsLambert) {
+  GONIO_REQUIRE_TEST_DATA();
   for (const char* id : {"1", "6", "10", "12", "20", "28", "37", "45"}) {
     ModelSelectionOptions o;
     o.fit.relative_scale = true;

@@ -13,9 +13,10 @@ namespace {
 
 using testing::RunGonio;
 
-std::string Curet() { return (testing::SharedData() / "curet" / "curet_subset.csv").string(); }
+std::string Curet() { return (testing::TestData() / "curet" / "curet_subset.csv").string(); }
 
 TEST(FitTableCli, CuretSampleWritesFitJsonAndPlots) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   const auto out = dir.path() / "fit.json";
   const auto r =
@@ -30,6 +31,7 @@ TEST(FitTableCli, CuretSampleWritesFitJsonAndPlots) {
 }
 
 TEST(FitTableCli, TableWithSeveralSamplesNeedsSample) {
+  GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   const auto r =
       RunGonio("fit-table --table " + Curet() + " --out " + (dir.path() / "f.json").string());
