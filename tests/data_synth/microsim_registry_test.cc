@@ -64,7 +64,7 @@ TEST(MicrosimVsRegistry, FlatPitsMatchLambertModel) {
 }
 
 TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
-  if (!HasModel("pitted")) GTEST_SKIP() << "model 'pitted' is not registered yet";
+  ASSERT_TRUE(HasModel("pitted"));
   PitsOptions o;
   o.aperture = kHalfPi;
   o.coverage = 1.0;
@@ -88,9 +88,7 @@ TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
 }
 
 TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
-  if (!HasModel("oren-nayar-vcavity")) {
-    GTEST_SKIP() << "model 'oren-nayar-vcavity' is not registered yet";
-  }
+  ASSERT_TRUE(HasModel("oren-nayar-vcavity"));
   // Records the differences: the model is eq. 25 over eq. 24 (single scattering, which
   // the simulator reproduces exactly, see microsim_test) plus the two-bounce approximation of
   // eq. 49; the simulator gives the exact two-bounce value (--bounces 2) and all bounces.
