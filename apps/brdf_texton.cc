@@ -4,11 +4,11 @@
 #include <filesystem>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "reflectance/pitted_texton.h"
@@ -63,8 +63,7 @@ void RunTexton(const TextonArgs& args) {
       image.at<uint16_t>(row, col) = static_cast<uint16_t>(std::lround(65535.0 * v));
     }
   }
-  WriteAtomically(args.out_png,
-                  [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
+  WriteImage(args.out_png, image);
 
   // The model's own value for comparison: the pit alone (coverage 1) is what the pixels mean.
   std::vector<double> pit_only = params;

@@ -7,7 +7,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "apps/cli_util.h"
@@ -17,6 +16,7 @@
 #include "calib/response.h"
 #include "calib/vignette.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/plot.h"
 #include "common/session.h"
@@ -128,19 +128,18 @@ void RunResponse(const ResponseArgs& args) {
   std::cout << r.Report();
 }
 
-cv::Mat ReadRaw(const fs::path& file) {
-  if (!fs::exists(file)) throw InputError(file.string() + ": no such file");
-  cv::Mat m = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty()) throw InputError(file.string() + ": not a readable image");
-  if (m.depth() != CV_8U && m.depth() != CV_16U) {
-    throw InputError(file.string() + ": pixel values must be 8- or 16-bit integers");
-  }
-  return m;
-}
-
-void WriteImage(const fs::path& path, const cv::Mat& m) {
-  if (path.has_parent_path()) EnsureDirectory(path.parent_path());
-  WriteAtomically(path, [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
+// A camera frame to convert with `calib` (read from `calib_what`): its container and values
+// against the calibration's bit depth, its channels and the vignetting map's size.
+cv::Mat ReadFrame(const fs::path& file, const PhotometricCalibration& calib,
+                  const std::string& calib_what) {
+  ImageExpectation expect;
+  expect.bit_depth = calib.response.bit_depth;
+  expect.bit_depth_of = "the photometric calibration " + calib_what;
+  expect.channels = calib.response.channels;
+  expect.channels_of = "the photometric calibration " + calib_what;
+  expect.size = calib.vignette.size();
+  expect.size_of = "the vignetting map " + calib.vignette_file.string();
+  return ReadImage(file, expect);
 }
 
 struct VignetteArgs {
@@ -180,7 +179,7 @@ void RunVignette(VignetteArgs& args) {
     if (it == poses.end()) continue;  // no pose (gonio locate skipped it)
     VignetteFrame f;
     f.file = sf.file;
-    f.image = ReadRaw(session.FramePath(i));
+    f.image = ReadFrame(session.FramePath(i), calib, args.response);
     f.exposure_s = sf.exposure_s;
     f.gain = sf.gain;
     f.cam_from_board = it->second;
@@ -196,6 +195,7 @@ void RunVignette(VignetteArgs& args) {
   } catch (const InputError& e) {
     throw InputError(args.session + ": " + e.what());  // which session the frames came from
   }
+  if (fs::path(args.out).has_parent_path()) EnsureDirectory(fs::path(args.out).parent_path());
   WriteImage(args.out, r.map);
   // Visualisation: V in [0.5, 1] stretched to 8 bits.
   cv::Mat vis;
@@ -242,14 +242,12 @@ struct ApplyArgs {
 
 void RunApply(const ApplyArgs& args) {
   const PhotometricCalibration calib = PhotometricCalibration::Read(args.photometric);
-  const cv::Mat raw = ReadRaw(args.image);
-  if (!calib.vignette.empty() && calib.vignette.size() != raw.size()) {
-    throw InputError(fmt::format("{}: image is {}x{}, the vignetting map of {} {}x{}", args.image,
-                                 raw.cols, raw.rows, args.photometric, calib.vignette.cols,
-                                 calib.vignette.rows));
-  }
+  const cv::Mat raw = ReadFrame(args.image, calib, args.photometric);
   cv::Mat radiance, variance, valid;
   calib.ToRadiance(raw, args.exposure_s, args.gain, &radiance, &variance, &valid);
+  for (const fs::path& out : {fs::path(args.out), fs::path(args.variance)}) {
+    if (out.has_parent_path()) EnsureDirectory(out.parent_path());
+  }
   WriteImage(args.out, radiance);
   if (!args.variance.empty()) WriteImage(args.variance, variance);
   std::cout << fmt::format("{}: {:.1f}% of the pixels valid (not saturated, above black)\n",
@@ -279,7 +277,7 @@ void RunHdr(const HdrArgs& args) {
     for (size_t i : members) {
       HdrFrame f;
       f.file = session.frames[i].file;
-      f.raw = ReadRaw(session.FramePath(i));
+      f.raw = ReadFrame(session.FramePath(i), calib, args.photometric);
       f.exposure_s = session.frames[i].exposure_s;
       f.gain = session.frames[i].gain;
       sources.push_back(f.file);

@@ -4,11 +4,11 @@
 #include <memory>
 #include <optional>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "apps/cli_util.h"
 #include "apps/commands.h"
 #include "common/error.h"
+#include "common/image_io.h"
+#include "common/io.h"
 #include "common/log.h"
 #include "estimation/sfs.h"
 #include "estimation/sfs_io.h"
@@ -38,31 +38,37 @@ void RunSfs(const SfsArgs& args) {
   if (!args.input.empty()) paths.FillFromFolder(args.input);
   SfsInput input = LoadSfsInput(paths, args.options.reflectance);
   if (!args.init_depth.empty()) {
-    const cv::Mat d = cv::imread(args.init_depth, cv::IMREAD_UNCHANGED);
-    if (d.empty() || d.channels() != 1 || d.size() != input.problem.radiance.size()) {
-      throw InputError("--init-depth: " + args.init_depth +
-                       " is not a one-channel depth map of the image's size");
-    }
-    d.convertTo(input.problem.initial_depth, CV_64F);
+    ImageExpectation expect;
+    expect.pixels = ImageExpectation::Pixels::kAny;
+    expect.channels = 1;
+    expect.channels_of = "a depth map (--init-depth)";
+    expect.size = input.problem.radiance.size();
+    expect.size_of = "the image " + input.image_path;
+    ReadImage(args.init_depth, expect).convertTo(input.problem.initial_depth, CV_64F);
   }
   const SfsResult result = SolveSfs(input.problem, args.options);
   spdlog::info("{}", result.Report());
   const auto truth = CompareWithTruth(paths.truth_dir, input, result);
   std::optional<SfsLambertComparison> comparison;
+  std::optional<SfsInput> lambert_input;
   if (args.compare_lambert && args.options.reflectance == "material") {
-    SfsInput lambert_input = input;
-    lambert_input.problem.absolute = false;  // k is the Lambertian albedo, from the image
+    lambert_input = input;
+    lambert_input->problem.absolute = false;  // k is the Lambertian albedo, from the image
     SfsOptions lambert_options = args.options;
     lambert_options.reflectance = "lambert";
     comparison.emplace();
-    comparison->lambert = SolveSfs(lambert_input.problem, lambert_options);
+    comparison->lambert = SolveSfs(lambert_input->problem, lambert_options);
     spdlog::info("{}", comparison->lambert.Report());
-    comparison->truth = CompareWithTruth(paths.truth_dir, lambert_input, comparison->lambert);
-    WriteSfsOutputs(fs::path(args.out) / "lambert", lambert_input, comparison->lambert,
+    comparison->truth = CompareWithTruth(paths.truth_dir, *lambert_input, comparison->lambert);
+  }
+  FolderTransaction folder(args.out, "sfs.json");
+  if (comparison) {
+    WriteSfsOutputs(folder.tmp() / "lambert", *lambert_input, comparison->lambert,
                     comparison->truth);
   }
   nlohmann::json j =
-      WriteSfsOutputs(args.out, input, result, truth, comparison ? &*comparison : nullptr);
+      WriteSfsOutputs(folder.tmp(), input, result, truth, comparison ? &*comparison : nullptr);
+  folder.Commit();
   j.erase("provenance");
   j["out"] = args.out;
   PrintJson(j);

@@ -7,10 +7,10 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "bench/bench_internal.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/session.h"
 #include "common/stats.h"
@@ -70,10 +70,12 @@ JointFitResult FitRendered(const fs::path& dir, const synth::Scene& scene, int t
   eo.patch = RunOptions().extract.patch;
   eo.threads = threads;
   ObservationExtractor extractor(session.frames, camera, board, photometric, eo);
+  const ImageExpectation expect =
+      FrameExpectation(session, photometric, "the renderer's calibration", &camera, "the scene");
   for (size_t f = 0; f < session.frames.size(); ++f) {
-    const std::string path = session.FramePath(f).string();
-    extractor.AddFrame(f, cv::imread(path, cv::IMREAD_UNCHANGED),
-                       RigidFromJson(truth.at("frames").at(f).at("cam_from_board")), path);
+    extractor.AddFrame(f, ReadImage(session.FramePath(f), expect),
+                       RigidFromJson(truth.at("frames").at(f).at("cam_from_board")),
+                       session.FramePath(f).string());
   }
   const ObservationSet set = extractor.Finish(dir.string());
   JointFitOptions fo;

@@ -1,6 +1,7 @@
 #include "calib/detect.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -20,10 +21,10 @@
 #include <apriltag/tagStandard52h13.h>
 #include <fmt/format.h>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/stats.h"
 
 namespace gonio {
@@ -66,12 +67,9 @@ void AprilTagOptions::Check() const {
 }
 
 cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth) {
-  if (!std::filesystem::is_regular_file(path)) {
-    throw InputError(path.string() + ": no such image file");
-  }
-  const cv::Mat img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  if (img.empty()) throw InputError(path.string() + ": not a readable image");
-  return GreyForDetection(img, bit_depth);
+  ImageExpectation expect;
+  expect.bit_depth = bit_depth;
+  return GreyForDetection(ReadImage(path, expect), bit_depth);
 }
 
 cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth) {
@@ -138,8 +136,15 @@ std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOpt
   return out;
 }
 
+namespace {
+std::atomic<size_t> board_detections{0};
+}  // namespace
+
+size_t BoardDetectionCount() { return board_detections.load(); }
+
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name) {
+  ++board_detections;
   BoardObservation obs;
   obs.image = image_name;
   obs.width = grey.cols;

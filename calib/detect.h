@@ -70,6 +70,10 @@ struct BoardObservation {
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name);
 
+// DetectBoard calls in this process so far: tests compare it before and after a run to count
+// the detections of each frame (docs/pipeline.md).
+size_t BoardDetectionCount();
+
 // mrcal's corners.vnl ("# filename x y level"): per image, the board's mrcal grid row-major;
 // points not seen get "- - -" (mrcal skips them); an image with no board gets one
 // "filename - - -" row. Level 0 = full-resolution corner (weight 1).

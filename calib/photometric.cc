@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include <opencv2/imgcodecs.hpp>
+#include <fmt/format.h>
 
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 
 namespace gonio {
@@ -38,7 +39,8 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
                      " channels, the photometric calibration " + std::to_string(response.channels));
   }
   if (!vignette.empty() && vignette.size() != raw.size()) {
-    throw InputError("image size differs from the vignetting map's");
+    throw InputError(fmt::format("image is {}x{}, the vignetting map {} is {}x{}", raw.cols,
+                                 raw.rows, vignette_file.string(), vignette.cols, vignette.rows));
   }
   if (!(exposure_s > 0) || !(gain > 0)) throw InputError("exposure and gain must be > 0");
   const double max_value = (1 << response.bit_depth) - 1.0;
@@ -134,10 +136,12 @@ PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path&
       throw InputError(path.string() + ": 'vignette' must be a file name or null");
     }
     const auto file = path.parent_path() / j["vignette"].get<std::string>();
-    p.vignette = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-    if (p.vignette.empty() || p.vignette.type() != CV_32F) {
-      throw InputError(file.string() + ": not a 32-bit float single-channel TIFF");
-    }
+    ImageExpectation expect;
+    expect.pixels = ImageExpectation::Pixels::kFloat;
+    expect.channels = 1;
+    expect.channels_of = "a vignetting map";
+    p.vignette = ReadImage(file, expect);
+    p.vignette_file = file;
     // V(x) divides the radiance: zeros, negatives, NaN or Inf would give Inf/NaN radiance.
     double lo = 0, hi = 0;
     if (!cv::checkRange(p.vignette)) {
@@ -167,9 +171,7 @@ void PhotometricCalibration::Write(const std::filesystem::path& path) const {
       relative_accuracy ? nlohmann::json(*relative_accuracy) : nlohmann::json();
   if (!vignette.empty()) {
     const std::string name = path.stem().string() + "_vignette.tiff";
-    WriteAtomically(path.parent_path() / name, [&](const std::filesystem::path& tmp) {
-      return cv::imwrite(tmp.string(), vignette);
-    });
+    WriteImage(path.parent_path() / name, vignette);
     j["vignette"] = name;
   } else {
     j["vignette"] = nullptr;

@@ -20,6 +20,7 @@ namespace gonio {
 struct PhotometricCalibration {
   ResponseResult response;
   cv::Mat vignette;  // CV_32F, image size, V(pixel) (1 = no fall-off); empty: none
+  std::filesystem::path vignette_file;  // where Read found the map, for messages
   double read_noise_dn = 0.5;
   std::optional<double> electrons_per_dn;  // shot noise when known
   // The calibration's own 1-sigma relative radiance error (response and vignetting combined,

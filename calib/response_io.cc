@@ -6,23 +6,21 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "calib/response.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/session.h"
 
 namespace gonio {
 namespace {
 
-// One image of a sweep (frame or dark frame) as stored; 4 channels lose their alpha.
-// InputError naming the file when it cannot be read.
+// One image of a sweep (frame or dark frame) as stored, 8- or 16-bit; 4 channels lose their
+// alpha. InputError naming the file when it cannot be read.
 cv::Mat ReadSweepImage(const std::string& path) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw InputError(path + ": not an image");
-  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
-  return image;
+  ImageExpectation expect;
+  expect.alpha = ImageExpectation::Alpha::kDrop;
+  return ReadImage(path, expect);
 }
 
 }  // namespace
@@ -46,9 +44,6 @@ std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::
     }
     const std::string path = dir + "/" + f.file;
     f.image = ReadSweepImage(path);
-    if (f.image.depth() != CV_8U && f.image.depth() != CV_16U) {
-      throw InputError(path + ": only 8- and 16-bit images are supported");
-    }
     if (!frames.empty() &&
         (f.image.size() != frames[0].image.size() || f.image.type() != frames[0].image.type())) {
       throw InputError(path + ": size or type differs from " + frames[0].file);

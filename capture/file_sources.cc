@@ -9,11 +9,11 @@
 #include <sstream>
 
 #include <libexif/exif-data.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "capture/bracket.h"
 #include "capture/raw_file.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/session.h"
 
 namespace fs = std::filesystem;
@@ -155,15 +155,9 @@ std::optional<CapturedFrame> FolderSource::Grab() {
   if (next_ >= frames_.size()) return std::nullopt;
   const FolderFrame& f = frames_[next_++];
   CapturedFrame frame;
-  frame.image =
-      IsRawFile(f.file) ? ReadRaw(f.file).bgr : cv::imread(f.file.string(), cv::IMREAD_UNCHANGED);
-  if (frame.image.empty()) throw InputError(f.file.string() + ": not a readable image");
-  if (frame.image.depth() != CV_8U && frame.image.depth() != CV_16U) {
-    throw InputError(f.file.string() + ": only 8- and 16-bit images are supported");
-  }
-  if (frame.image.channels() == 4) {
-    throw InputError(f.file.string() + ": has an alpha channel; photos must be grey or RGB");
-  }
+  ImageExpectation expect;
+  expect.alpha = ImageExpectation::Alpha::kRefuse;
+  frame.image = IsRawFile(f.file) ? ReadRaw(f.file).bgr : ReadImage(f.file, expect);
   frame.exposure_s = f.exposure_s;
   frame.gain = f.gain;
   frame.timestamp_s = f.timestamp_s;

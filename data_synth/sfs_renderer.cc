@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "common/parallel.h"
@@ -372,8 +373,7 @@ void WriteSfsFiles(const Scene& scene, const Shape& shape, const Material& mater
                    const PhotometricChain& chain, const SfsImages& images,
                    const fs::path& out_dir) {
   auto write_image = [&](const std::string& name, const cv::Mat& m) {
-    WriteAtomically(out_dir / name,
-                    [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
+    WriteImage(out_dir / name, m);
   };
   write_image("image.png", images.image);
   write_image("mask.png", images.mask);

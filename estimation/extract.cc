@@ -8,7 +8,6 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <Eigen/Geometry>
-#include <opencv2/imgcodecs.hpp>
 
 #include "common/error.h"
 #include "common/io.h"
@@ -125,6 +124,23 @@ void BoundPatchLoop(const CameraModel& camera, const std::vector<Region>& region
   g->u1 = std::min(camera.width - patch, static_cast<int>(umax) + 2);
   g->v0 = std::max(0, static_cast<int>(vmin) - 2);
   g->v1 = std::min(camera.height - patch, static_cast<int>(vmax) + 2);
+}
+
+// Whether a region's projection overlaps the image at all (the box of its corners in front of
+// the camera against the image).
+template <typename Region>
+bool RegionInView(const CameraModel& camera, const Region& r, const Rigid3d& cam_from_board) {
+  double umin = INFINITY, umax = -INFINITY, vmin = INFINITY, vmax = -INFINITY;
+  for (const auto& q : *r.polygon) {
+    const Eigen::Vector3d p_in_cam = cam_from_board * Eigen::Vector3d(q.x(), q.y(), r.z);
+    if (p_in_cam.z() <= 0) continue;
+    const Eigen::Vector2d px = camera.Project(p_in_cam);
+    umin = std::min(umin, px.x());
+    umax = std::max(umax, px.x());
+    vmin = std::min(vmin, px.y());
+    vmax = std::max(vmax, px.y());
+  }
+  return umax >= 0 && umin < camera.width && vmax >= 0 && vmin < camera.height;
 }
 
 // What every patch of every frame shares.
@@ -303,6 +319,7 @@ void ObservationExtractor::AddFrame(size_t f, const cv::Mat& raw, const Rigid3d&
   const double footprint = g.board_from_cam.t.norm() / camera_.intrinsics[0];
   g.margin = options_.edge_margin_px * footprint * options_.patch;
   BoundPatchLoop(camera_, regions_, options_.patch, &g);
+  sample_in_view_ += RegionInView(camera_, regions_[0], cam_from_board);
 
   FrameImages im;
   photometric_.ToRadiance(raw, frames_[f].exposure_s, frames_[f].gain, &im.radiance, &im.variance,
@@ -353,6 +370,13 @@ ObservationSet ObservationExtractor::Finish(const std::string& what) {
   }
   size_t sample = 0;
   for (const auto& o : set_.observations) sample += !o.white;
+  if (sample == 0 && sample_in_view_ == 0) {
+    throw InputError(fmt::format(
+        "{}: the sample_region is in the view of no located frame (its corners project outside "
+        "every image); does it lie on the board, in metres in the board's frame "
+        "(docs/formats.md)?",
+        board_.source_name()));
+  }
   if (sample == 0) {
     throw InputError(fmt::format("{}: no usable sample pixel (saturated {}, dark {}, on tags {})",
                                  what, saturated_, dark_, tag_));
@@ -374,25 +398,49 @@ ObservationSet ObservationExtractor::Finish(const std::string& what) {
   return std::move(set_);
 }
 
+ImageExpectation FrameExpectation(const Session& session, const PhotometricCalibration& photometric,
+                                  const std::string& photometric_what, const CameraModel* camera,
+                                  const std::string& camera_what) {
+  ImageExpectation e;
+  const bool stated = session.bit_depth > 0;
+  e.bit_depth = stated ? session.bit_depth : photometric.response.bit_depth;
+  e.bit_depth_of = stated ? (session.dir / "session.json").string() : photometric_what;
+  e.channels = photometric.response.channels;
+  e.channels_of = photometric_what;
+  const cv::Size vignette = photometric.vignette.size();
+  const std::string vignette_what = photometric.vignette_file.string();
+  if (camera) {
+    e.size = cv::Size(camera->width, camera->height);
+    e.size_of = camera_what;
+    if (!photometric.vignette.empty() && vignette != e.size) {
+      throw InputError(fmt::format("{}: the vignetting map is {}x{}, {} is {}x{}", vignette_what,
+                                   vignette.width, vignette.height, camera_what, e.size.width,
+                                   e.size.height));
+    }
+  } else if (!photometric.vignette.empty()) {
+    e.size = vignette;
+    e.size_of = "the vignetting map " + vignette_what;
+  }
+  return e;
+}
+
 ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
                                    const CameraModel& camera, const Board& board,
                                    const std::map<std::string, Rigid3d>& poses,
                                    const PhotometricCalibration& photometric,
                                    const ExtractOptions& options) {
   const Session session = ReadSession(session_dir);
+  const ImageExpectation expect =
+      FrameExpectation(session, photometric, "the photometric calibration", &camera, "the camera");
   ObservationExtractor extractor(session.frames, camera, board, photometric, options);
   Progress progress("extract", session.frames.size());
   for (size_t f = 0; f < session.frames.size(); ++f) {
     const auto pose_it = poses.find(session.frames[f].file);
     if (pose_it != poses.end()) {
-      const std::string path = session.FramePath(f).string();
-      cv::Mat lamp_off;
-      if (!session.frames[f].lamp_off.empty()) {
-        lamp_off = cv::imread(session.LampOffPath(f).string(), cv::IMREAD_UNCHANGED);
-      }
-      extractor.AddFrame(
-          f, cv::imread(path, cv::IMREAD_UNCHANGED), pose_it->second, path,
-          lamp_off.empty() && session.frames[f].lamp_off.empty() ? nullptr : &lamp_off);
+      const bool has_off = !session.frames[f].lamp_off.empty();
+      const cv::Mat lamp_off = has_off ? ReadImage(session.LampOffPath(f), expect) : cv::Mat();
+      extractor.AddFrame(f, ReadImage(session.FramePath(f), expect), pose_it->second,
+                         session.FramePath(f).string(), has_off ? &lamp_off : nullptr);
     }
     progress.Step();
   }

@@ -16,6 +16,7 @@
 #include "calib/photometric.h"
 #include "common/camera_model.h"
 #include "common/geometry.h"
+#include "common/image_io.h"
 #include "common/session.h"
 #include "estimation/observations.h"
 
@@ -68,7 +69,16 @@ class ObservationExtractor {
   ObservationSet set_;
   std::vector<bool> added_;
   size_t saturated_ = 0, dark_ = 0, tag_ = 0, hidden_ = 0, lamp_off_frames_ = 0;
+  size_t sample_in_view_ = 0;  // frames whose view the sample region overlaps
 };
+
+// What every frame (and lamp-off frame) of `session` must be to be extracted with
+// `photometric` (ReadImage, common/image_io.h): the session's bit depth (else the
+// calibration's), the calibration's channels, and the camera model's size when `camera` is
+// given. The *_what name the files in messages.
+ImageExpectation FrameExpectation(const Session& session, const PhotometricCalibration& photometric,
+                                  const std::string& photometric_what, const CameraModel* camera,
+                                  const std::string& camera_what);
 
 // poses: frame file -> cam_from_board (poses.json via calib/vignette.h ReadPoses).
 // InputError when the board has no sample_region, no frame has a pose, or a frame cannot be

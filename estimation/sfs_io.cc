@@ -5,10 +5,10 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/parse.h"
 #include "common/plot.h"
@@ -22,13 +22,6 @@ namespace gonio {
 namespace {
 
 using json = nlohmann::json;
-
-cv::Mat ReadImage(const fs::path& path, int flags, const std::string& what) {
-  if (!fs::exists(path)) throw InputError(path.string() + ": " + what + " not found");
-  cv::Mat m = cv::imread(path.string(), flags);
-  if (m.empty()) throw InputError(path.string() + ": cannot read the " + what);
-  return m;
-}
 
 Eigen::Vector3d ParseLight(const std::string& s) {
   if (s == "collocated") return Eigen::Vector3d::Zero();
@@ -117,6 +110,29 @@ void SetAnchorDepth(const SfsInputPaths& paths, bool have_material, SfsInput* in
 
 namespace {
 
+// The object's mask (non-zero inside): grey or colour, the image's size, and a region the solver
+// can work on (at least one pixel whose 3x3 neighbourhood is inside, where the distance anchor
+// is read), else InputError naming the mask.
+cv::Mat ReadMask(const fs::path& path, const cv::Size& image_size, const fs::path& image) {
+  ImageExpectation expect;
+  expect.size = image_size;
+  expect.size_of = "the image " + image.string();
+  expect.alpha = ImageExpectation::Alpha::kDrop;
+  cv::Mat m = ReadImage(path, expect);
+  if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
+  if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 257);
+  const cv::Mat inside = m > 127;
+  cv::Mat interior;
+  cv::erode(inside, interior, cv::Mat::ones(3, 3, CV_8U));
+  if (cv::countNonZero(interior) == 0) {
+    throw InputError(fmt::format(
+        "{}: {} pixel(s) inside the mask and none with its 3x3 neighbourhood inside; shape from "
+        "shading needs the object's region (non-zero inside)",
+        path.string(), cv::countNonZero(inside)));
+  }
+  return m;
+}
+
 // Clipped pixels carry no shading: a mask with more than 0.1% of its pixels at the white level
 // (light.json's "white_level", else the container's maximum) is refused, not solved into a
 // wrong shape.
@@ -144,10 +160,10 @@ SfsInput LoadSfsInput(const SfsInputPaths& paths, const std::string& reflectance
   if (paths.camera.empty()) throw InputError("--camera: required (or --input DIR)");
   if (paths.mask.empty()) throw InputError("--mask: required (or --input DIR)");
   in.image_path = paths.image.string();
-  cv::Mat image = ReadImage(paths.image, cv::IMREAD_UNCHANGED, "image");
+  cv::Mat image = ReadImage(paths.image);
   if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
   if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2GRAY);
-  cv::Mat mask = ReadImage(paths.mask, cv::IMREAD_GRAYSCALE, "mask");
+  const cv::Mat mask = ReadMask(paths.mask, image.size(), paths.image);
   pr.camera = CameraModel::Read(paths.camera);
   ReadLight(paths, &in);
 
@@ -185,8 +201,10 @@ std::optional<SfsTruthComparison> CompareWithTruth(const fs::path& dir, const Sf
     return std::nullopt;
   }
   SfsTruthComparison t;
-  cv::Mat n = ReadImage(dir / "normals.tiff", cv::IMREAD_UNCHANGED, "truth normals");
-  cv::Mat d = ReadImage(dir / "depth.tiff", cv::IMREAD_UNCHANGED, "truth depth");
+  ImageExpectation any;
+  any.pixels = ImageExpectation::Pixels::kAny;
+  cv::Mat n = ReadImage(dir / "normals.tiff", any);
+  cv::Mat d = ReadImage(dir / "depth.tiff", any);
   if (n.channels() != 3 || d.channels() != 1 || n.size() != result.depth.size() ||
       d.size() != result.depth.size()) {
     throw InputError((dir / "normals.tiff").string() + ": size or channels do not match");
@@ -221,10 +239,6 @@ std::optional<SfsTruthComparison> CompareWithTruth(const fs::path& dir, const Sf
 }
 
 namespace {
-
-void WriteImage(const fs::path& path, const cv::Mat& m) {
-  WriteAtomically(path, [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), m); });
-}
 
 // depth.tiff (float32 metres), normals.png (RGB = (n + 1) / 2), rerender.png (16-bit, the
 // input's pixel units).

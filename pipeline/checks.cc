@@ -22,34 +22,48 @@ void CheckBitDepths(int session_bit_depth, const ResponseResult& response,
   }
 }
 
-void CheckFrameValues(const cv::Mat& raw, const std::string& what, int session_bit_depth,
-                      const ResponseResult& response) {
-  const int stated = session_bit_depth > 0 ? session_bit_depth : response.bit_depth;
-  int container = 0;
-  if (raw.depth() == CV_8U) container = 8;
-  if (raw.depth() == CV_16U) container = 16;
-  if (container == 0) {
-    throw InputError(what + ": pixel type is neither 8- nor 16-bit unsigned integer");
+void CheckObservationValues(const ObservationSet& data, const std::string& what) {
+  // Beyond 1e150 a square (every residual, every variance sum) overflows a double: the fit
+  // would report infinities, so such a value is no radiance gonio can take.
+  constexpr double kLargest = 1e150;
+  size_t sample = 0, negative = 0;
+  for (const auto& o : data.observations) {
+    for (size_t c = 0; c < o.radiance.size(); ++c) {
+      const double L = o.radiance[c], var = c < o.variance.size() ? o.variance[c] : 0;
+      if (!(std::abs(L) <= kLargest && var >= 0 && var <= kLargest)) {
+        throw InputError(fmt::format(
+            "{}: frame {} pixel ({:.1f}, {:.1f}): radiance {:g} with variance {:g} is beyond what "
+            "a fit can square (|L| and variance up to {:g})",
+            what, o.frame, o.px, o.py, L, var, kLargest));
+      }
+    }
+    if (o.white) continue;
+    ++sample;
+    for (size_t c = 0; c < o.radiance.size(); ++c) {
+      const double sigma = c < o.variance.size() ? std::sqrt(o.variance[c]) : 0;
+      if (o.radiance[c] < -3 * sigma) {
+        ++negative;
+        break;
+      }
+    }
   }
-  if (raw.channels() != response.channels) {
-    throw InputError(fmt::format("{}: {} channel(s), the photometric calibration has {}", what,
-                                 raw.channels(), response.channels));
-  }
-  if (container < stated) {
-    throw InputError(
-        fmt::format("{}: an {}-bit image in a {}-bit session (another camera mode "
-                    "or a converted copy?)",
-                    what, container, stated));
-  }
-  double max_value = 0;
-  cv::minMaxLoc(raw.reshape(1), nullptr, &max_value);
-  const double limit = std::ldexp(1.0, stated) - 1;
-  if (max_value > limit) {
+  if (sample > 0 && negative > kMaxNegativeFraction * sample) {
     throw InputError(fmt::format(
-        "{}: values up to {} exceed the {}-bit range (0..{}) of the session; {}-bit data "
-        "aligned to the top of a {}-bit file? (see docs/formats.md, bit_depth)",
-        what, max_value, stated, limit, stated, container));
+        "{}: {} of {} sample observations ({:.1f}%) are more than 3 sigma below zero; radiance "
+        "is never negative (a wrong black level, lamp-off frames of another exposure, or "
+        "edited values?)",
+        what, negative, sample, 100.0 * negative / sample));
   }
+}
+
+CheckedFit FitChecked(const ObservationSet& data, const JointFitOptions& fit_options,
+                      const std::string& what, const FitChecksOptions& options) {
+  options.Check();
+  CheckObservationValues(data, what);
+  CheckedFit r;
+  r.fit = FitAndSelect(data, fit_options);
+  r.checks = CheckFit(r.fit, data, fit_options, what, options);
+  return r;
 }
 
 void FitChecksOptions::Check() const {

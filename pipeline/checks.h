@@ -6,19 +6,20 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
 
 #include "calib/response.h"
 #include "estimation/joint_fit.h"
 
 namespace gonio {
 
-// A decoded frame against the value range the session and the photometric calibration state:
-// an 8-bit frame in a 12-bit session, 16-bit values beyond the stated bit depth (MSB-aligned
-// data, or another camera), or a channel count the calibration does not have is an
-// InputError naming `what`. session_bit_depth 0: not stated (the calibration's is used).
-void CheckFrameValues(const cv::Mat& raw, const std::string& what, int session_bit_depth,
-                      const ResponseResult& response);
+// Observations a fit can use, checked before it starts (gonio run after extraction, gonio fit
+// after reading): every radiance and variance finite with a square a double holds (|L| <=
+// 1e150), and radiances not below zero beyond their noise: when more than
+// kMaxNegativeFraction of the sample observations lie over 3 sigma below zero the data are
+// refused (radiance is never negative: a wrong black level, lamp-off frames of another
+// exposure?). InputError naming `what`.
+constexpr double kMaxNegativeFraction = 0.01;
+void CheckObservationValues(const ObservationSet& data, const std::string& what);
 
 // The session's and the calibration's bit depths agree (when the session states one).
 void CheckBitDepths(int session_bit_depth, const ResponseResult& response,
@@ -59,5 +60,15 @@ struct FitChecks {
 FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
                    const JointFitOptions& fit_options, const std::string& session_what,
                    const FitChecksOptions& options);
+
+// The joint fit with every check gonio run makes around it: CheckObservationValues before,
+// FitAndSelect, CheckFit after. `gonio run` (pipeline/run.h) and `gonio fit` both call it, so
+// the two commands refuse and label the same data the same way.
+struct CheckedFit {
+  JointSelectionResult fit;
+  FitChecks checks;
+};
+CheckedFit FitChecked(const ObservationSet& data, const JointFitOptions& fit_options,
+                      const std::string& what, const FitChecksOptions& options);
 
 }  // namespace gonio

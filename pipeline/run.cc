@@ -7,11 +7,12 @@
 #include <map>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/detect.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/log.h"
 #include "pipeline/observed_angles.h"
@@ -35,20 +36,13 @@ class Stopwatch {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// Decoded frames kept from detection to extraction within a memory budget; every decode is
-// counted so tests can check that the chain reads each frame once.
+// Decoded frames kept from detection to extraction within a memory budget.
 class FrameCache {
  public:
-  FrameCache(const Session& session, size_t budget_mb)
-      : session_(session), budget_bytes_(budget_mb << 20) {}
+  FrameCache(const Session& session, const ImageExpectation& expect, size_t budget_mb)
+      : session_(session), expect_(expect), budget_bytes_(budget_mb << 20) {}
 
-  cv::Mat Decode(size_t i) {
-    const std::string path = session_.FramePath(i).string();
-    cv::Mat raw = cv::imread(path, cv::IMREAD_UNCHANGED);
-    ++decodes_;
-    if (raw.empty()) throw InputError(path + ": cannot be read as an image");
-    return raw;
-  }
+  cv::Mat Decode(size_t i) const { return ReadImage(session_.FramePath(i), expect_); }
   // Keeps `raw` for Take(i) if it fits in the budget.
   void Keep(size_t i, const cv::Mat& raw) {
     const size_t bytes = raw.total() * raw.elemSize();
@@ -65,13 +59,18 @@ class FrameCache {
     kept_.erase(it);
     return raw;
   }
-  size_t decodes() const { return decodes_; }
 
  private:
   const Session& session_;
-  size_t budget_bytes_, used_bytes_ = 0, decodes_ = 0;
+  const ImageExpectation expect_;
+  size_t budget_bytes_, used_bytes_ = 0;
   std::map<size_t, cv::Mat> kept_;
 };
+
+ImageExpectation FrameExpectationOf(const RunInputs& in) {
+  return FrameExpectation(in.session, in.photometric, in.photometric_source,
+                          in.camera ? &*in.camera : nullptr, in.camera_source);
+}
 
 // Every frame decoded once and its board detected once; the decoded frames stay in the cache
 // for extraction.
@@ -81,13 +80,6 @@ std::vector<BoardObservation> DetectBoards(const RunInputs& in, const RunOptions
   Progress progress("detect", in.session.frames.size());
   for (size_t i = 0; i < in.session.frames.size(); ++i) {
     const cv::Mat raw = cache->Decode(i);
-    CheckFrameValues(raw, in.session.FramePath(i).string(), in.session.bit_depth,
-                     in.photometric.response);
-    if (in.camera && (raw.cols != in.camera->width || raw.rows != in.camera->height)) {
-      throw InputError(fmt::format("{}: image is {}x{}, the camera model is {}x{}",
-                                   in.session.FramePath(i).string(), raw.cols, raw.rows,
-                                   in.camera->width, in.camera->height));
-    }
     detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth), in.board,
                                      o.pose.detector, in.session.frames[i].file));
     cache->Keep(i, raw);
@@ -122,8 +114,7 @@ ObservationSet ExtractAll(const RunInputs& in, const RunOptions& o, const RunRes
       // The lamp-off partner is read here only: it is never detected (it may be too dark).
       const std::string off_file = in.session.frames[i].lamp_off;
       cv::Mat off;
-      if (!off_file.empty())
-        off = cv::imread(in.session.LampOffPath(i).string(), cv::IMREAD_UNCHANGED);
+      if (!off_file.empty()) off = ReadImage(in.session.LampOffPath(i), FrameExpectationOf(in));
       extractor.AddFrame(i, raw, *it->second, in.session.FramePath(i).string(),
                          off_file.empty() ? nullptr : &off);
     }
@@ -197,11 +188,13 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   RunResult r;
   r.assumptions = in.assumptions;
   Stopwatch clock;
-  FrameCache cache(in.session, o.frame_cache_mb);
+  FrameCache cache(in.session, FrameExpectationOf(in), o.frame_cache_mb);
+  // Counted where images are decoded and boards detected (common/image_io.h, calib/detect.h),
+  // not by this function, so the counts say what the chain did.
+  const size_t decodes_before = ImageDecodeCount(), detections_before = BoardDetectionCount();
 
   spdlog::info("[1/4] detecting the board in {} frames", in.session.frames.size());
   const std::vector<BoardObservation> detections = DetectBoards(in, o, &cache);
-  r.boards_detected = detections.size();
   r.timings.detect_s = clock.Lap();
   r.camera = CameraFor(in, o, detections, &r);
   r.timings.calibrate_s = clock.Lap();
@@ -214,21 +207,36 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
     spdlog::warn("{}", r.warnings.back());
   }
+  if (in.camera) {  // a given model must fit the session (a calibrated one does by construction)
+    const auto off = CheckReprojection(r.poses, r.camera, in.camera_source);
+    if (!off.empty()) {
+      r.warnings.push_back(fmt::format(
+          "frames whose board does not fit the camera model (reprojection error above {:.1f} "
+          "px: blur, a bent board, a misdetected tag?): {}",
+          ReprojectionCheck::LimitPx(r.camera), fmt::join(off, ", ")));
+      spdlog::warn("{}", r.warnings.back());
+    }
+  }
   r.timings.locate_s = clock.Lap();
 
   spdlog::info("[2/4] extracting observations (patch {} px)", o.extract.patch);
   r.observations = ExtractAll(in, o, r, &cache);
-  r.frames_decoded = cache.decodes();
+  r.observations.assumptions = in.assumptions;  // so a later `gonio fit` reports them too
+  r.frames_decoded = ImageDecodeCount() - decodes_before;
+  r.boards_detected = BoardDetectionCount() - detections_before;
   r.timings.extract_s = clock.Lap();
 
   const JointFitOptions fit_options = FitOptionsFor(in, o, &r);
   spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
-  r.fit = FitAndSelect(r.observations, fit_options);
+  // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); the
+  // calibration's error is propagated after them (it widens error bars, it moves no residual).
+  CheckedFit checked = FitChecked(r.observations, fit_options, in.session.dir.string(), o.checks);
+  r.fit = std::move(checked.fit);
+  r.checks = std::move(checked.checks);
   PropagateCalibration(in, o, fit_options, &r);
   r.timings.fit_s = clock.Lap();
   for (const auto& w : r.fit.final_fit.warnings) r.warnings.push_back(w);
-  r.checks = CheckFit(r.fit, r.observations, fit_options, in.session.dir.string(), o.checks);
   for (const auto& m : r.checks.Messages()) {
     r.warnings.push_back(m);
     spdlog::warn("{}", m);
