@@ -148,6 +148,7 @@ void RunFromCamera(const CaptureArgs& args) {
   if (writer.session().frames.empty()) {
     throw InputError(args.out + ": no frame was captured, so no session was written");
   }
+  writer.Commit();
   Summarize(writer);
 }
 
@@ -234,7 +235,8 @@ void RunFromFolder(const CaptureArgs& args) {
   SessionWriter writer(args.out, source.Id(), source.GainUnit(), args.board);
   if (raw) writer.SetBitDepth(16);
   CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size, frames.size());
-  if (raw) WriteRawPhotometric(files.front(), args.out);
+  if (raw) WriteRawPhotometric(files.front(), writer.work_dir());
+  writer.Commit();
   Summarize(writer);
 }
 
@@ -247,6 +249,7 @@ void RunFromVideo(const CaptureArgs& args) {
   SessionWriter writer(args.out, source.Id(), source.GainUnit(), args.board);
   CopyFrames(source, writer,
              args.bracket_size < 0 ? static_cast<int>(exposures.size()) : args.bracket_size);
+  writer.Commit();
   Summarize(writer);
 }
 

@@ -2,7 +2,10 @@
 // Exit codes: 0 success, 2 bad input (one line naming the file or parameter), 3 a numerical
 // method could not give a valid result, 1 anything else.
 #include <algorithm>
+#include <cmath>
 #include <csignal>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
 
 #include <glog/logging.h>
@@ -10,18 +13,30 @@
 
 #include "apps/commands.h"
 #include "common/error.h"
+#include "common/interrupt.h"
 #include "common/io.h"
 #include "common/log.h"
 #include "common/provenance.h"
 
 namespace {
 
-// SIGINT/SIGTERM: remove the outputs being written (common/io.h), then die of the signal as
-// the shell expects.
-extern "C" void OnTerminate(int sig) {
-  gonio::RemoveTemporaries();
-  std::signal(sig, SIG_DFL);
-  std::raise(sig);
+// CLI11 reads "nan" and "inf" into a double option: every number option refuses them here,
+// with the option's name, so no command has to (and none forgets to).
+void RefuseNonFiniteNumbers(CLI::App* app) {
+  static const CLI::Validator finite(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        return end != text.c_str() && !std::isfinite(v) ? "'" + text + "' is not a finite number"
+                                                        : std::string();
+      },
+      "");  // no description: the help keeps saying FLOAT
+  for (CLI::Option* o : app->get_options()) {
+    if (o->get_type_name().rfind("FLOAT", 0) == 0) o->check(finite);
+  }
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; })) {
+    RefuseNonFiniteNumbers(sub);
+  }
 }
 
 std::string OneLine(std::string s) {
@@ -33,8 +48,9 @@ std::string OneLine(std::string s) {
 
 int main(int argc, char** argv) {
   gonio::SetCommandLine(argc, argv);
-  std::signal(SIGINT, OnTerminate);
-  std::signal(SIGTERM, OnTerminate);
+  // SIGINT/SIGTERM: the outputs being written are removed, not left half-written; the handler
+  // only records the signal, the cleanup runs here on the main thread (common/interrupt.h).
+  gonio::InstallInterruptHandlers();
   CLI::App app{"gonio: turn a camera into a gonioreflectometer"};
   app.require_subcommand(1);
   app.set_version_flag("--version", gonio::Version());
@@ -61,9 +77,17 @@ int main(int argc, char** argv) {
   gonio::cli::AddSynthCommand(app);
   gonio::cli::AddBenchCommand(app);
   gonio::cli::AddSfsCommand(app);
+  RefuseNonFiniteNumbers(&app);
 
   try {
     app.parse(argc, argv);
+    // A signal during the last output's rename: the outputs are whole, the exit says so.
+    gonio::ThrowIfInterrupted();
+  } catch (const gonio::Interrupted& e) {
+    gonio::RemoveTemporaries();
+    std::signal(e.signal, SIG_DFL);
+    std::raise(e.signal);
+    return 128 + e.signal;
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     std::cerr << "gonio: error: " << OneLine(e.what()) << " (see gonio --help)" << std::endl;
@@ -74,6 +98,12 @@ int main(int argc, char** argv) {
   } catch (const gonio::NumericalError& e) {
     std::cerr << "gonio: numerical error: " << OneLine(e.what()) << std::endl;
     return 3;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the user named that the system refuses (too long, not permitted, on a full or
+    // read-only disk): bad input or a bad place, named by the file, not an internal error.
+    std::cerr << "gonio: error: " << OneLine(e.path1().string()) << ": " << e.code().message()
+              << std::endl;
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "gonio: internal error: " << OneLine(e.what()) << std::endl;
     return 1;

@@ -28,6 +28,8 @@ struct SfsArgs {
 void RunSfs(const SfsArgs& args) {
   if (args.out.empty()) throw InputError("sfs: --out DIR is required");
   args.options.Check();
+  // OUT is written as a whole, replacing only a previous sfs output (its sfs.json).
+  FolderTransaction::CheckTarget(args.out, "sfs.json");
   SfsInputPaths paths;
   paths.image = args.image;
   paths.camera = args.camera;

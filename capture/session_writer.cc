@@ -5,10 +5,10 @@
 #include <string>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "capture/bracket.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/io.h"
 #include "common/log.h"
 
@@ -16,24 +16,39 @@ namespace fs = std::filesystem;
 
 namespace gonio::capture {
 
+namespace {
+
+// Before the temporary folder exists: a capture over a session, or into a folder of other
+// files, is refused with words that say so.
+const fs::path& CheckedTarget(const fs::path& dir) {
+  if (fs::exists(dir / "session.json")) {
+    throw InputError(dir.string() + ": already holds a session (choose another --out)");
+  }
+  FolderTransaction::CheckTarget(dir, "");
+  return dir;
+}
+
+}  // namespace
+
 SessionWriter::SessionWriter(fs::path dir, std::string camera_id, std::string gain_unit,
                              const fs::path& board)
-    : dir_(std::move(dir)) {
-  if (fs::exists(dir_ / "session.json")) {
-    throw InputError(dir_.string() + ": already holds a session (choose another --out)");
-  }
-  EnsureDirectory(dir_);
+    : dir_(std::move(dir)), folder_(CheckedTarget(dir_), "") {
   session_.camera_id = std::move(camera_id);
   session_.gain_unit = std::move(gain_unit);
-  session_.dir = dir_;
+  session_.dir = folder_.tmp();
   if (!board.empty()) {
     const nlohmann::json j = ReadJsonFile(board);
     if (!j.is_object() || !j.contains("type")) {
       throw InputError(board.string() + ": not a board file (a JSON object with a 'type')");
     }
-    WriteTextAtomically(dir_ / "board.json", ReadTextFile(board));
+    WriteTextAtomically(folder_.tmp() / "board.json", ReadTextFile(board));
     session_.board = "board.json";
   }
+}
+
+void SessionWriter::Commit() {
+  folder_.Commit();
+  session_.dir = dir_;
 }
 
 void SessionWriter::Add(const cv::Mat& image, double exposure_s, double gain, double timestamp_s,
@@ -43,16 +58,16 @@ void SessionWriter::Add(const cv::Mat& image, double exposure_s, double gain, do
     throw InputError(dir_.string() + ": frames must be 8- or 16-bit");
   }
   const std::string file = fmt::format("frame_{:04d}.png", session_.frames.size());
-  WriteAtomically(dir_ / file,
-                  [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
+  const fs::path& work = folder_.tmp();
+  WriteImage(work / file, image);
   session_.frames.push_back({file, exposure_s, gain, timestamp_s, bracket});
   try {
-    WriteSession(dir_, session_);
+    WriteSession(work, session_);
   } catch (...) {
     // Keep the folder consistent with session.json: the frame it rejected goes.
     session_.frames.pop_back();
     std::error_code ec;
-    fs::remove(dir_ / file, ec);
+    fs::remove(work / file, ec);
     throw;
   }
 }

@@ -13,29 +13,38 @@
 #include <opencv2/core.hpp>
 
 #include "capture/frame_source.h"
+#include "common/io.h"
 #include "common/session.h"
 
 namespace gonio::capture {
 
 // Each frame is written as frame_NNNN.png (8 or 16 bit, lossless) and session.json is
-// rewritten after every frame, both atomically: an interrupted capture leaves a valid session
-// of the frames taken so far.
+// rewritten after every frame, into a temporary sibling of the session folder that Commit
+// renames into place (common/io.h FolderTransaction): a capture that fails or is interrupted
+// leaves nothing, not a session of some of the frames.
 class SessionWriter {
  public:
-  // Creates `dir` when needed; InputError when it already holds a session.json (never
-  // overwrite a capture). `board` (optional) must be a JSON object and is copied in as
-  // board.json.
+  // InputError before any work when `dir` exists and is not an empty folder (never overwrite
+  // a capture, nor mix a session into other files). `board` (optional) must be a JSON object
+  // and is copied in as board.json.
   SessionWriter(std::filesystem::path dir, std::string camera_id, std::string gain_unit,
                 const std::filesystem::path& board = {});
 
   // Significant bits of the frames (Session::bit_depth); call before the first Add.
   void SetBitDepth(int bits) { session_.bit_depth = bits; }
   void Add(const cv::Mat& image, double exposure_s, double gain, double timestamp_s, int bracket);
+  // Puts the session folder in place; nothing is written to `dir` before.
+  void Commit();
   const Session& session() const { return session_; }
+  // The session folder (where it is once committed).
   const std::filesystem::path& dir() const { return dir_; }
+  // Where the files are until Commit: other files of the session (a RAW import's
+  // photometric.json) go here.
+  const std::filesystem::path& work_dir() const { return folder_.tmp(); }
 
  private:
   std::filesystem::path dir_;
+  FolderTransaction folder_;
   Session session_;
 };
 

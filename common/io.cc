@@ -1,12 +1,13 @@
 #include "common/io.h"
 
+#include <limits.h>
 #include <unistd.h>
 #include <atomic>
 #include <fstream>
-#include <mutex>
-#include <set>
 #include <sstream>
 #include <system_error>
+
+#include <fmt/format.h>
 
 #include "common/error.h"
 #include "common/provenance.h"
@@ -30,6 +31,10 @@ void WriteAtomically(const fs::path& path,
   bool ok = false;
   try {
     ok = write(tmp_path);
+    if (ok) {
+      HoldTemporaryForTests(tmp_path);
+      ThrowIfInterrupted();  // the last moment to leave the old output as it was
+    }
   } catch (...) {
     std::error_code ec;
     fs::remove(tmp_path, ec);
@@ -40,11 +45,12 @@ void WriteAtomically(const fs::path& path,
     fs::remove(tmp_path, ec);
     throw InputError(path.string() + ": could not be written");
   }
-  std::error_code ec;
-  fs::rename(tmp_path, path, ec);
-  if (ec) {
+  std::error_code rename_error;
+  fs::rename(tmp_path, path, rename_error);
+  if (rename_error) {
+    std::error_code ec;
     fs::remove(tmp_path, ec);
-    throw InputError(path.string() + ": could not be written (" + ec.message() + ")");
+    throw InputError(path.string() + ": could not be written (" + rename_error.message() + ")");
   }
 }
 
@@ -59,7 +65,9 @@ void WriteTextAtomically(const fs::path& path, const std::string& text) {
 
 void WriteJsonAtomically(const fs::path& path, nlohmann::json j) {
   if (j.is_object() && !j.contains("provenance")) j["provenance"] = Provenance();
-  WriteTextAtomically(path, j.dump(2) + "\n");
+  // File names and the command line need not be UTF-8 (Linux names are bytes): their invalid
+  // bytes become U+FFFD rather than an exception that loses the whole output.
+  WriteTextAtomically(path, j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 std::string ReadTextFile(const fs::path& path) {
@@ -88,39 +96,21 @@ nlohmann::json ReadJsonFile(const fs::path& path) {
   }
 }
 
-namespace {
-
-// Paths being written right now, removed by RemoveTemporaries() on SIGINT/SIGTERM.
-std::mutex& TemporariesMutex() {
-  static std::mutex m;
-  return m;
-}
-std::set<std::string>& Temporaries() {
-  static std::set<std::string> paths;
-  return paths;
-}
-
-}  // namespace
-
-TemporaryGuard::TemporaryGuard(fs::path path) : path_(std::move(path)) {
-  std::lock_guard<std::mutex> lock(TemporariesMutex());
-  Temporaries().insert(path_.string());
-}
-
-TemporaryGuard::~TemporaryGuard() {
-  std::lock_guard<std::mutex> lock(TemporariesMutex());
-  Temporaries().erase(path_.string());
-}
-
-void RemoveTemporaries() {
-  // try_lock: the signal may have arrived while a guard held the lock; then leave the files
-  // rather than deadlock in the handler.
-  if (!TemporariesMutex().try_lock()) return;
-  for (const auto& p : Temporaries()) {
-    std::error_code ec;
-    fs::remove_all(p, ec);
+void CheckOutputPathLength(const fs::path& path, const std::string& option) {
+  // The temporaries beside an output add a few characters to its folder, never to its name
+  // (WriteAtomically, FolderTransaction), so the system's own limits are the ones to check.
+  const size_t total = fs::absolute(path).string().size();
+  if (total >= PATH_MAX) {
+    throw InputError(fmt::format("{}: a path of {} characters; the system takes at most {}", option,
+                                 total, PATH_MAX - 1));
   }
-  TemporariesMutex().unlock();
+  for (const auto& part : path) {
+    if (part.string().size() > NAME_MAX) {
+      throw InputError(
+          fmt::format("{}: a name of {} characters ({}...); the system takes at most {}", option,
+                      part.string().size(), part.string().substr(0, 40), NAME_MAX));
+    }
+  }
 }
 
 void EnsureDirectory(const fs::path& dir) {
@@ -130,6 +120,75 @@ void EnsureDirectory(const fs::path& dir) {
     throw InputError(dir.string() + ": cannot create folder" +
                      (ec ? " (" + ec.message() + ")" : ""));
   }
+}
+
+namespace {
+
+fs::path FolderTemporary(const fs::path& dir) {
+  static std::atomic<unsigned> counter{0};
+  const fs::path abs = fs::absolute(dir);
+  return abs.parent_path() /
+         (".gonio-tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+}
+
+}  // namespace
+
+void FolderTransaction::CheckTarget(const fs::path& dir, const std::string& marker) {
+  if (dir.empty()) throw InputError("--out: empty path");
+  CheckOutputPathLength(dir, "--out");
+  std::error_code ec;
+  const fs::path parent = fs::absolute(dir).parent_path();
+  if (!fs::is_directory(parent, ec)) {
+    throw InputError(dir.string() + ": output folder " + parent.string() + " does not exist");
+  }
+  if (!fs::exists(dir, ec)) return;
+  if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": exists and is not a folder");
+  if (fs::is_empty(dir, ec)) return;
+  if (marker.empty()) {
+    throw InputError(dir.string() + ": exists and is not empty; choose a new folder for --out");
+  }
+  if (!fs::exists(dir / marker, ec)) {
+    throw InputError(dir.string() + ": not empty and not a previous output (no " + marker +
+                     "); choose another --out");
+  }
+}
+
+FolderTransaction::FolderTransaction(const fs::path& dir, const std::string& marker)
+    : dir_(fs::absolute(dir)), tmp_(FolderTemporary(dir)), guard_(tmp_) {
+  CheckTarget(dir, marker);
+  std::error_code ec;
+  fs::remove_all(tmp_, ec);
+  try {
+    EnsureDirectory(tmp_);
+    HoldTemporaryForTests(tmp_);
+  } catch (...) {  // the destructor does not run for a constructor that throws
+    fs::remove_all(tmp_, ec);
+    throw;
+  }
+}
+
+FolderTransaction::~FolderTransaction() {
+  if (committed_) return;
+  std::error_code ec;
+  fs::remove_all(tmp_, ec);
+}
+
+void FolderTransaction::Commit() {
+  ThrowIfInterrupted();  // the last moment to leave the old folder as it was
+  const fs::path old = tmp_.string() + "-old";
+  std::error_code ec;
+  if (fs::exists(dir_, ec)) {
+    fs::rename(dir_, old, ec);
+    if (ec) throw InputError(dir_.string() + ": cannot be replaced (" + ec.message() + ")");
+  }
+  fs::rename(tmp_, dir_, ec);
+  if (ec) {
+    std::error_code restore;
+    if (fs::exists(old, restore)) fs::rename(old, dir_, restore);
+    throw InputError(dir_.string() + ": could not be written (" + ec.message() + ")");
+  }
+  committed_ = true;
+  fs::remove_all(old, ec);
 }
 
 }  // namespace gonio

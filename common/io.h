@@ -8,12 +8,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/interrupt.h"  // TemporaryGuard: every temporary below is guarded
+
 namespace gonio {
 
 // Calls write(tmp_path) where tmp_path is a sibling of `path` with the same extension (so
 // writers that choose the format by extension, such as cv::imwrite, still work), then renames
 // it to `path`. If write throws or returns false, the temporary is removed and the error
-// propagates (InputError naming `path` for a false return).
+// propagates (InputError naming `path` for a false return). After SIGINT/SIGTERM it throws
+// Interrupted (common/interrupt.h) before the rename, the temporary removed.
 void WriteAtomically(const std::filesystem::path& path,
                      const std::function<bool(const std::filesystem::path& tmp_path)>& write);
 
@@ -27,23 +30,37 @@ nlohmann::json ReadJsonFile(const std::filesystem::path& path);
 
 std::string ReadTextFile(const std::filesystem::path& path);
 
-// Marks a temporary file or folder for removal by RemoveTemporaries() while it exists: the
-// outputs being written when the user interrupts a run are removed, not left half-written.
-class TemporaryGuard {
- public:
-  explicit TemporaryGuard(std::filesystem::path path);
-  ~TemporaryGuard();
-  TemporaryGuard(const TemporaryGuard&) = delete;
-  TemporaryGuard& operator=(const TemporaryGuard&) = delete;
-
- private:
-  std::filesystem::path path_;
-};
-
-// Removes every guarded temporary (called by the CLI's SIGINT/SIGTERM handler before it exits).
-void RemoveTemporaries();
+// An output path the system can create: at most PATH_MAX - 1 bytes, each name at most NAME_MAX;
+// InputError naming `option` otherwise (checked before any work, not met at the end).
+void CheckOutputPathLength(const std::filesystem::path& path, const std::string& option);
 
 // Creates a folder (and parents); InputError naming it when that is impossible.
 void EnsureDirectory(const std::filesystem::path& dir);
+
+// A folder written as a whole (docs/pipeline.md "Checks"): the writer fills tmp(), a temporary
+// sibling of `dir`; Commit() puts it in place of `dir` (a previous folder is moved aside first
+// and removed last), so `dir` is the old folder or the new one, never a mix. Without Commit (a
+// failure, an interrupt) the temporary is removed and `dir` is untouched.
+class FolderTransaction {
+ public:
+  // InputError before any work when `dir` cannot be replaced: an existing file, or a non-empty
+  // folder without `marker` (the file every previous output of the command holds; empty: no
+  // folder is ever replaced, only an empty one), or a parent folder that does not exist.
+  static void CheckTarget(const std::filesystem::path& dir, const std::string& marker);
+
+  // CheckTarget, then creates the temporary folder.
+  FolderTransaction(const std::filesystem::path& dir, const std::string& marker);
+  ~FolderTransaction();
+  FolderTransaction(const FolderTransaction&) = delete;
+  FolderTransaction& operator=(const FolderTransaction&) = delete;
+
+  const std::filesystem::path& tmp() const { return tmp_; }
+  void Commit();
+
+ private:
+  std::filesystem::path dir_, tmp_;
+  TemporaryGuard guard_;
+  bool committed_ = false;
+};
 
 }  // namespace gonio

@@ -2,6 +2,8 @@
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 
+#include "common/interrupt.h"
+
 namespace gonio {
 
 void InitLogging(int verbosity) {
@@ -19,6 +21,7 @@ Progress::Progress(std::string what, size_t total, double interval_s)
 }
 
 void Progress::Step(size_t n) {
+  ThrowIfInterrupted();  // a long loop is where an interrupt is seen (common/interrupt.h)
   done_ += n;
   auto now = std::chrono::steady_clock::now();
   if (std::chrono::duration<double>(now - last_).count() >= interval_s_) {

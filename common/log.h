@@ -12,7 +12,8 @@ namespace gonio {
 void InitLogging(int verbosity);
 
 // Reports progress of a long loop at most every `interval` seconds and at the end.
-// Thread-compatible: call Step() from one thread.
+// Thread-compatible: call Step() from one thread. Step() is a cancellation point: on the main
+// thread it throws Interrupted after SIGINT/SIGTERM (common/interrupt.h).
 class Progress {
  public:
   Progress(std::string what, size_t total, double interval_s = 2.0);

@@ -78,6 +78,7 @@ RunInputs LoadRunInputs(const fs::path& session_dir, const std::string& camera_p
 
 void CheckRunOutput(const fs::path& out, const RunInputs& in) {
   if (out.empty()) throw InputError("--out: empty path");
+  CheckOutputPathLength(out, "--out");
   if (IsInside(out, in.session.dir) || IsInside(in.session.dir, out)) {
     throw InputError(out.string() + ": the output folder would hold or replace the session " +
                      in.session.dir.string());
@@ -98,39 +99,27 @@ void CheckRunOutput(const fs::path& out, const RunInputs& in) {
 }
 
 void WriteRunOutputs(const RunResult& r, const RunInputs& in, const fs::path& out) {
-  const fs::path abs = fs::absolute(out);
-  // Short temporary names: a long --out must not fail because its temporary is longer.
-  const fs::path tmp = abs.parent_path() / fmt::format(".gonio-tmp-{}", getpid());
-  fs::remove_all(tmp);
-  const TemporaryGuard guard(tmp);
-  try {
-    EnsureDirectory(tmp);
-    WriteJsonAtomically(tmp / "poses.json", r.poses.ToJson());
-    WriteObservations(tmp / "observations.csv", r.observations);
-    if (r.calibration) r.camera.Write(tmp / "camera.cameramodel", "calibrated by gonio run");
-    const auto start = std::chrono::steady_clock::now();
-    std::vector<std::string> notes;
-    for (const auto& a : r.assumptions) notes.push_back("Assumed: " + a);
-    if (!r.checks.Measured()) notes.push_back("NOT A MEASUREMENT: see below.");
-    for (const auto& m : r.checks.Messages()) notes.push_back(m);
-    WriteReport(r.fit, r.observations, in.board, notes, tmp / "report");
-    nlohmann::json j = r.ToJson();
-    j["timing"]["report_s"] =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    j["session"] = in.session.dir.string();
-    j["camera_source"] = in.camera_source;
-    j["photometric_source"] = in.photometric_source;
-    WriteJsonAtomically(tmp / "fit.json", j);
-    // Swap in as a whole: the previous run (if any) is moved aside first, removed last.
-    const fs::path old = abs.parent_path() / fmt::format(".gonio-old-{}", getpid());
-    if (fs::exists(abs)) fs::rename(abs, old);
-    fs::rename(tmp, abs);
-    fs::remove_all(old);
-  } catch (...) {
-    std::error_code ec;
-    fs::remove_all(tmp, ec);
-    throw;
-  }
+  // Into a temporary sibling renamed as a whole (replacing a previous run's folder, which
+  // CheckRunOutput accepted by its fit.json).
+  FolderTransaction folder(out, "fit.json");
+  const fs::path& tmp = folder.tmp();
+  WriteJsonAtomically(tmp / "poses.json", r.poses.ToJson());
+  WriteObservations(tmp / "observations.csv", r.observations);
+  if (r.calibration) r.camera.Write(tmp / "camera.cameramodel", "calibrated by gonio run");
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<std::string> notes;
+  for (const auto& a : r.assumptions) notes.push_back("Assumed: " + a);
+  if (!r.checks.Measured()) notes.push_back("NOT A MEASUREMENT: see below.");
+  for (const auto& m : r.checks.Messages()) notes.push_back(m);
+  WriteReport(r.fit, r.observations, in.board, notes, tmp / "report");
+  nlohmann::json j = r.ToJson();
+  j["timing"]["report_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  j["session"] = in.session.dir.string();
+  j["camera_source"] = in.camera_source;
+  j["photometric_source"] = in.photometric_source;
+  WriteJsonAtomically(tmp / "fit.json", j);
+  folder.Commit();
 }
 
 }  // namespace gonio

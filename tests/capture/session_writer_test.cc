@@ -56,6 +56,8 @@ TEST(CaptureBrackets, RecordsTheExposuresTheCameraReportsNotTheRequestedOnes) {
   EXPECT_EQ(CaptureBrackets(camera, options, writer), 6u);
   // Serpentine order: 1 initial setting + 2 changes per bracket.
   EXPECT_EQ(camera.set_calls, 5);
+  EXPECT_FALSE(fs::exists(dir.path() / "s"));  // nothing in place before the commit
+  writer.Commit();
 
   const Session s = ReadSession(dir.path() / "s");
   EXPECT_EQ(s.camera_id, "fake:cam");
@@ -88,6 +90,7 @@ TEST(CaptureBrackets, StopsWhenTheUserSaysSoAndKeepsWhatWasTaken) {
   });
   EXPECT_EQ(n, 4u);
   EXPECT_EQ(asked, (std::vector<int>{0, 1, 2}));
+  writer.Commit();
   EXPECT_EQ(ReadSession(dir.path() / "s").frames.size(), 4u);
 }
 
@@ -117,6 +120,7 @@ TEST(SessionWriter, RefusesToOverwriteASessionAndChecksTheBoard) {
   {
     SessionWriter writer(dir.path(), "x", Session::kGainAnalogue);
     writer.Add(cv::Mat(2, 2, CV_8UC1, cv::Scalar(9)), 0.01, 1.0, 0.0, 0);
+    writer.Commit();
   }
   EXPECT_THROW(SessionWriter(dir.path(), "x", Session::kGainAnalogue), InputError);
 
@@ -128,7 +132,21 @@ TEST(SessionWriter, RefusesToOverwriteASessionAndChecksTheBoard) {
   SessionWriter with_board(dir.path() / "u", "x", Session::kGainAnalogue,
                            dir.path() / "board_in.json");
   with_board.Add(cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 2, 3)), 0.02, 1.0, 0.0, 0);
+  with_board.Commit();
   EXPECT_EQ(ReadSession(dir.path() / "u").BoardPath(), dir.path() / "u" / "board.json");
+}
+
+TEST(SessionWriter, WithoutCommitNothingIsLeft) {
+  testing::TempDir dir;
+  {
+    SessionWriter writer(dir.path() / "s", "x", Session::kGainAnalogue);
+    writer.Add(cv::Mat(2, 2, CV_8UC1, cv::Scalar(9)), 0.01, 1.0, 0.0, 0);
+    ASSERT_TRUE(fs::exists(writer.work_dir() / "frame_0000.png"));
+  }
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+  // A folder of other files is not a place for a session.
+  std::ofstream(dir.path() / "photo.jpg") << "x";
+  EXPECT_THROW(SessionWriter(dir.path(), "x", Session::kGainAnalogue), InputError);
 }
 
 TEST(SessionWriter, ARejectedFrameLeavesTheSessionAsItWas) {
@@ -137,6 +155,8 @@ TEST(SessionWriter, ARejectedFrameLeavesTheSessionAsItWas) {
   writer.Add(cv::Mat(2, 2, CV_8UC1, cv::Scalar(9)), 0.01, 1.0, 0.0, 0);
   EXPECT_THROW(writer.Add(cv::Mat(2, 2, CV_8UC1, cv::Scalar(9)), -1.0, 1.0, 0.0, 0), InputError);
   EXPECT_THROW(writer.Add(cv::Mat(2, 2, CV_32FC1, cv::Scalar(9)), 0.01, 1.0, 0.0, 0), InputError);
+  EXPECT_FALSE(fs::exists(writer.work_dir() / "frame_0001.png"));
+  writer.Commit();
   EXPECT_FALSE(fs::exists(dir.path() / "frame_0001.png"));
   EXPECT_EQ(ReadSession(dir.path()).frames.size(), 1u);
 }
@@ -154,6 +174,7 @@ TEST(CopyFrames, VideoFramesCycleThroughTheBracketExposures) {
   VideoFileSource source(video, {0.001, 0.004});
   SessionWriter writer(dir.path() / "s", source.Id(), source.GainUnit());
   EXPECT_EQ(CopyFrames(source, writer, 2), 6u);
+  writer.Commit();
   const Session s = ReadSession(dir.path() / "s");
   ASSERT_EQ(s.frames.size(), 6u);
   for (size_t i = 0; i < 6; ++i) {
