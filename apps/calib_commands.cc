@@ -6,6 +6,7 @@
 #include <optional>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include "apps/cli_util.h"
@@ -123,7 +124,8 @@ void RunDetect(const DetectArgs& a) {
   if (a.json_out.empty()) {
     PrintJson(result);
   } else {
-    WriteTextAtomically(a.json_out, result.dump(2) + "\n");
+    WriteTextAtomically(
+        a.json_out, result.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
 }
 
@@ -186,7 +188,7 @@ void RunCalibrate(const CalibrateArgs& a) {
   }
   const CalibrationResult result = Calibrate(board, views, width, height, a.options);
   if (result.solver == "mrcal") {
-    WriteTextAtomically(a.out, result.model_text);
+    WriteTextAtomically(a.out, CameraModel::CalibrationRmsLine(result.rms_px) + result.model_text);
   } else {
     result.camera.Write(a.out, "cv::calibrateCamera, RMS " + std::to_string(result.rms_px) + " px");
   }
@@ -221,6 +223,13 @@ void RunLocate(const LocateArgs& a) {
   if (poses.frames.empty()) {
     throw InputError(fmt::format("{}: no frame gave a board pose (first reason: {})", a.session,
                                  poses.skipped.empty() ? "no frames" : poses.skipped[0].reason));
+  }
+  const auto off = CheckReprojection(poses, camera, a.camera);
+  if (!off.empty()) {
+    spdlog::warn(
+        "frames whose board does not fit the camera model (reprojection error above "
+        "{:.1f} px): {}",
+        ReprojectionCheck::LimitPx(camera), fmt::join(off, ", "));
   }
   nlohmann::json j = poses.ToJson();
   j["camera"] = a.camera;

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/io.h"
 #include "reflectance/registry.h"
 
 namespace gonio::cli {
@@ -56,14 +57,23 @@ nlohmann::json ParamsToJson(const ModelInfo& info, const std::vector<double>& pa
   return j;
 }
 
-void PrintJson(const nlohmann::json& j) { std::cout << j.dump(2) << std::endl; }
+void PrintJson(const nlohmann::json& j) {
+  // Invalid UTF-8 in a file name is printed as U+FFFD, not thrown (common/io.h).
+  std::cout << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << std::endl;
+}
 
 void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {
   namespace fs = std::filesystem;
-  // Before any work: a run that ends at a missing folder has wasted its time.
+  // Before any work: a run that ends at a missing folder, or at a name the system refuses, has
+  // wasted its time.
+  CheckOutputPathLength(out, "--out");
+  std::error_code ec;
   const fs::path parent = fs::path(out).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent)) {
+  if (!parent.empty() && !fs::is_directory(parent, ec)) {
     throw InputError(out + ": output folder " + parent.string() + " does not exist");
+  }
+  if (fs::is_directory(out, ec)) {
+    throw InputError("--out: " + out + " is a folder; give the name of the file to write");
   }
   for (const auto& in : inputs) {
     if (in.empty()) continue;

@@ -66,6 +66,7 @@ BrdfTable LoadTable(const FitTableArgs& args) {
 }
 
 void RunFitTable(const FitTableArgs& args) {
+  CheckOutputIsNotInput(args.out, {args.table});
   const BrdfTable table = LoadTable(args);
 
   ModelSelectionOptions opt;
@@ -80,7 +81,12 @@ void RunFitTable(const FitTableArgs& args) {
   spdlog::info("fitting {} samples{} with {} candidate models", table.samples.size(),
                table.sample_id.empty() ? "" : " of sample " + table.sample_id,
                opt.candidates.empty() ? AutoCandidates().size() : opt.candidates.size());
-  const ModelSelectionResult sel = SelectModel(table.samples, opt);
+  ModelSelectionResult sel;
+  try {
+    sel = SelectModel(table.samples, opt);
+  } catch (const InputError& e) {
+    throw InputError(args.table + ": " + e.what());  // "12 samples cannot determine ...": of what
+  }
   nlohmann::json j = ToJson(sel);
   j["table"] = args.table;
   j["sample"] = table.sample_id;

@@ -43,8 +43,9 @@ void RunExtract(const ExtractArgs& a) {
   RunInputs in;  // the photometric calibration found the way `gonio run` finds it
   const PhotometricCalibration photometric =
       LoadPhotometricFor(session, a.photometric, a.assume_linear, &in);
-  const ObservationSet set =
+  ObservationSet set =
       ExtractObservations(a.session, CameraModel::Read(a.camera), board, poses, photometric, o);
+  set.assumptions = in.assumptions;  // e.g. --assume-linear, carried to gonio fit
   WriteObservations(a.out, set);
   std::cout << fmt::format("{} observations -> {}\n", set.observations.size(), a.out);
 }
@@ -121,11 +122,24 @@ void RunFit(const FitArgs& a, const std::string& observations, const std::string
   std::vector<ObservationSet> sets;
   for (const auto& f : files) sets.push_back(ReadObservations(f));
   const ObservationSet data = MergeObservations(sets);
-  const JointSelectionResult r = FitAndSelect(data, o);
-  nlohmann::json j = r.ToJson();
+  // The checks gonio run makes (pipeline/checks.h), on the same terms.
+  CheckedFit r;
+  try {
+    r = FitChecked(data, o, observations, FitChecksOptions());
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    if (what.rfind(observations, 0) == 0) throw;
+    throw InputError(observations + ": " + what);  // the fit's own words lack the file
+  }
+  nlohmann::json j = r.fit.ToJson();
   j["observations"] = observations;
+  j["assumptions"] = data.assumptions;
+  j["checks"] = r.checks.ToJson();
   WriteJsonAtomically(out, j);
-  std::cout << r.Report();
+  for (const auto& a : data.assumptions) std::cout << "ASSUMED: " << a << "\n";
+  if (!r.checks.Measured()) std::cout << "NOT A MEASUREMENT (see the warnings below)\n";
+  std::cout << r.fit.Report();
+  for (const auto& m : r.checks.Messages()) std::cout << "WARNING: " << m << "\n";
 }
 
 struct RunArgs {

@@ -124,6 +124,7 @@ Board Board::FromJson(const nlohmann::json& j, const std::string& what) {
   Board b;
   b.source_ = j;
   b.source_.erase("provenance");
+  b.source_name_ = what;
   const std::string type = j["type"];
   if (type == "chessboard") {
     b.ReadChessboard(j, what);

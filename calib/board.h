@@ -33,6 +33,8 @@ class Board {
   nlohmann::json ToJson() const;
 
   Type type() const { return type_; }
+  // The `what` it was read from (the board file), for messages about it.
+  const std::string& source_name() const { return source_name_; }
   bool is_chessboard() const { return type_ == Type::kChessboard; }
   // One line, e.g. "apriltag-grid tag36h11 10x8, tag 0.03 m, pitch 0.036 m".
   std::string Describe() const;
@@ -97,6 +99,7 @@ class Board {
   double sample_height_ = 0;
   std::vector<Eigen::Vector3d> points_;
   nlohmann::json source_;
+  std::string source_name_;
 };
 
 // Where the board is known to be white paper: inside the tag grid's bounding box or the white

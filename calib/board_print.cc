@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <memory>
 #include <regex>
+#include <utility>
 
 #include <cairo-pdf.h>
 #include <cairo-svg.h>
@@ -103,11 +104,16 @@ void PlaceRegions(const BoardPrintOptions& o, double quiet, BoardLayout* l) {
   const double sx0 = x0 + white_outline + kRegionSeparationMm;
   const double sample_w = x1 - sx0 - 2 * g, sample_h = y1 - y0 - 2 * g;
   if (sample_w < kMinSampleMm || sample_h < kMinSampleMm) {
-    throw InputError(fmt::format(
-        "--paper: a {}x{} ring of {} mm tags on {}x{} mm paper leaves a sample region of "
-        "{:.1f} x {:.1f} mm (at least {} x {} mm needed): use smaller tags or larger paper",
-        l->columns, l->rows, l->tag_size, o.paper.width_mm, o.paper.height_mm,
-        std::max(sample_w, 0.0), std::max(sample_h, 0.0), kMinSampleMm, kMinSampleMm));
+    // Blame what the user chose: the tag counts when given, else the paper they were fitted to.
+    const bool counts_given = o.columns > 0 || o.rows > 0;
+    throw InputError(
+        fmt::format("{}: a {}x{} ring of {} mm tags on {}x{} mm paper leaves a sample region of "
+                    "{:.1f} x {:.1f} mm (at least {} x {} mm needed): {}",
+                    counts_given ? "--columns/--rows" : "--paper", l->columns, l->rows, l->tag_size,
+                    o.paper.width_mm, o.paper.height_mm, std::max(sample_w, 0.0),
+                    std::max(sample_h, 0.0), kMinSampleMm, kMinSampleMm,
+                    counts_given ? "give more columns and rows (or 0 to fill the paper)"
+                                 : "use smaller tags or larger paper"));
   }
   l->white_region = {x0 + g, y0 + g, x0 + white_outline - g, y1 - g};
   l->sample_region = {sx0 + g, y0 + g, x1 - g, y1 - g};
@@ -340,6 +346,15 @@ BoardLayout PlanBoard(const BoardPrintOptions& o) {
         fmt::format("--paper: {} mm wide paper with {} mm margins has no room for "
                     "the {} mm scale bar",
                     o.paper.width_mm, o.margin_mm, kScaleBarLengthMm));
+  }
+  for (const auto& [count, what] :
+       {std::pair{o.columns, "--columns"}, std::pair{o.rows, "--rows"}}) {
+    if (count > 0 && count < 3) {
+      throw InputError(
+          fmt::format("{}: {}; a ring of tags around a sample needs at least 3 (0 "
+                      "fills the paper)",
+                      what, count));
+    }
   }
   l.columns = FitCount(o.columns, avail_w, l.tag_size, quiet, l.pitch, "columns");
   l.rows = FitCount(o.rows, avail_h, l.tag_size, quiet, l.pitch, "rows");

@@ -14,6 +14,7 @@
 #include "common/log.h"
 #include "common/math.h"
 #include "common/session.h"
+#include "common/stats.h"
 
 namespace fs = std::filesystem;
 
@@ -250,6 +251,37 @@ SessionPoses LocateObservations(const CameraModel& camera, const Board& board,
     }
   }
   return out;
+}
+
+double ReprojectionCheck::LimitPx(const CameraModel& camera) {
+  return std::max(kFloorPx, kFarAbove * camera.calibration_rms_px.value_or(kUnreportedPx));
+}
+
+std::vector<std::string> CheckReprojection(const SessionPoses& poses, const CameraModel& camera,
+                                           const std::string& camera_what) {
+  std::vector<double> rms;
+  for (const auto& f : poses.frames) rms.push_back(f.pose.rms_px);
+  if (rms.empty()) return {};
+  const double limit = ReprojectionCheck::LimitPx(camera);
+  const double median = Median(rms);
+  const std::string reported =
+      camera.calibration_rms_px
+          ? fmt::format("its calibration reported {:.2f} px", *camera.calibration_rms_px)
+          : fmt::format("it reports no calibration error, {:.1f} px assumed",
+                        ReprojectionCheck::kUnreportedPx);
+  if (median > limit) {
+    throw InputError(fmt::format(
+        "{}: the board's corners are {:.1f} px from where this camera model puts them (median "
+        "over {} frames; {}): a model of another camera, lens, zoom or focus? Calibrate this "
+        "camera (gonio calibrate), or leave --camera out to calibrate from the session",
+        camera_what, median, rms.size(), reported));
+  }
+  std::vector<std::string> frames;
+  for (const auto& f : poses.frames) {
+    if (f.pose.rms_px > limit)
+      frames.push_back(fmt::format("{} ({:.1f} px)", f.file, f.pose.rms_px));
+  }
+  return frames;
 }
 
 SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camera,

@@ -68,6 +68,21 @@ SessionPoses LocateObservations(const CameraModel& camera, const Board& board,
                                 const std::vector<BoardObservation>& observations,
                                 const PoseOptions& options);
 
+// The camera model against a session's frames (docs/pipeline.md "Checks"): a model whose RMS
+// reprojection error on the located frames (their median) is above kFarAbove times what its
+// calibration reported (CameraModel::calibration_rms_px; kUnreportedPx when it reported none),
+// and at least kFloorPx, is of another camera, lens or focus: InputError naming `camera_what`.
+// Otherwise the frames above that limit are returned, "file (12.3 px)", to be named in a
+// warning.
+struct ReprojectionCheck {
+  static constexpr double kFarAbove = 10.0;
+  static constexpr double kFloorPx = 2.0;
+  static constexpr double kUnreportedPx = 0.5;
+  static double LimitPx(const CameraModel& camera);
+};
+std::vector<std::string> CheckReprojection(const SessionPoses& poses, const CameraModel& camera,
+                                           const std::string& camera_what);
+
 // Every frame of a session folder (docs/formats.md). InputError on a missing or malformed
 // session.json, an unreadable frame, or frames whose size differs from the camera model's.
 SessionPoses LocateSession(const std::filesystem::path& session_dir, const CameraModel& camera,

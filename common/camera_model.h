@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,10 @@ struct CameraModel {
   // mrcal's extrinsics: the camera's pose relative to the reference frame (identity for a
   // single camera).
   Rigid3d cam_from_ref;
+  // The RMS reprojection error its calibration reported, px, when known: gonio writes it as a
+  // comment line ("# gonio: calibration RMS reprojection error 0.21 px") that mrcal ignores,
+  // and a session whose reprojection error is far above it is refused (calib/locate.h).
+  std::optional<double> calibration_rms_px;
 
   bool IntrinsicsFinite() const {
     for (double v : intrinsics) {
@@ -46,8 +51,12 @@ struct CameraModel {
   // Unit-z direction (x, y, 1) whose projection is `pixel` (iterative undistortion).
   Eigen::Vector3d Unproject(const Eigen::Vector2d& pixel) const;
 
-  // Reads mrcal's .cameramodel (a Python-literal dict). InputError naming the file on failure.
+  // Reads mrcal's .cameramodel (a Python-literal dict). InputError naming the file on failure,
+  // or when the model cannot be a camera's: non-finite intrinsics, focal lengths <= 0, an image
+  // size <= 0.
   static CameraModel Read(const std::filesystem::path& path);
+  // The comment line that records a calibration's RMS reprojection error (see above).
+  static std::string CalibrationRmsLine(double rms_px);
   // Writes a .cameramodel that mrcal's tools read (atomically).
   void Write(const std::filesystem::path& path, const std::string& comment = "") const;
 };

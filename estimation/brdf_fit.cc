@@ -1,5 +1,7 @@
 #include "estimation/brdf_fit.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <sstream>
@@ -302,17 +304,30 @@ std::string BrdfFitResult::Report() const {
   return out.str();
 }
 
+size_t DistinctGeometries(const std::vector<BrdfSample>& samples) {
+  std::vector<std::array<double, 3>> g;
+  g.reserve(samples.size());
+  for (const auto& s : samples) g.push_back({s.theta_i, s.theta_r, s.phi});
+  std::sort(g.begin(), g.end());
+  const auto same = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    return std::abs(a[0] - b[0]) <= 1e-9 && std::abs(a[1] - b[1]) <= 1e-9 &&
+           std::abs(a[2] - b[2]) <= 1e-9;
+  };
+  return static_cast<size_t>(std::unique(g.begin(), g.end(), same) - g.begin());
+}
+
 BrdfFitResult FitBrdf(const std::string& model, const std::vector<BrdfSample>& samples,
                       const BrdfFitOptions& options) {
   options.Check();
   const ModelInfo& info = FindModel(model);
   CheckSamples(samples);
   const int free_params = info.num_params() + (options.relative_scale ? 1 : 0);
-  if (static_cast<int>(samples.size()) <= free_params) {
+  const size_t geometries = DistinctGeometries(samples);
+  if (static_cast<int>(geometries) <= free_params) {
     throw InputError(
-        fmt::format("{} samples cannot determine {}'s {} free parameters (needs at "
-                    "least {})",
-                    samples.size(), model, free_params, free_params + 1));
+        fmt::format("{} samples at {} distinct geometries cannot determine {}'s {} free "
+                    "parameters (needs at least {} geometries)",
+                    samples.size(), geometries, model, free_params, free_params + 1));
   }
   BrdfFitResult result;
   VisitModel(model, [&](auto tag) {

@@ -19,6 +19,11 @@ struct BrdfSample {
   double weight = 1;
 };
 
+// Geometries (theta_i, theta_r, phi) that differ by more than 1e-9 rad: repeated rows of one
+// geometry add no information on a model's shape, so a model with P free parameters needs at
+// least P + 1 distinct geometries (FitBrdf, SelectModel), not P + 1 rows.
+size_t DistinctGeometries(const std::vector<BrdfSample>& samples);
+
 // Loss on the residuals: plain least squares, or Huber / Cauchy to limit the pull of outliers.
 enum class RobustLoss { kNone, kHuber, kCauchy };
 // "none", "huber" or "cauchy"; InputError naming `option_name` otherwise.

@@ -24,6 +24,26 @@ std::vector<std::string> SampleIds(const CsvTable& csv) {
   return ids;
 }
 
+namespace {
+
+// A BRDF is never negative. Measurement noise leaves a few values of dark geometries slightly
+// below zero (real tables do); when more than kMaxNegativeFraction of them are, the column is
+// not a BRDF (another column, an offset subtracted) and a fit of it would mean nothing.
+constexpr double kMaxNegativeFraction = 0.05;
+
+void CheckNotMostlyNegative(const BrdfTable& table, const std::string& what) {
+  const auto negative = std::count_if(table.samples.begin(), table.samples.end(),
+                                      [](const BrdfSample& s) { return s.value < 0; });
+  if (negative > kMaxNegativeFraction * table.samples.size()) {
+    throw InputError(fmt::format(
+        "{}: {} of {} values ({:.0f}%) are negative; a BRDF is never negative (the wrong "
+        "value column, or an offset subtracted?)",
+        what, negative, table.samples.size(), 100.0 * negative / table.samples.size()));
+  }
+}
+
+}  // namespace
+
 BrdfTable LoadBrdfTable(const CsvTable& csv, const BrdfTableOptions& options) {
   const size_t ti = csv.Require("theta_i"), pi = csv.Require("phi_i");
   const size_t tr = csv.Require(options.theta_r_column), pr = csv.Require(options.phi_r_column);
@@ -60,6 +80,7 @@ BrdfTable LoadBrdfTable(const CsvTable& csv, const BrdfTableOptions& options) {
     throw InputError(csv.source() + (options.sample ? ": no rows with sample " + *options.sample
                                                     : std::string(": no data rows")));
   }
+  CheckNotMostlyNegative(table, csv.source());
   return table;
 }
 

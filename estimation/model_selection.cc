@@ -67,23 +67,28 @@ ModelSelectionResult SelectModel(const std::vector<BrdfSample>& samples,
       options.candidates.empty() ? AutoCandidates() : options.candidates;
 
   std::vector<std::string> fit_names;
+  // Repeated rows of one geometry say nothing more about a model's shape (brdf_fit.h).
+  const size_t geometries = DistinctGeometries(samples);
   for (const auto& name : names) {
     const int free = FindModel(name).num_params() + (options.fit.relative_scale ? 1 : 0);
-    if (static_cast<int>(samples.size()) <= free) {
+    if (static_cast<int>(geometries) <= free) {
       // An explicit request the data cannot support is an error; auto just skips it.
       if (!options.candidates.empty()) {
         throw InputError(
-            fmt::format("{} samples cannot determine {}'s {} free parameters "
-                        "(needs at least {})",
-                        samples.size(), name, free, free + 1));
+            fmt::format("{} samples at {} distinct geometries cannot determine {}'s {} free "
+                        "parameters (needs at least {} geometries)",
+                        samples.size(), geometries, name, free, free + 1));
       }
-      out.skipped.push_back(name + ": more parameters than samples");
+      out.skipped.push_back(name + ": more parameters than distinct geometries");
       continue;
     }
     fit_names.push_back(name);
   }
   if (fit_names.empty()) {
-    throw InputError(fmt::format("{} samples are too few for any candidate model", samples.size()));
+    throw InputError(
+        fmt::format("{} samples at {} distinct geometries are too few for any "
+                    "candidate model",
+                    samples.size(), geometries));
   }
 
   out.candidates.resize(fit_names.size());

@@ -1,5 +1,6 @@
 #include "estimation/observations.h"
 
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <cstdio>
@@ -30,12 +31,16 @@ int IntegerCell(const CsvTable& csv, size_t row, size_t col, int lo, int hi,
   return static_cast<int>(v);
 }
 
+// A header line recording what the extraction assumed (ObservationSet::assumptions).
+constexpr const char* kAssumption = "# assumption: ";
+
 }  // namespace
 
 void WriteObservations(const std::filesystem::path& path, const ObservationSet& set) {
   std::string out;
   out.reserve(set.observations.size() * 160 + 256);
   out += "# gonio observations: board-frame metres, linear relative radiance\n";
+  for (const auto& a : set.assumptions) out += "# assumption: " + a + "\n";
   for (size_t f = 0; f < set.frame_files.size(); ++f) {
     out += fmt::format("# frame {} {}\n", f, set.frame_files[f]);
   }
@@ -77,6 +82,10 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
          ++line_number) {
       int f;
       char name[4096];
+      if (line.rfind(kAssumption, 0) == 0) {
+        set.assumptions.push_back(line.substr(std::string(kAssumption).size()));
+        continue;
+      }
       if (std::sscanf(line.c_str(), "# frame %d %4095s", &f, name) == 2) {
         if (f < 0 || f > kMaxFrameIndex) {
           throw InputError(fmt::format("{}: line {}: frame index must be in [0, {}]", path.string(),
@@ -146,6 +155,11 @@ ObservationSet MergeObservations(const std::vector<ObservationSet>& sets) {
     }
     out.excluded.insert(out.excluded.end(), s.excluded.begin(), s.excluded.end());
     out.lamp_off_frames += s.lamp_off_frames;
+    for (const auto& a : s.assumptions) {
+      if (std::find(out.assumptions.begin(), out.assumptions.end(), a) == out.assumptions.end()) {
+        out.assumptions.push_back(a);
+      }
+    }
   }
   return out;
 }

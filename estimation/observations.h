@@ -31,6 +31,9 @@ struct ObservationSet {
   std::vector<std::pair<std::string, size_t>> excluded;
   // Frames whose lamp-off partner's radiance was subtracted (the room's light removed).
   size_t lamp_off_frames = 0;
+  // What the extraction assumed (e.g. a linear camera, `--assume-linear`), one sentence each:
+  // written as "# assumption: ..." lines, so a later `gonio fit` reports them too.
+  std::vector<std::string> assumptions;
 };
 
 // observations.csv (docs/formats.md). InputError naming the file and line on bad content.

@@ -1,6 +1,6 @@
 // observations.csv (estimation/observations.h, ReadObservations): an accepted set holds only
 // finite numbers, radiance and variance per channel, non-negative variances, and survives
-// WriteObservations -> ReadObservations unchanged.
+// WriteObservations -> ReadObservations unchanged (assumptions included).
 #include "estimation/observations.h"
 #include "fuzz/fuzz_util.h"
 
@@ -34,5 +34,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const gonio::ObservationSet again = gonio::ReadObservations(copy);
     GONIO_FUZZ_REQUIRE(again.observations.size() == set.observations.size());
     GONIO_FUZZ_REQUIRE(again.channels == set.channels);
+    GONIO_FUZZ_REQUIRE(again.assumptions == set.assumptions);
   });
 }

@@ -97,8 +97,10 @@ struct RunResult {
   std::string noise_floor_source;     // "photometric.json", "--noise-floor" or "default"
   std::vector<std::string> warnings;  // frames skipped, fit warnings
   RunTimings timings;
-  size_t frames_decoded = 0;   // image decodes over the whole run
-  size_t boards_detected = 0;  // board detections over the whole run
+  // Image decodes (lamp-off frames included) and board detections over the whole run, as
+  // counted by ReadImage and DetectBoard in this process (one run at a time).
+  size_t frames_decoded = 0;
+  size_t boards_detected = 0;
   // The frames against a plan (`gonio run --plan`, pipeline/plan.h CompareWithPlan): its
   // report lines and fit.json "plan_coverage"; empty and null without a plan.
   std::string plan_coverage_report;
