@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <libexif/exif-data.h>
+#include <spdlog/spdlog.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "capture/bracket.h"
@@ -129,18 +130,34 @@ std::vector<ListedExposure> ReadExposureList(const fs::path& list, const fs::pat
   return out;
 }
 
-std::vector<fs::path> ListImages(const fs::path& dir) {
+std::optional<Photo> ClassifyPhoto(const fs::path& file) {
+  const std::string ext = Lower(file.extension().string());
+  if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff") {
+    return Photo{file, false};
+  }
+  if (IdentifyRaw(file)) return Photo{file, true};
+  return std::nullopt;
+}
+
+std::vector<Photo> ListImages(const fs::path& dir) {
   if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a folder");
-  std::vector<fs::path> out;
+  std::vector<Photo> out;
+  std::vector<std::string> skipped;
   for (const auto& entry : fs::directory_iterator(dir)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string ext = Lower(entry.path().extension().string());
-    if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff" ||
-        IsRawFile(entry.path())) {
-      out.push_back(entry.path());
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_regular_file() || name.empty() || name[0] == '.') continue;
+    if (auto photo = ClassifyPhoto(entry.path())) {
+      out.push_back(*photo);
+    } else {
+      skipped.push_back(name);
     }
   }
-  std::sort(out.begin(), out.end());
+  std::sort(out.begin(), out.end(), [](const Photo& a, const Photo& b) { return a.file < b.file; });
+  if (!skipped.empty()) {
+    std::sort(skipped.begin(), skipped.end());
+    spdlog::info("{}: {} file(s) neither images nor camera RAW, skipped (first: {})", dir.string(),
+                 skipped.size(), skipped.front());
+  }
   return out;
 }
 
@@ -155,8 +172,7 @@ std::optional<CapturedFrame> FolderSource::Grab() {
   if (next_ >= frames_.size()) return std::nullopt;
   const FolderFrame& f = frames_[next_++];
   CapturedFrame frame;
-  frame.image =
-      IsRawFile(f.file) ? ReadRaw(f.file).bgr : cv::imread(f.file.string(), cv::IMREAD_UNCHANGED);
+  frame.image = f.raw ? ReadRaw(f.file).image : cv::imread(f.file.string(), cv::IMREAD_UNCHANGED);
   if (frame.image.empty()) throw InputError(f.file.string() + ": not a readable image");
   if (frame.image.depth() != CV_8U && frame.image.depth() != CV_16U) {
     throw InputError(f.file.string() + ": only 8- and 16-bit images are supported");

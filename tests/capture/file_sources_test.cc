@@ -93,7 +93,8 @@ TEST(FolderSource, DeliversImagesUnchangedWithTheirExposures) {
 TEST(ListImages, FindsImagesSortedByName) {
   const auto images = ListImages(testing::SharedData() / "hdr_sweep" / "desktop");
   ASSERT_EQ(images.size(), 13u);
-  EXPECT_EQ(images.front().filename(), "DSC_0104.png");
+  EXPECT_EQ(images.front().file.filename(), "DSC_0104.png");
+  EXPECT_FALSE(images.front().raw);
   EXPECT_THROW(ListImages(testing::SharedData() / "no_such_folder"), InputError);
 }
 
