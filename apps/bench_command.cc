@@ -11,6 +11,7 @@
 #include "bench/bench_pipeline.h"
 #include "bench/bench_plan.h"
 #include "bench/bench_tabulation.h"
+#include "bench/bench_tags.h"
 #include "common/error.h"
 
 namespace gonio::cli {
@@ -20,7 +21,8 @@ struct BenchArgs {
   std::string out;
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   bool evaluation = false;
-  bool plan = false;
+  bool plan = false, tags = false;
+  std::string apriltag_ref;
   int threads = 0;
 };
 
@@ -33,6 +35,17 @@ void RunBench(const BenchArgs& args) {
     const std::filesystem::path work = std::filesystem::path(args.out) / "work";
     const bench::PipelineBenchReport rep = bench::RunPipelineBench(opt, work);
     bench::WritePipelineBenchOutputs(args.out, rep);
+    std::filesystem::remove_all(work);
+    PrintJson(rep.ToJson());
+    return;
+  }
+  if (args.tags) {
+    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
+    const bench::TagBenchReport rep =
+        bench::RunTagBench(opt, work,
+                           args.apriltag_ref.empty() ? bench::DefaultAprilTagRefDir()
+                                                     : std::filesystem::path(args.apriltag_ref));
+    bench::WriteTagBenchOutputs(args.out, rep);
     std::filesystem::remove_all(work);
     PrintJson(rep.ToJson());
     return;
@@ -120,6 +133,14 @@ void AddBenchCommand(CLI::App& app) {
                 "gonio plan's predicted scatter against the scatter measured on sessions "
                 "rendered from the plan and from the default orbit (plan_bench.json + chart)")
       ->excludes(stability);
+  cmd->add_flag("--tags", args->tags,
+                "AprilTag detection: gonio's against libapriltag at decimation 1 and 2 on the same "
+                "images (rendered sessions, steep oblique grids, AprilTag's own test photos): "
+                "recall, corner error, time (tags_bench.json + chart)")
+      ->excludes(stability);
+  cmd->add_option("--apriltag-ref", args->apriltag_ref,
+                  "--tags: folder of AprilTag's test photos and reference corners (default: "
+                  "../shared/data/apriltag_ref of the source tree)");
   cmd->add_flag("--sfs", args->sfs,
                 "shape from shading instead: solve time vs normal error of solver configurations "
                 "and robustness curves (sfs_bench.json + charts)")

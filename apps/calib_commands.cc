@@ -35,6 +35,10 @@ void AddDetectorOptions(CLI::App* cmd, AprilTagOptions* opt) {
   cmd->add_option("--threads", opt->threads, "libapriltag nthreads")->capture_default_str();
   cmd->add_option("--max-hamming", opt->max_hamming, "bit errors corrected (0..2)")
       ->capture_default_str();
+  cmd->add_option("--full-res-search", opt->full_resolution_search,
+                  "after the decimated pass, search at full resolution where tags are missing "
+                  "(the board's layout, or contrast no found tag explains) (true/false)")
+      ->capture_default_str();
 }
 
 std::vector<std::string> ExpandGlob(const std::string& pattern) {

@@ -153,9 +153,9 @@ void RunFromCamera(const CaptureArgs& args) {
 }
 
 // What a photo says about its exposure: LibRaw's metadata for RAW files, EXIF otherwise.
-ExifExposure PhotoExposure(const fs::path& image) {
-  if (!IsRawFile(image)) return ReadExif(image);
-  const RawMetadata raw = ReadRawMetadata(image);
+ExifExposure PhotoExposure(const Photo& photo) {
+  if (!photo.raw) return ReadExif(photo.file);
+  const RawMetadata raw = ReadRawMetadata(photo.file);
   ExifExposure e;
   e.exposure_s = raw.exposure_s;
   e.iso = raw.iso;
@@ -166,9 +166,10 @@ ExifExposure PhotoExposure(const fs::path& image) {
 
 // RAW frames are linear and use the whole 16-bit range, so they need no response curve; a
 // folder mixing them with JPEGs (tone-mapped) would need one for some frames and not others.
-bool AllRaw(const std::vector<fs::path>& files, const fs::path& dir) {
-  const auto raws = std::count_if(files.begin(), files.end(), IsRawFile);
-  if (raws != 0 && raws != static_cast<long>(files.size())) {
+bool AllRaw(const std::vector<Photo>& photos, const fs::path& dir) {
+  const auto raws =
+      std::count_if(photos.begin(), photos.end(), [](const Photo& p) { return p.raw; });
+  if (raws != 0 && raws != static_cast<long>(photos.size())) {
     throw InputError(dir.string() +
                      ": mixes RAW files with other photos; import them as separate sessions");
   }
@@ -181,9 +182,60 @@ bool AllRaw(const std::vector<fs::path>& files, const fs::path& dir) {
 void WriteRawPhotometric(const fs::path& first_raw, const fs::path& session_dir) {
   const RawMetadata m = ReadRawMetadata(first_raw);
   PhotometricCalibration p =
-      PhotometricCalibration::Linear(16, 3, 0.0, BlackLevelSource::kRawMetadata);
+      PhotometricCalibration::Linear(16, m.channels, 0.0, BlackLevelSource::kRawMetadata);
   p.read_noise_dn = 65535.0 / (m.white_level - m.black_level) * std::sqrt(1.0 + 1.0 / 12.0);
   p.Write(session_dir / "photometric.json");
+}
+
+// The photos of --exposures-from EXIF: every image or RAW file of the folder, each with its
+// own exposure; `model` gets the first photo's camera.
+std::vector<FolderFrame> FramesFromExif(const fs::path& dir, std::string* gain_unit,
+                                        std::string* model) {
+  const auto photos = ListImages(dir);
+  if (photos.empty()) {
+    throw InputError(dir.string() +
+                     ": holds no .jpg, .png, .tif or camera RAW file (any file LibRaw reads)");
+  }
+  AllRaw(photos, dir);
+  std::vector<ExifExposure> exif;
+  for (const auto& photo : photos) {
+    exif.push_back(PhotoExposure(photo));
+    if (!exif.back().exposure_s) {
+      throw InputError(photo.file.string() +
+                       ": has no EXIF ExposureTime (give --exposures-from LIST.txt)");
+    }
+  }
+  // ISO becomes the gain only when every photo states it; otherwise gains are unknown and
+  // taken as equal.
+  const bool all_iso = std::all_of(exif.begin(), exif.end(),
+                                   [](const ExifExposure& e) { return e.iso.has_value(); });
+  if (all_iso) *gain_unit = Session::kGainIso100;
+  const bool all_time = std::all_of(exif.begin(), exif.end(),
+                                    [](const ExifExposure& e) { return e.time_s.has_value(); });
+  std::vector<FolderFrame> frames;
+  for (size_t i = 0; i < photos.size(); ++i) {
+    frames.push_back({photos[i].file, *exif[i].exposure_s, all_iso ? *exif[i].iso / 100.0 : 1.0,
+                      all_time ? *exif[i].time_s : 0.0, photos[i].raw});
+  }
+  *model = exif.front().model;
+  return frames;
+}
+
+// The photos of an exposure list, each classified as an image or a RAW file.
+std::vector<FolderFrame> FramesFromList(const fs::path& dir, const std::string& list_arg) {
+  fs::path list = list_arg;
+  if (!fs::exists(list) && fs::exists(dir / list)) list = dir / list;
+  std::vector<FolderFrame> frames;
+  for (const auto& e : ReadExposureList(list, dir)) {
+    const auto photo = ClassifyPhoto(e.file);
+    if (!photo) {
+      throw InputError(list.string() + ": " + e.file.string() +
+                       " is neither an image (.jpg .png .tif) nor a camera RAW file LibRaw "
+                       "reads");
+    }
+    frames.push_back({e.file, e.exposure_s, 1.0, 0.0, photo->raw});
+  }
+  return frames;
 }
 
 void RunFromFolder(const CaptureArgs& args) {
@@ -192,50 +244,22 @@ void RunFromFolder(const CaptureArgs& args) {
   }
   const fs::path dir = args.from_folder;
   if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a folder");
-  std::vector<FolderFrame> frames;
   std::string gain_unit = Session::kGainAnalogue;
   std::string model;
-  if (args.exposures_from == "EXIF" || args.exposures_from == "exif") {
-    const auto images = ListImages(dir);
-    if (images.empty()) {
-      throw InputError(dir.string() + ": holds no .jpg, .png, .tif or RAW (.dng .cr2 .nef .arw)");
-    }
-    std::vector<ExifExposure> exif;
-    for (const auto& image : images) {
-      exif.push_back(PhotoExposure(image));
-      if (!exif.back().exposure_s) {
-        throw InputError(image.string() +
-                         ": has no EXIF ExposureTime (give --exposures-from LIST.txt)");
-      }
-    }
-    // ISO becomes the gain only when every photo states it; otherwise gains are unknown and
-    // taken as equal.
-    const bool all_iso = std::all_of(exif.begin(), exif.end(),
-                                     [](const ExifExposure& e) { return e.iso.has_value(); });
-    if (all_iso) gain_unit = Session::kGainIso100;
-    const bool all_time = std::all_of(exif.begin(), exif.end(),
-                                      [](const ExifExposure& e) { return e.time_s.has_value(); });
-    for (size_t i = 0; i < images.size(); ++i) {
-      frames.push_back({images[i], *exif[i].exposure_s, all_iso ? *exif[i].iso / 100.0 : 1.0,
-                        all_time ? *exif[i].time_s : 0.0});
-    }
-    model = exif.front().model;
-  } else {
-    fs::path list = args.exposures_from;
-    if (!fs::exists(list) && fs::exists(dir / list)) list = dir / list;
-    for (const auto& e : ReadExposureList(list, dir))
-      frames.push_back({e.file, e.exposure_s, 1.0, 0.0});
-  }
-  std::vector<fs::path> files;
-  for (const auto& f : frames) files.push_back(f.file);
-  const bool raw = AllRaw(files, dir);
+  const std::vector<FolderFrame> frames =
+      args.exposures_from == "EXIF" || args.exposures_from == "exif"
+          ? FramesFromExif(dir, &gain_unit, &model)
+          : FramesFromList(dir, args.exposures_from);
+  std::vector<Photo> photos;
+  for (const auto& f : frames) photos.push_back({f.file, f.raw});
+  const bool raw = AllRaw(photos, dir);
   const std::string id = std::string(raw ? "raw:" : "folder:") +
                          (model.empty() ? fs::absolute(dir).filename().string() : model);
   FolderSource source(id, gain_unit, frames);
   SessionWriter writer(args.out, source.Id(), source.GainUnit(), args.board);
   if (raw) writer.SetBitDepth(16);
   CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size, frames.size());
-  if (raw) WriteRawPhotometric(files.front(), writer.work_dir());
+  if (raw) WriteRawPhotometric(frames.front().file, writer.work_dir());
   writer.Commit();
   Summarize(writer);
 }
@@ -305,7 +329,9 @@ void AddCaptureCommand(CLI::App& app) {
                 "Wait for the user before each bracket (preview window when a display exists)");
   cmd->add_option("--buffers", args->buffers, "Streaming buffers in the ring")
       ->capture_default_str();
-  cmd->add_option("--from-folder", args->from_folder, "Import the photos in DIR");
+  cmd->add_option("--from-folder", args->from_folder,
+                  "Import the photos in DIR: JPEG, PNG, TIFF, or camera RAW files (any LibRaw "
+                  "reads, by content)");
   cmd->add_option("--exposures-from", args->exposures_from,
                   "EXIF, or an exposure list (FILE EXPOSURE_S [1/EXPOSURE] per line)");
   cmd->add_option("--from-video", args->from_video, "Import the frames of a video file");

@@ -66,7 +66,9 @@ void AddExportCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--theta-i", args->theta_i, "astm: comma list of theta_i in deg");
   cmd->add_option("--theta-s", args->theta_s, "astm: comma list of theta_s in deg");
-  cmd->add_option("--phi-s", args->phi_s, "astm: comma list of phi_s in deg (0 = backscatter)");
+  cmd->add_option(
+      "--phi-s", args->phi_s,
+      "astm: comma list of phi_s in deg (ASTM E1392: 0 = specular direction, 180 = retro)");
   cmd->add_flag("--allow-relative", args->allow_relative,
                 "Export a fit whose albedo is only relative (shape only)");
   cmd->callback([args] { RunExport(*args); });

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -154,44 +155,79 @@ constexpr const char* kVignetteAlternatives =
     "calibrate vignetting from a flat field (gonio synth --preset flat-field renders one) or a "
     "separate session with the lamp fixed to the board";
 
-void RunVignette(VignetteArgs& args) {
-  args.options.model = args.model;
-  args.options.Check();
-  if (args.light_frame == "camera") {
-    throw InputError(std::string("--light-frame camera: a lamp that moves with the camera would "
-                                 "put its fall-off into the vignetting; ") +
-                     kVignetteAlternatives);
-  }
-  if (args.light_frame != "board") {
-    throw InputError("--light-frame: '" + args.light_frame + "' is not one of board, camera");
-  }
-  const Session session = ReadSession(args.session);
-  const CameraModel camera = CameraModel::Read(args.camera);
-  const PaperRegion board = PaperRegion::Read(args.board);
-  const auto poses = ReadPoses(args.poses);
-  PhotometricCalibration calib;
-  calib.response = ResponseResult::FromJson(ReadJsonFile(args.response), args.response);
+// The frames of the session, each with its pose from --poses (frames gonio locate skipped are
+// left out), or without poses for a flat field.
+std::vector<VignetteFrame> VignetteFrames(const VignetteArgs& args, const Session& session) {
+  std::vector<std::pair<std::string, Rigid3d>> poses;
+  if (!args.poses.empty()) poses = ReadPoses(args.poses);
   std::vector<VignetteFrame> frames;
   for (size_t i = 0; i < session.frames.size(); ++i) {
     const auto& sf = session.frames[i];
-    auto it =
-        std::find_if(poses.begin(), poses.end(), [&](const auto& p) { return p.first == sf.file; });
-    if (it == poses.end()) continue;  // no pose (gonio locate skipped it)
     VignetteFrame f;
+    if (!args.poses.empty()) {
+      auto it = std::find_if(poses.begin(), poses.end(),
+                             [&](const auto& p) { return p.first == sf.file; });
+      if (it == poses.end()) continue;  // no pose (gonio locate skipped it)
+      f.cam_from_board = it->second;
+    }
     f.file = sf.file;
     f.image = ReadFrame(session.FramePath(i), calib, args.response);
     f.exposure_s = sf.exposure_s;
     f.gain = sf.gain;
-    f.cam_from_board = it->second;
     frames.push_back(std::move(f));
   }
   if (frames.empty()) {
-    throw InputError(args.poses + ": no pose for any frame of " + args.session);
+    throw InputError(args.poses.empty()
+                         ? args.session + ": holds no frame"
+                         : args.poses + ": no pose for any frame of " + args.session);
   }
-  spdlog::info("vignetting from {} frames", frames.size());
+  return frames;
+}
+
+// A flat field (no --poses): no board, or a board file without tags. A board with tags needs
+// the poses that tell which board point each pixel sees.
+bool IsFlatField(const VignetteArgs& args, std::optional<PaperRegion>* board) {
+  if (!args.board.empty()) *board = PaperRegion::Read(args.board);
+  if (!args.poses.empty()) {
+    if (!*board) throw InputError("--poses: needs --board, the board the poses refer to");
+    return false;
+  }
+  if (*board && !(*board)->uniform) {
+    throw InputError("--poses: " + args.board +
+                     " has tags, so each pixel's board point must come from the poses (gonio "
+                     "locate writes them); only a flat field (a tag-free target) needs none");
+  }
+  return true;
+}
+
+void RunVignette(VignetteArgs& args) {
+  args.options.model = args.model;
+  args.options.Check();
+  if (args.light_frame != "board" && args.light_frame != "camera") {
+    throw InputError("--light-frame: '" + args.light_frame + "' is not one of board, camera");
+  }
+  std::optional<PaperRegion> board;
+  const bool flat_field = IsFlatField(args, &board);
+  if (args.light_frame == "camera") {
+    throw InputError(
+        flat_field ? std::string("--light-frame camera: a lamp on the camera does not light a flat "
+                                 "field evenly; light the target evenly (a light panel, a "
+                                 "diffuser) and leave --light-frame out")
+                   : std::string("--light-frame camera: a lamp that moves with the camera would "
+                                 "put its fall-off into the vignetting; ") +
+                         kVignetteAlternatives);
+  }
+  const Session session = ReadSession(args.session);
+  const CameraModel camera = CameraModel::Read(args.camera);
+  PhotometricCalibration calib;
+  calib.response = ResponseResult::FromJson(ReadJsonFile(args.response), args.response);
+  const std::vector<VignetteFrame> frames = VignetteFrames(args, session);
+  spdlog::info("vignetting from {} frames{}", frames.size(),
+               flat_field ? " of a flat field (no poses)" : "");
   VignetteResult r;
   try {
-    r = CalibrateVignette(camera, board, calib, frames, args.options);
+    r = flat_field ? CalibrateFlatFieldVignette(camera, calib, frames, args.options)
+                   : CalibrateVignette(camera, *board, calib, frames, args.options);
   } catch (const InputError& e) {
     throw InputError(args.session + ": " + e.what());  // which session the frames came from
   }
@@ -216,8 +252,10 @@ void RunVignette(VignetteArgs& args) {
                       {"samples", r.samples},
                       {"rms_relative_residual", r.rms_relative_residual},
                       {"map_vs_radial_rms", r.map_vs_radial_rms},
+                      {"flat_field", flat_field},
                       {"lamp_test",
-                       {{"camera_lamp_exponent", r.lamp_test.exponent},
+                       {{"run", r.lamp_test.run},
+                        {"camera_lamp_exponent", r.lamp_test.exponent},
                         {"camera_lamp_exponent_stddev", r.lamp_test.exponent_stddev},
                         {"unexplained_rms", r.lamp_test.unexplained_rms},
                         {"detectable", r.lamp_test.detectable},
@@ -344,11 +382,17 @@ void AddPhotometricCommand(CLI::App& app) {
   AddResponseCommand(cmd);
 
   auto vargs = std::make_shared<VignetteArgs>();
-  auto* vig = cmd->add_subcommand("vignette", "Vignetting map from board frames of many poses");
+  auto* vig = cmd->add_subcommand(
+      "vignette",
+      "Vignetting map from board frames of many poses, or from a flat field (no --poses)");
   vig->add_option("--session", vargs->session, "Session folder")->required();
-  vig->add_option("--camera", vargs->camera, "camera.cameramodel")->required();
-  vig->add_option("--board", vargs->board, "board.json")->required();
-  vig->add_option("--poses", vargs->poses, "poses.json from gonio locate")->required();
+  vig->add_option("--camera", vargs->camera, "camera.cameramodel (its principal point)")
+      ->required();
+  vig->add_option("--board", vargs->board,
+                  "board.json (needed with --poses; a flat field needs none)");
+  vig->add_option("--poses", vargs->poses,
+                  "poses.json from gonio locate; leave out for a flat field (a tag-free white "
+                  "target filling the view, lit evenly)");
   vig->add_option("--response", vargs->response, "response.json")->required();
   vig->add_option("--out", vargs->out,
                   "vignette.tiff (32-bit float; a .png view and .json next to it)")

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <set>
@@ -95,52 +96,265 @@ cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth) {
   return out;
 }
 
-std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options) {
-  options.Check();
+namespace {
+
+// libapriltag's detector and family, made once per image and run on several regions.
+class AprilTagDetector {
+ public:
+  explicit AprilTagDetector(const AprilTagOptions& options)
+      : family_(Families().at(options.family).create(), Families().at(options.family).destroy),
+        detector_(apriltag_detector_create(), apriltag_detector_destroy) {
+    apriltag_detector_add_family_bits(detector_.get(), family_.get(), options.max_hamming);
+    detector_->quad_sigma = static_cast<float>(options.sigma);
+    detector_->nthreads = options.threads;
+    detector_->decode_sharpening = options.decode_sharpening;
+  }
+
+  // The least black-white difference libapriltag thresholds (its quad_thresh parameter).
+  int MinContrast() const { return detector_->qtp.min_white_black_diff; }
+
+  // Tags in `roi` of `grey`, corners in whole-image gonio pixels.
+  std::vector<TagDetection> Detect(const cv::Mat& grey, const cv::Rect& roi, double decimate,
+                                   bool refine_edges) {
+    detector_->quad_decimate = static_cast<float>(decimate);
+    detector_->refine_edges = refine_edges;
+    const cv::Mat region = grey(roi);
+    image_u8_t im{region.cols, region.rows, static_cast<int32_t>(region.step[0]), region.data};
+    zarray_t* detections = apriltag_detector_detect(detector_.get(), &im);
+    std::vector<TagDetection> out;
+    for (int i = 0; i < zarray_size(detections); ++i) {
+      apriltag_detection_t* det;
+      zarray_get(detections, i, &det);
+      TagDetection t;
+      t.id = det->id;
+      t.hamming = det->hamming;
+      t.decision_margin = det->decision_margin;
+      for (int c = 0; c < 4; ++c) {
+        t.corners[c] = Eigen::Vector2d(det->p[c][0] + roi.x + kAprilTagToGonioPixels,
+                                       det->p[c][1] + roi.y + kAprilTagToGonioPixels);
+      }
+      out.push_back(t);
+    }
+    apriltag_detections_destroy(detections);
+    return out;
+  }
+
+ private:
+  std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family_;
+  std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> detector_;
+};
+
+double ShortestEdge(const TagDetection& t) {
+  double e = INFINITY;
+  for (int c = 0; c < 4; ++c) e = std::min(e, (t.corners[c] - t.corners[(c + 1) % 4]).norm());
+  return e;
+}
+
+// The same tag found twice: same id and every corner within half the shorter edge. (Centres
+// alone would merge distinct tags of one id seen as thin slivers side by side, as in
+// AprilTag's own test photos.)
+bool SameTag(const TagDetection& a, const TagDetection& b) {
+  if (a.id != b.id) return false;
+  const double limit = 0.5 * std::min(ShortestEdge(a), ShortestEdge(b));
+  for (int c = 0; c < 4; ++c) {
+    if ((a.corners[c] - b.corners[c]).norm() > limit) return false;
+  }
+  return true;
+}
+
+// The tags of `extra` that are not already in `tags`.
+void AddNew(const std::vector<TagDetection>& extra, std::vector<TagDetection>* tags) {
+  for (const TagDetection& t : extra) {
+    const bool known = std::any_of(tags->begin(), tags->end(),
+                                   [&](const TagDetection& o) { return SameTag(o, t); });
+    if (!known) tags->push_back(t);
+  }
+}
+
+// Overlapping rectangles joined into their bounding boxes until none overlap; when they cover
+// most of the image, the whole image (one pass costs less than many overlapping ones).
+std::vector<cv::Rect> MergeRegions(std::vector<cv::Rect> rects, const cv::Size& size) {
+  const cv::Rect image(0, 0, size.width, size.height);
+  for (auto& r : rects) {
+    // Aligned to libapriltag's threshold tiles (4 px, in the image it is given), so a region
+    // is thresholded as the whole image would be: a tag on the edge of being found does not
+    // flip with the region's offset.
+    const int x0 = r.x / 4 * 4, y0 = r.y / 4 * 4;
+    r = cv::Rect(x0, y0, (r.x + r.width - x0 + 3) / 4 * 4, (r.y + r.height - y0 + 3) / 4 * 4);
+    r &= image;
+  }
+  rects.erase(
+      std::remove_if(rects.begin(), rects.end(), [](const cv::Rect& r) { return r.empty(); }),
+      rects.end());
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (size_t a = 0; a < rects.size() && !merged; ++a) {
+      for (size_t b = a + 1; b < rects.size() && !merged; ++b) {
+        if ((rects[a] & rects[b]).empty()) continue;
+        rects[a] |= rects[b];
+        rects.erase(rects.begin() + b);
+        merged = true;
+      }
+    }
+  }
+  double area = 0;
+  for (const auto& r : rects) area += r.area();
+  if (area > 0.6 * image.area()) return {image};
+  return rects;
+}
+
+// Without a board: the parts of the image where a tag could hide. Tiles of 16 px whose
+// grey-level range reaches libapriltag's own threshold (a tile below it holds no edge libapriltag
+// would segment), less the tiles inside found tags, grown by a tile for the tags' white
+// borders, as the bounding boxes of their connected groups.
+std::vector<cv::Rect> UnexplainedContrastRegions(const cv::Mat& grey,
+                                                 const std::vector<TagDetection>& found,
+                                                 int min_contrast) {
+  constexpr int kTile = 16;
+  const int tx = (grey.cols + kTile - 1) / kTile, ty = (grey.rows + kTile - 1) / kTile;
+  cv::Mat lo(ty, tx, CV_8UC1, cv::Scalar(255)), hi(ty, tx, CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < grey.rows; ++y) {
+    const uint8_t* row = grey.ptr<uint8_t>(y);
+    uint8_t* l = lo.ptr<uint8_t>(y / kTile);
+    uint8_t* h = hi.ptr<uint8_t>(y / kTile);
+    for (int x = 0; x < grey.cols; ++x) {
+      l[x / kTile] = std::min(l[x / kTile], row[x]);
+      h[x / kTile] = std::max(h[x / kTile], row[x]);
+    }
+  }
+  cv::Mat candidate = (hi - lo) >= min_contrast;
+  for (const TagDetection& t : found) {
+    std::vector<cv::Point> quad;
+    for (const auto& c : t.corners)
+      quad.emplace_back(cvRound(c.x() / kTile), cvRound(c.y() / kTile));
+    cv::fillConvexPoly(candidate, quad, cv::Scalar(0));
+  }
+  cv::dilate(candidate, candidate, cv::Mat::ones(3, 3, CV_8UC1));
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(candidate, labels, stats, centroids, 8);
+  std::vector<cv::Rect> out;
+  for (int k = 1; k < n; ++k) {
+    out.emplace_back((stats.at<int>(k, cv::CC_STAT_LEFT) - 1) * kTile,
+                     (stats.at<int>(k, cv::CC_STAT_TOP) - 1) * kTile,
+                     (stats.at<int>(k, cv::CC_STAT_WIDTH) + 2) * kTile,
+                     (stats.at<int>(k, cv::CC_STAT_HEIGHT) + 2) * kTile);
+  }
+  return MergeRegions(out, grey.size());
+}
+
+// With a board: where the board's missing tags are, from a homography fitted to the (up to
+// four) found tags nearest to each on the board, so lens distortion bends the prediction
+// little. A region is the predicted quad's bounding box grown by half its size (the white
+// border and the prediction's error); tags predicted partly outside the image or under 6 px
+// across (too small for any pass) are not searched.
+std::vector<cv::Rect> MissingBoardTagRegions(const Board& board,
+                                             const std::vector<TagDetection>& found,
+                                             const cv::Size& size) {
+  std::vector<int> found_k;
+  for (const auto& t : found) found_k.push_back(board.TagIndex(t.id));
+  auto board_centre = [&](int k) -> Eigen::Vector2d {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 4; ++i) c += 0.25 * board.Points()[Board::TagPointIndex(k, i)];
+    return c.head<2>();
+  };
+  std::vector<cv::Rect> out;
+  for (size_t k = 0; k < board.ids().size(); ++k) {
+    if (board.ids()[k] < 0 || std::count(found_k.begin(), found_k.end(), k) > 0) continue;
+    std::vector<size_t> nearest(found.size());
+    for (size_t i = 0; i < nearest.size(); ++i) nearest[i] = i;
+    std::sort(nearest.begin(), nearest.end(), [&](size_t a, size_t b) {
+      return (board_centre(found_k[a]) - board_centre(k)).norm() <
+             (board_centre(found_k[b]) - board_centre(k)).norm();
+    });
+    nearest.resize(std::min<size_t>(nearest.size(), 4));
+    std::vector<cv::Point2d> from, to;
+    for (size_t i : nearest) {
+      for (int c = 0; c < 4; ++c) {
+        const Eigen::Vector3d& p = board.Points()[Board::TagPointIndex(found_k[i], c)];
+        from.emplace_back(p.x(), p.y());
+        to.emplace_back(found[i].corners[c].x(), found[i].corners[c].y());
+      }
+    }
+    const cv::Mat h = cv::findHomography(from, to, 0);
+    if (h.empty()) continue;
+    std::vector<cv::Point2d> corners, predicted;
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Vector3d& p = board.Points()[Board::TagPointIndex(k, c)];
+      corners.emplace_back(p.x(), p.y());
+    }
+    cv::perspectiveTransform(corners, predicted, h);
+    cv::Rect2d box = cv::boundingRect(std::vector<cv::Point2f>(predicted.begin(), predicted.end()));
+    const bool inside = std::all_of(predicted.begin(), predicted.end(), [&](const cv::Point2d& p) {
+      return std::isfinite(p.x) && std::isfinite(p.y) && p.x >= 0 && p.y >= 0 &&
+             p.x <= size.width - 1 && p.y <= size.height - 1;
+    });
+    if (!inside || std::max(box.width, box.height) < 6) continue;
+    const double grow = 0.5 * std::max(box.width, box.height);
+    out.emplace_back(cvFloor(box.x - grow), cvFloor(box.y - grow), cvCeil(box.width + 2 * grow),
+                     cvCeil(box.height + 2 * grow));
+  }
+  return MergeRegions(out, size);
+}
+
+void SortById(std::vector<TagDetection>* tags) {
+  std::sort(tags->begin(), tags->end(),
+            [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
+}
+
+void CheckGrey(const cv::Mat& grey) {
   if (grey.empty() || grey.type() != CV_8UC1) {
     throw InputError("DetectAprilTags needs an 8-bit grey image");
   }
-  const Family& fam = Families().at(options.family);
-  std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family(fam.create(),
-                                                                          fam.destroy);
-  std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> detector(
-      apriltag_detector_create(), apriltag_detector_destroy);
-  apriltag_detector_add_family_bits(detector.get(), family.get(), options.max_hamming);
-  detector->quad_decimate = static_cast<float>(options.decimate);
-  detector->quad_sigma = static_cast<float>(options.sigma);
-  detector->refine_edges = options.refine_edges;
-  detector->nthreads = options.threads;
-  detector->decode_sharpening = options.decode_sharpening;
+}
 
-  cv::Mat continuous = grey.isContinuous() ? grey : grey.clone();
-  image_u8_t im{continuous.cols, continuous.rows, static_cast<int32_t>(continuous.step[0]),
-                continuous.data};
-  zarray_t* detections = apriltag_detector_detect(detector.get(), &im);
+// The tags `board` has among `tags`.
+std::vector<TagDetection> OnBoard(const Board& board, const std::vector<TagDetection>& tags) {
   std::vector<TagDetection> out;
-  for (int i = 0; i < zarray_size(detections); ++i) {
-    apriltag_detection_t* det;
-    zarray_get(detections, i, &det);
-    TagDetection t;
-    t.id = det->id;
-    t.hamming = det->hamming;
-    t.decision_margin = det->decision_margin;
-    for (int c = 0; c < 4; ++c) {
-      t.corners[c] = Eigen::Vector2d(det->p[c][0] + kAprilTagToGonioPixels,
-                                     det->p[c][1] + kAprilTagToGonioPixels);
-    }
-    out.push_back(t);
+  for (const auto& t : tags) {
+    if (board.TagIndex(t.id) >= 0) out.push_back(t);
   }
-  apriltag_detections_destroy(detections);
-  std::sort(out.begin(), out.end(),
-            [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
   return out;
 }
 
-namespace {
+// Where a full-resolution pass searches, given the tags found so far, libapriltag's contrast
+// threshold and the pass (0, 1, ...).
+using SearchRegions =
+    std::function<std::vector<cv::Rect>(const std::vector<TagDetection>&, int, int)>;
+
+// The passes: decimated, then full resolution in the regions `where` returns for the tags found
+// so far, once per entry of `refine_edges` (that pass's edge refinement).
+std::vector<TagDetection> DetectInPasses(const cv::Mat& grey, const AprilTagOptions& options,
+                                         const std::vector<bool>& refine_edges,
+                                         const SearchRegions& where) {
+  options.Check();
+  CheckGrey(grey);
+  AprilTagDetector detector(options);
+  const cv::Rect image(0, 0, grey.cols, grey.rows);
+  std::vector<TagDetection> tags =
+      detector.Detect(grey, image, options.decimate, options.refine_edges);
+  if (options.full_resolution_search && options.decimate > 1) {
+    for (size_t pass = 0; pass < refine_edges.size(); ++pass) {
+      for (const cv::Rect& roi : where(tags, detector.MinContrast(), static_cast<int>(pass))) {
+        AddNew(detector.Detect(grey, roi, 1.0, refine_edges[pass]), &tags);
+      }
+    }
+  }
+  SortById(&tags);
+  return tags;
+}
+
 std::atomic<size_t> board_detections{0};
+
 }  // namespace
 
 size_t BoardDetectionCount() { return board_detections.load(); }
+
+std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options) {
+  return DetectInPasses(grey, options, {false},
+                        [&](const std::vector<TagDetection>& found, int contrast, int) {
+                          return UnexplainedContrastRegions(grey, found, contrast);
+                        });
+}
 
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name) {
@@ -168,7 +382,19 @@ BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
   }
   AprilTagOptions opt = options;
   opt.family = board.family();
-  for (const TagDetection& t : DetectAprilTags(grey, opt)) {
+  // Full resolution without edge refinement (as AprilTag's tests detect), then with it where
+  // tags are still missing: each finds tags the other loses (docs/calibration.md).
+  const auto tags =
+      DetectInPasses(grey, opt, {false, true},
+                     [&](const std::vector<TagDetection>& found, int contrast, int pass) {
+                       const auto anchors = OnBoard(board, found);
+                       if (!anchors.empty())
+                         return MissingBoardTagRegions(board, anchors, grey.size());
+                       // Nothing to predict from: one pass where the image has contrast.
+                       return pass == 0 ? UnexplainedContrastRegions(grey, found, contrast)
+                                        : std::vector<cv::Rect>();
+                     });
+  for (const TagDetection& t : tags) {
     const int k = board.TagIndex(t.id);
     if (k < 0) {
       obs.foreign_tag_ids.push_back(t.id);

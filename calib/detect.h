@@ -29,7 +29,14 @@ struct AprilTagOptions {
   int threads = 1;
   double decode_sharpening = 0.25;
   int max_hamming = 1;  // bit errors corrected (0..2); more finds more false positives
-  void Check() const;   // InputError naming the option
+  // After the decimated pass (decimate > 1), a second pass at full resolution (decimation 1,
+  // libapriltag's edge refinement off, as AprilTag's own tests detect) where tags may be
+  // missing: with a board, around the places its layout puts the tags the first pass did not
+  // find; without a board (or with no board tag found), in the parts of the image whose
+  // contrast no found tag explains. Small and steeply foreshortened tags, lost on the
+  // decimated image, are found there (docs/calibration.md "Tag detection").
+  bool full_resolution_search = true;
+  void Check() const;  // InputError naming the option
 };
 
 struct TagDetection {
@@ -51,7 +58,9 @@ cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0);
 // Only geometry is read from this image; radiometry always uses the decoded values.
 cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth = 0);
 
-// Every tag of options.family in an 8-bit grey image, sorted by id.
+// Every tag of options.family in an 8-bit grey image, sorted by id: the decimated pass, then
+// (options.full_resolution_search) full resolution where the image has contrast no found tag
+// explains.
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options);
 
 // One image's view of a board: which board points were seen and where.
@@ -66,7 +75,9 @@ struct BoardObservation {
 
 // Detects the board in an image. Chessboards: all inner corners or none (empty observation).
 // AprilTag grids: the board's tags that were found (options.family is ignored: the board's
-// family is used).
+// family is used); with options.full_resolution_search the board's tags the decimated pass
+// missed are searched at full resolution where a homography from the nearest found tags puts
+// them.
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name);
 

@@ -1,4 +1,5 @@
 #include "calib/vignette.h"
+#include "calib/vignette_internal.h"
 
 #include <algorithm>
 #include <cmath>
@@ -21,20 +22,8 @@
 #include "common/vignetting.h"
 
 namespace gonio {
+namespace vignette_internal {
 namespace {
-
-struct Sample {
-  int32_t ray;       // index into the sampled-pixel table
-  int32_t acell;     // board texture cell
-  float value;       // linearized value / (exposure * gain), channels averaged
-  float ln_falloff;  // ln(cos(theta) / d^2) of a lamp at the camera centre (vignette_lamp.h)
-};
-
-struct SampledPixel {
-  Eigen::Vector3d ray = Eigen::Vector3d::Zero();  // unprojected, z = 1
-  int vcell = 0;
-  double r2 = 0;  // (distance to the principal point / half-diagonal)^2
-};
 
 // Weighted least squares of the radial polynomial a0 + a1 r^2 + a2 r^4 + a3 r^6 to the samples,
 // with the board texture C held fixed: rows C * [1, r^2, r^4, r^6], targets I.
@@ -50,38 +39,6 @@ Eigen::Vector4d FitRadial(const std::vector<Sample>& samples,
     Atb += row * s.value;
   }
   return AtA.ldlt().solve(Atb);
-}
-
-// The sampled pixels with their rays (the camera is fixed, so once for all frames) and the
-// vignette grid they fall in.
-struct PixelGrid {
-  std::vector<SampledPixel> pixels;
-  std::vector<cv::Point> xy;
-  int gw = 0, gh = 0;  // vignette grid cells per axis
-  VignettingGeometry geometry;
-};
-
-PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& options) {
-  PixelGrid g;
-  g.gw = (camera.width + options.cell_px - 1) / options.cell_px;
-  g.gh = (camera.height + options.cell_px - 1) / options.cell_px;
-  g.geometry = VignettingGeometry::Of(camera);
-  const int step = options.sample_step_px;
-  for (int y = step / 2; y < camera.height; y += step) {
-    for (int x = step / 2; x < camera.width; x += step) {
-      SampledPixel p;
-      p.vcell = (y / options.cell_px) * g.gw + x / options.cell_px;
-      p.r2 = g.geometry.R2(x, y);
-      g.pixels.push_back(p);
-      g.xy.emplace_back(x, y);
-    }
-  }
-  ParallelFor(g.pixels.size(), options.threads, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      g.pixels[i].ray = camera.Unproject(Eigen::Vector2d(g.xy[i].x, g.xy[i].y));
-    }
-  });
-  return g;
 }
 
 // A paper pixel of one frame: the board point it sees and its exposure-normalized value.
@@ -145,12 +102,6 @@ std::vector<std::vector<PaperPixel>> ReadPaperPixels(const std::vector<VignetteF
 }
 
 // The samples with their board points binned on the texture grid.
-struct SampleSet {
-  std::vector<Sample> samples;
-  size_t texture_cells = 0;
-  std::vector<int> cell_count;  // samples per vignette cell
-};
-
 SampleSet BinOnTextureGrid(const std::vector<std::vector<PaperPixel>>& per_frame,
                            const PixelGrid& grid, const PaperRegion& paper,
                            const VignetteOptions& options) {
@@ -517,6 +468,52 @@ int CountDistinctPoses(const std::vector<VignetteFrame>& frames) {
 
 }  // namespace
 
+PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& options) {
+  PixelGrid g;
+  g.gw = (camera.width + options.cell_px - 1) / options.cell_px;
+  g.gh = (camera.height + options.cell_px - 1) / options.cell_px;
+  g.geometry = VignettingGeometry::Of(camera);
+  const int step = options.sample_step_px;
+  for (int y = step / 2; y < camera.height; y += step) {
+    for (int x = step / 2; x < camera.width; x += step) {
+      SampledPixel p;
+      p.vcell = (y / options.cell_px) * g.gw + x / options.cell_px;
+      p.r2 = g.geometry.R2(x, y);
+      g.pixels.push_back(p);
+      g.xy.emplace_back(x, y);
+    }
+  }
+  ParallelFor(g.pixels.size(), options.threads, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      g.pixels[i].ray = camera.Unproject(Eigen::Vector2d(g.xy[i].x, g.xy[i].y));
+    }
+  });
+  return g;
+}
+
+void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
+                   const VignetteOptions& options, bool test_lamp, VignetteResult* result) {
+  ChooseModel(set.cell_count, options, result);
+  result->covered_radius = CoveredRadius(set.samples, grid.pixels);
+  std::vector<double> C(set.texture_cells, 0.0);
+  const std::array<double, 3> v =
+      FitRadialJointly(set.samples, grid.pixels, RadialTerms(result->covered_radius),
+                       options.threads, &C, &result->iterations);
+  SolveTexture(
+      set.samples, [&](const Sample& s) { return RadialVignettingAtR2(v, grid.pixels[s.ray].r2); },
+      &C);
+  if (test_lamp) result->lamp_test = CheckLampFixedToBoard(set.samples, grid, v, C);
+  if (result->model_used == "map") {
+    FinishMap(camera, grid, std::move(set), v, std::move(C), options, result);
+  } else {
+    FinishRadial(camera, grid, set, v, C, options, result);
+  }
+}
+
+}  // namespace vignette_internal
+
+using namespace vignette_internal;
+
 void VignetteOptions::Check() const {
   if (model != "map" && model != "radial") {
     throw InputError("--model must be 'map' or 'radial', got '" + model + "'");
@@ -557,11 +554,13 @@ std::vector<std::pair<std::string, Rigid3d>> ReadPoses(const std::filesystem::pa
 }
 
 std::string VignetteResult::Report() const {
+  const std::string source = lamp_test.run
+                                 ? fmt::format("{} frames from {} poses", frames_used, poses)
+                                 : fmt::format("{} flat-field frames", frames_used);
   std::string s = fmt::format(
-      "vignetting ({}): {} frames from {} poses, {} samples, coverage {:.0f}% of the grid, {} "
-      "iterations, relative residual {:.2f}%\n",
-      model_used, frames_used, poses, samples, 100 * coverage, iterations,
-      100 * rms_relative_residual);
+      "vignetting ({}): {}, {} samples, coverage {:.0f}% of the grid, {} iterations, relative "
+      "residual {:.2f}%\n",
+      model_used, source, samples, 100 * coverage, iterations, 100 * rms_relative_residual);
   s += fmt::format("radial fit: V = 1 + {:.4f} r^2 + {:.4f} r^4 + {:.4f} r^6", radial[0], radial[1],
                    radial[2]);
   if (model_used == "map") s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
@@ -591,21 +590,7 @@ VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& p
     for (const auto& v : per_frame) result.frames_used += !v.empty();
     set = BinOnTextureGrid(per_frame, grid, paper, options);
   }
-  ChooseModel(set.cell_count, options, &result);
-  result.covered_radius = CoveredRadius(set.samples, grid.pixels);
-  std::vector<double> C(set.texture_cells, 0.0);
-  const std::array<double, 3> v =
-      FitRadialJointly(set.samples, grid.pixels, RadialTerms(result.covered_radius),
-                       options.threads, &C, &result.iterations);
-  SolveTexture(
-      set.samples, [&](const Sample& s) { return RadialVignettingAtR2(v, grid.pixels[s.ray].r2); },
-      &C);
-  result.lamp_test = CheckLampFixedToBoard(set.samples, grid, v, C);
-  if (result.model_used == "map") {
-    FinishMap(camera, grid, std::move(set), v, std::move(C), options, &result);
-  } else {
-    FinishRadial(camera, grid, set, v, C, options, &result);
-  }
+  SolveVignette(camera, grid, std::move(set), options, true, &result);
   return result;
 }
 }  // namespace gonio

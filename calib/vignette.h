@@ -51,7 +51,7 @@ struct VignetteFrame {
   cv::Mat image;  // raw pixel values (as the response expects)
   double exposure_s = 0;
   double gain = 1;
-  Rigid3d cam_from_board;
+  Rigid3d cam_from_board;  // unused by CalibrateFlatFieldVignette
 };
 
 struct VignetteResult {
@@ -81,6 +81,19 @@ VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& p
                                  const PhotometricCalibration& response_only,
                                  const std::vector<VignetteFrame>& frames,
                                  const VignetteOptions& options);
+
+// A flat field without poses: frames of a tag-free white target that fills the view, lit
+// uniformly (a flat-panel light, a diffuser, a white wall under even light), so every pixel of
+// a frame sees the same radiance C_k: I_k(x) = V(x) C_k, one constant per frame (so a light
+// that drifts between frames, or a frame's exposure error, costs nothing). The frames'
+// cam_from_board is not used; one frame is enough, several (turned or shifted a little between
+// them) average the target's own unevenness, which the residual reports. The camera-lamp test
+// needs poses and is not run (lamp_test.tested false). InputError when a frame's size is not
+// the camera's or no usable pixel is found.
+VignetteResult CalibrateFlatFieldVignette(const CameraModel& camera,
+                                          const PhotometricCalibration& response_only,
+                                          const std::vector<VignetteFrame>& frames,
+                                          const VignetteOptions& options);
 
 // V of the radial polynomial at pixel (x, y) for the camera's principal point and half-diagonal.
 double RadialVignetting(const CameraModel& camera, const std::array<double, 3>& v, double x,

@@ -80,6 +80,10 @@ std::string CameraLampTest::Refusal() const {
 }
 
 std::string CameraLampTest::Report() const {
+  if (!run) {
+    return "lamp test: not run (a flat field without poses: a lamp's fall-off cannot be told "
+           "from the pixel position without them; light the target evenly)";
+  }
   if (!detectable) {
     return fmt::format(
         "lamp test: the poses change a camera-fixed lamp's fall-off by only {:.2f}% beyond what "

@@ -40,6 +40,7 @@ struct CameraLampTestOptions {
 };
 
 struct CameraLampTest {
+  bool run = true;             // false: a flat field without poses (no geometry to test)
   double exponent = 0;         // beta
   double exponent_stddev = 0;  // from the residual scatter (pixels taken as independent)
   double unexplained_rms = 0;  // RMS of z

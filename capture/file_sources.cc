@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <libexif/exif-data.h>
+#include <spdlog/spdlog.h>
 
 #include "capture/bracket.h"
 #include "capture/raw_file.h"
@@ -129,18 +130,34 @@ std::vector<ListedExposure> ReadExposureList(const fs::path& list, const fs::pat
   return out;
 }
 
-std::vector<fs::path> ListImages(const fs::path& dir) {
+std::optional<Photo> ClassifyPhoto(const fs::path& file) {
+  const std::string ext = Lower(file.extension().string());
+  if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff") {
+    return Photo{file, false};
+  }
+  if (IdentifyRaw(file)) return Photo{file, true};
+  return std::nullopt;
+}
+
+std::vector<Photo> ListImages(const fs::path& dir) {
   if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a folder");
-  std::vector<fs::path> out;
+  std::vector<Photo> out;
+  std::vector<std::string> skipped;
   for (const auto& entry : fs::directory_iterator(dir)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string ext = Lower(entry.path().extension().string());
-    if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff" ||
-        IsRawFile(entry.path())) {
-      out.push_back(entry.path());
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_regular_file() || name.empty() || name[0] == '.') continue;
+    if (auto photo = ClassifyPhoto(entry.path())) {
+      out.push_back(*photo);
+    } else {
+      skipped.push_back(name);
     }
   }
-  std::sort(out.begin(), out.end());
+  std::sort(out.begin(), out.end(), [](const Photo& a, const Photo& b) { return a.file < b.file; });
+  if (!skipped.empty()) {
+    std::sort(skipped.begin(), skipped.end());
+    spdlog::info("{}: {} file(s) neither images nor camera RAW, skipped (first: {})", dir.string(),
+                 skipped.size(), skipped.front());
+  }
   return out;
 }
 
@@ -157,7 +174,7 @@ std::optional<CapturedFrame> FolderSource::Grab() {
   CapturedFrame frame;
   ImageExpectation expect;
   expect.alpha = ImageExpectation::Alpha::kRefuse;
-  frame.image = IsRawFile(f.file) ? ReadRaw(f.file).bgr : ReadImage(f.file, expect);
+  frame.image = f.raw ? ReadRaw(f.file).image : ReadImage(f.file, expect);
   frame.exposure_s = f.exposure_s;
   frame.gain = f.gain;
   frame.timestamp_s = f.timestamp_s;

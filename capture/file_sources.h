@@ -35,20 +35,31 @@ struct ListedExposure {
 std::vector<ListedExposure> ReadExposureList(const std::filesystem::path& list,
                                              const std::filesystem::path& image_dir);
 
-// Image files in a folder (.jpg .jpeg .png .tif .tiff, and RAW .dng .cr2 .nef .arw, any case),
-// sorted by name.
-std::vector<std::filesystem::path> ListImages(const std::filesystem::path& dir);
+struct Photo {
+  std::filesystem::path file;
+  bool raw = false;  // a camera RAW file (capture/raw_file.h), else an image OpenCV decodes
+};
+
+// What a photo file is: an image by its suffix (.jpg .jpeg .png .tif .tiff, any case), else a
+// camera RAW file when LibRaw recognises it (IdentifyRaw: any suffix), else std::nullopt.
+// InputError for a RAW file gonio cannot read (naming it and the reason).
+std::optional<Photo> ClassifyPhoto(const std::filesystem::path& file);
+
+// The photos in a folder (ClassifyPhoto; other files are skipped and counted in the log),
+// sorted by name. Hidden files (a leading '.') are skipped without being opened.
+std::vector<Photo> ListImages(const std::filesystem::path& dir);
 
 struct FolderFrame {
   std::filesystem::path file;
   double exposure_s = 0.0;
   double gain = 1.0;
   double timestamp_s = 0.0;
+  bool raw = false;  // read through LibRaw (capture/raw_file.h)
 };
 
 // Photos read in order, each with its known exposure. Images load unchanged (8 or 16 bits,
 // grey or colour, no EXIF rotation: the sensor's own pixel grid, as calibration needs); RAW
-// files as linear 16-bit half-size BGR (capture/raw_file.h).
+// files as linear 16-bit frames binned per colour-filter block (capture/raw_file.h).
 class FolderSource : public FrameSource {
  public:
   FolderSource(std::string id, std::string gain_unit, std::vector<FolderFrame> frames);

@@ -62,7 +62,8 @@ BrdfTable LoadBrdfTable(const CsvTable& csv, const BrdfTableOptions& options) {
     s.theta_i = csv.Number(r, ti) * unit;
     s.theta_r = csv.Number(r, tr) * unit;
     const double dphi = (csv.Number(r, pr) - csv.Number(r, pi)) * unit;
-    s.phi = std::abs(std::remainder(dphi, 2 * kPi));
+    s.phi = options.specular_azimuth ? AstmAzimuthToGonio(dphi)
+                                     : std::abs(std::remainder(dphi, 2 * kPi));
     s.value = csv.Number(r, val);
     if (weight) s.weight = csv.Number(r, *weight);
     const auto where = [&] { return fmt::format("{}: line {}", csv.source(), csv.LineOf(r)); };
@@ -92,6 +93,7 @@ BrdfTableOptions AstmE1392Options(BrdfTableOptions base) {
   base.theta_r_column = "theta_s";
   base.phi_r_column = "phi_s";
   base.degrees = true;
+  base.specular_azimuth = true;
   return base;
 }
 

@@ -5,12 +5,14 @@
 // degrees = true), a value column (default "brdf"), optional "weight" and "sample" columns.
 // ASTM E1392 tables name the scattered direction theta_s, phi_s and give degrees.
 // The relative azimuth is phi = |phi_r - phi_i| wrapped to [0, pi] (isotropic samples,
-// docs/conventions.md: phi = 0 is the backscatter side).
+// docs/conventions.md: phi = 0 is the backscatter side); in an ASTM table phi_s - phi_i = 0 is
+// the specular direction instead (AstmAzimuthToGonio).
 // MERL files (Matusik et al. 2003, MERL BRDF database): docs/export.md describes the layout,
 // the subsampling and the weights.
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <filesystem>
 #include <optional>
@@ -18,6 +20,7 @@
 #include <vector>
 
 #include "common/csv.h"
+#include "common/math.h"
 #include "estimation/brdf_fit.h"
 #include "reflectance/angles.h"
 
@@ -27,8 +30,19 @@ struct BrdfTableOptions {
   std::string value_column = "brdf";
   std::string theta_r_column = "theta_r", phi_r_column = "phi_r";
   bool degrees = false;
+  // The azimuth columns follow ASTM E1392 / E2387 (phi_r - phi_i = 0 is the specular
+  // direction, 180 deg the retro direction) instead of gonio's (0 = backscatter).
+  bool specular_azimuth = false;
   std::optional<std::string> sample;  // keep only rows whose "sample" column equals this
 };
+
+// ASTM E1392 / E2387 azimuth (after Stover, "Optical Scattering", ch. 1: the specular beam at
+// phi_s - phi_i = 0, the retro direction at 180 deg), radians, to gonio's relative azimuth
+// (docs/conventions.md: 0 = viewer on the source's side): pi - |phi_s - phi_i| wrapped to
+// [0, pi]. Its own inverse on [0, pi].
+inline double AstmAzimuthToGonio(double phi_s_minus_phi_i) {
+  return kPi - std::abs(std::remainder(phi_s_minus_phi_i, 2 * kPi));
+}
 
 struct BrdfTable {
   std::vector<BrdfSample> samples;
@@ -45,7 +59,8 @@ BrdfTable LoadBrdfTable(const CsvTable& csv, const BrdfTableOptions& options);
 
 // True for a table in the ASTM E1392 layout (theta_s/phi_s columns, no theta_r).
 bool IsAstmE1392Table(const CsvTable& csv);
-// Options reading such a table: theta_s/phi_s as the viewing direction, degrees.
+// Options reading such a table: theta_s/phi_s as the viewing direction, degrees, the
+// standard's azimuth (specular_azimuth).
 BrdfTableOptions AstmE1392Options(BrdfTableOptions base);
 
 // MERL's binary layout, as its reference reader (read_brdf, lookup_brdf_val) reads it: three

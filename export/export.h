@@ -18,8 +18,10 @@ enum class ExportFormat { kMitsuba, kPbrt3, kBlender, kMaterialx, kAstm, kMerl }
 ExportFormat ParseExportFormat(const std::string& s);
 std::string FormatName(ExportFormat f);
 
-// The ASTM table's grid (degrees; phi_i = 0, phi_s measured from the source's azimuth, so
-// phi_s = 0 is backscatter as in docs/conventions.md).
+// The ASTM table's grid, degrees, in the standard's azimuth convention (ASTM E1392 / E2387,
+// after Stover, "Optical Scattering", ch. 1: the incident beam's plane is phi_i = 0, and the
+// specular beam lies at theta_s = theta_i, phi_s = 0; phi_s = 180 is the retro direction). gonio's
+// phi (docs/conventions.md, 0 = backscatter) is 180 - phi_s: AstmAzimuthToGonio.
 struct AstmGrid {
   std::vector<double> theta_i_deg = {0, 10, 20, 30, 40, 50, 60, 70, 80};
   std::vector<double> theta_s_deg = {0,  5,  10, 15, 20, 25, 30, 35, 40,

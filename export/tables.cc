@@ -56,7 +56,8 @@ size_t WriteMerlBinary(const FittedMaterial& material, const std::filesystem::pa
 
 std::string AstmTable(const FittedMaterial& material, const AstmGrid& grid, size_t* n_values) {
   std::ostringstream s;
-  s << "# ASTM E1392-style BRDF table: angles in degrees, BRDF in 1/sr, phi_i = 0\n";
+  s << "# ASTM E1392-style BRDF table: angles in degrees, BRDF in 1/sr, phi_i = 0; phi_s = 0 "
+       "is the specular direction, 180 the retro direction (ASTM E1392 / E2387)\n";
   s << "# no wavelength or polarisation: the colour channels of the fitted model\n";
   for (const auto& line : ExportHeader(material, std::nullopt)) s << "# " << line << "\n";
   s << "theta_i,phi_i,theta_s,phi_s,brdf" << (material.per_channel ? ",brdf_r,brdf_g,brdf_b" : "")
@@ -65,8 +66,7 @@ std::string AstmTable(const FittedMaterial& material, const AstmGrid& grid, size
   for (double ti : grid.theta_i_deg) {
     for (double ts : grid.theta_s_deg) {
       for (double ps : grid.phi_s_deg) {
-        const double phi = std::abs(std::remainder(DegToRad(ps), 2 * kPi));
-        const Angles<double> a{DegToRad(ti), DegToRad(ts), phi};
+        const Angles<double> a{DegToRad(ti), DegToRad(ts), AstmAzimuthToGonio(DegToRad(ps))};
         double v[3];
         for (int c = 0; c < 3; ++c) {
           const std::string why =

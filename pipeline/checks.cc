@@ -79,19 +79,23 @@ void FitChecksOptions::Check() const {
 
 namespace {
 
-std::vector<std::string> ParametersAtBounds(const BrdfFitResult& m, double fraction) {
-  std::vector<std::string> out;
+// Parameters within `fraction` of their range from a registry bound: fit bounds in *at_bound,
+// edges of the model's own domain (ParamInfo::min/max_is_domain_edge) in *at_edge.
+void ParametersAtBounds(const BrdfFitResult& m, double fraction, std::vector<std::string>* at_bound,
+                        std::vector<std::string>* at_edge) {
   const ModelInfo& info = FindModel(m.model);
   for (size_t k = 0; k < m.params.size() && k < info.params.size(); ++k) {
     const ParamInfo& p = info.params[k];
     const double tol = fraction * (p.max - p.min);
-    if (m.params[k] <= p.min + tol) {
-      out.push_back(fmt::format("{} (lower bound {:g} {})", p.name, p.min, p.unit));
-    } else if (m.params[k] >= p.max - tol) {
-      out.push_back(fmt::format("{} (upper bound {:g} {})", p.name, p.max, p.unit));
-    }
+    const bool low = m.params[k] <= p.min + tol, high = m.params[k] >= p.max - tol;
+    if (!low && !high) continue;
+    const bool edge = low ? p.min_is_domain_edge : p.max_is_domain_edge;
+    const std::string unit = p.unit == "1" ? "" : " " + p.unit;
+    (edge ? at_edge : at_bound)
+        ->push_back(fmt::format("{} ({} {} {:g}{})", p.name, low ? "lower" : "upper",
+                                edge ? "end of the model's domain," : "bound", low ? p.min : p.max,
+                                unit));
   }
-  return out;
 }
 
 double RmsSigma(const JointFitResult& f) {
@@ -170,7 +174,7 @@ FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
   }
   c.rms_sigma = RmsSigma(f);
   c.explains_data = c.rms_sigma <= o.max_rms_sigma;
-  c.at_bounds = ParametersAtBounds(f.material, o.bound_fraction);
+  ParametersAtBounds(f.material, o.bound_fraction, &c.at_bounds, &c.at_domain_edges);
   if (f.frames.size() >= 4 &&
       c.inconsistent_frames.size() > o.max_inconsistent_fraction * f.frames.size() &&
       !c.explains_data &&
@@ -199,6 +203,15 @@ std::vector<std::string> FitChecks::Messages() const {
                 " sits on its bound: the data ask for a value the model cannot give; it is a "
                 "limit, not a measurement");
   }
+  for (const auto& e : at_domain_edges) {
+    m.push_back(
+        "parameter " + e +
+        (explains_data
+             ? " is at the edge of the model's domain, a value the model defines (not a fit "
+               "bound); the fit explains the data, so the value is measured there"
+             : " is at the edge of the model's domain; the fit does not explain the data, so "
+               "they may ask for a value beyond it"));
+  }
   if (!inconsistent_frames.empty()) {
     std::string list;
     for (const auto& s : inconsistent_frames) list += (list.empty() ? "" : ", ") + s;
@@ -211,11 +224,10 @@ std::vector<std::string> FitChecks::Messages() const {
 }
 
 nlohmann::json FitChecks::ToJson() const {
-  return {{"rms_residual_over_sigma", rms_sigma},
-          {"explains_data", explains_data},
-          {"parameters_at_bounds", at_bounds},
-          {"inconsistent_frames", inconsistent_frames},
-          {"measured", Measured()}};
+  return {
+      {"rms_residual_over_sigma", rms_sigma},       {"explains_data", explains_data},
+      {"parameters_at_bounds", at_bounds},          {"parameters_at_domain_edges", at_domain_edges},
+      {"inconsistent_frames", inconsistent_frames}, {"measured", Measured()}};
 }
 
 }  // namespace gonio

@@ -46,7 +46,10 @@ struct FitChecksOptions {
 struct FitChecks {
   double rms_sigma = 0;  // over every sample observation of the final fit
   bool explains_data = true;
-  std::vector<std::string> at_bounds;            // "sigma (upper bound 0.9)"
+  std::vector<std::string> at_bounds;  // fit bounds: "sigma (upper bound 0.9 rad)"
+  // Edges of the model's own domain (ParamInfo::max_is_domain_edge): "roughness (upper end of
+  // the model's domain, 1)"; a value there is a measurement when the data are explained.
+  std::vector<std::string> at_domain_edges;
   std::vector<std::string> inconsistent_frames;  // "frame_0003.png (+12.1%)"
   // True when nothing above stands in the way of reading the parameters as a measurement.
   bool Measured() const { return explains_data && at_bounds.empty(); }

@@ -29,6 +29,13 @@ struct ParamInfo {
   // unknown lamp intensity, but not always a linear scale of the BRDF: oren-nayar's albedo rho
   // also enters its interreflection term as rho^2 (Oren & Nayar eq. 29).
   bool per_channel = false;
+  // Whether min / max is an edge of the model's own domain (a value the model defines and a
+  // surface can have: Fujii's roughness 0 is Lambert, 1 the roughest surface Blender's and
+  // MaterialX' diffuse describe) rather than a fit bound set for the solver (Oren-Nayar's sigma
+  // at 0.9 rad). A fit ending on a domain edge is reported as at the edge, not as pressing
+  // against a bound (pipeline/checks.h).
+  bool min_is_domain_edge = false;
+  bool max_is_domain_edge = false;
 };
 
 struct ModelInfo {

@@ -101,9 +101,16 @@ inline const char* HorizonInvalid(const Angles<double>& a) {
                           : nullptr;
 }
 
+// The roughness runs over Fujii's whole range: 0 is Lambert, 1 the roughest surface the
+// renderers' diffuse takes (Blender's Roughness and OpenPBR's diffuse_roughness are [0, 1]).
+// Both ends are the model's domain, not fit bounds; an albedo of 0 is a black surface.
 inline std::vector<ParamInfo> Params(bool albedo_per_channel) {
-  return {{"albedo", "1", 0.0, 1.0, 0.5, "rho (renderer colour)", albedo_per_channel},
-          {"roughness", "1", 0.0, 1.0, 0.5, "Fujii's sigma (Blender Roughness)"}};
+  std::vector<ParamInfo> p = {
+      {"albedo", "1", 0.0, 1.0, 0.5, "rho (renderer colour)", albedo_per_channel},
+      {"roughness", "1", 0.0, 1.0, 0.5, "Fujii's sigma (Blender Roughness)"}};
+  p[0].min_is_domain_edge = true;
+  p[1].min_is_domain_edge = p[1].max_is_domain_edge = true;
+  return p;
 }
 
 }  // namespace fujii_internal
@@ -120,9 +127,9 @@ struct OrenNayarFujii {
     info.description = "Fujii's improved Oren-Nayar (Cycles/MaterialX single scattering)";
     info.reference = "Fujii 2012 (improved Oren-Nayar); Blender Cycles bsdf_oren_nayar.h";
     info.cost_rank = 1;
-    // A renderer's function (for `gonio export`), not a physical model of the sample: fitted
-    // only when asked for by name, so `--models auto` selections stay those of the physics.
-    info.auto_candidate = false;
+    // A candidate of `--models auto` and `all`: the diffuse of Blender Cycles, MaterialX and
+    // OpenPBR, which rendered and measured materials are made with (docs/pipeline.md).
+    info.auto_candidate = true;
     return info;
   }
   template <typename T>

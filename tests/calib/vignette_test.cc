@@ -3,10 +3,12 @@
 #include "calib/vignette.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "calib/board.h"
 #include "common/camera_model.h"
 #include "common/error.h"
+#include "common/io.h"
 #include "tests/calib/photometric_test_util.h"
 #include "tests/test_util.h"
 
@@ -93,6 +95,62 @@ TEST_F(VignetteSynthetic, BoardSceneFallsBackToRadialWithinOnePercentRms) {
   EXPECT_LT(rms, 0.01) << r.Report();
   std::cout << r.Report() << "RMS vs truth " << 100 * rms << "% within the covered radius "
             << r.covered_radius << ", " << 100 * rms_all << "% over the whole image\n";
+}
+
+// The same flat field without poses (a tag-free target has none to locate): every pixel of a
+// frame sees the target's one radiance, C one constant per frame.
+TEST_F(VignetteSynthetic, FlatFieldWithoutPosesWithinOnePercentRms) {
+  const fs::path d = dir_->path() / "flat";
+  auto frames = testing::LoadVignetteFrames(d, dir_->path() / "flat_poses.json");
+  for (auto& f : frames) f.cam_from_board = Rigid3d();  // not used: poses unknown
+  VignetteOptions o;
+  o.cell_px = 8;
+  const VignetteResult r =
+      CalibrateFlatFieldVignette(flat_.camera, testing::TruthCalibration(flat_), frames, o);
+  ASSERT_EQ(r.model_used, "map") << r.Report();
+  EXPECT_FALSE(r.lamp_test.run);
+  EXPECT_EQ(r.frames_used, static_cast<int>(frames.size()));
+  const double rms = testing::RmsRelative(r.map, testing::TruthVignette(flat_));
+  EXPECT_LT(rms, 0.01) << r.Report();
+  EXPECT_NEAR(RadialVignetting(flat_.camera, r.radial, 0, 0),
+              RadialVignetting(flat_.camera, {-0.3, 0.05, -0.02}, 0, 0), 0.01);
+  std::cout << r.Report() << "RMS vs truth " << 100 * rms << "% (no poses)\n";
+  // One frame is enough for a uniform target.
+  frames.resize(1);
+  const VignetteResult one =
+      CalibrateFlatFieldVignette(flat_.camera, testing::TruthCalibration(flat_), frames, o);
+  const double rms_one = testing::RmsRelative(one.map, testing::TruthVignette(flat_));
+  EXPECT_LT(rms_one, 0.015) << one.Report();
+  std::cout << "one frame: RMS vs truth " << 100 * rms_one << "%\n";
+}
+
+TEST_F(VignetteSynthetic, CliFlatFieldNeedsNoPosesButATagBoardDoes) {
+  const fs::path d = dir_->path() / "flat";
+  const fs::path out = dir_->path() / "cli_flat";
+  fs::create_directories(out);
+  WriteJsonAtomically(out / "response.json", testing::TruthCalibration(flat_).response.ToJson());
+  // No --board, no --poses: a flat field.
+  auto r = RunGonio("photometric vignette --session " + d.string() + " --camera " +
+                    (d / "camera.cameramodel").string() + " --response " +
+                    (out / "response.json").string() + " --out " +
+                    (out / "vignette.tiff").string() + " --cell-px 8");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("flat-field frames"), std::string::npos) << r.out;
+  const nlohmann::json j = ReadJsonFile(out / "vignette.json");
+  EXPECT_TRUE(j.at("flat_field").get<bool>());
+  EXPECT_FALSE(j.at("lamp_test").at("run").get<bool>());
+  const cv::Mat map = cv::imread((out / "vignette.tiff").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_LT(testing::RmsRelative(map, testing::TruthVignette(flat_)), 0.01);
+  // A board with tags needs the poses: one line naming --poses, nothing written.
+  const fs::path tags = dir_->path() / "board" / "board.json";
+  r = RunGonio("photometric vignette --session " + (dir_->path() / "board").string() +
+               " --camera " + (d / "camera.cameramodel").string() + " --board " + tags.string() +
+               " --response " + (out / "response.json").string() + " --out " +
+               (out / "v_tags.tiff").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("--poses"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out / "v_tags.tiff"));
 }
 
 TEST_F(VignetteSynthetic, OnePoseIsAnInputError) {

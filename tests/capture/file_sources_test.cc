@@ -98,7 +98,8 @@ TEST(ListImages, FindsImagesSortedByName) {
   GONIO_REQUIRE_TEST_DATA();
   const auto images = ListImages(testing::TestData() / "hdr_sweep" / "desktop");
   ASSERT_EQ(images.size(), 13u);
-  EXPECT_EQ(images.front().filename(), "DSC_0104.png");
+  EXPECT_EQ(images.front().file.filename(), "DSC_0104.png");
+  EXPECT_FALSE(images.front().raw);
   EXPECT_THROW(ListImages(testing::TestData() / "no_such_folder"), InputError);
 }
 

@@ -247,7 +247,9 @@ TEST(Export, AstmTableHoldsTheModel) {
     const double ts = DegToRad(csv.Number(row, csv.Require("theta_s")));
     const double ps = DegToRad(csv.Number(row, csv.Require("phi_s")));
     const double f = csv.Number(row, csv.Require("brdf"));
-    EXPECT_NEAR(f, OrenNayar::Evaluate(m.params.data(), Angles<double>{ti, ts, ps}), 1e-8 * f);
+    // The table's phi_s is the standard's (0 = specular direction): gonio's phi is 180 - phi_s.
+    EXPECT_NEAR(f, OrenNayar::Evaluate(m.params.data(), Angles<double>{ti, ts, kPi - ps}),
+                1e-8 * f);
   }
 }
 
