@@ -5,7 +5,6 @@
 #include <fstream>
 #include <sstream>
 
-#include <ceres/ceres.h>
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -17,25 +16,6 @@
 
 namespace gonio {
 namespace {
-
-// w * (h(Z) - ln E_p - ln t_j) with h linear between knots k and k+1.
-struct ObservationResidual {
-  double a, w;
-  template <typename T>
-  bool operator()(const T* hk, const T* hk1, const T* ln_e, const T* ln_t, T* r) const {
-    r[0] = T(w) * ((T(1.0 - a)) * hk[0] + T(a) * hk1[0] - ln_e[0] - ln_t[0]);
-    return true;
-  }
-};
-
-struct SmoothnessResidual {
-  double w;
-  template <typename T>
-  bool operator()(const T* h0, const T* h1, const T* h2, T* r) const {
-    r[0] = T(w) * (h0[0] - T(2) * h1[0] + h2[0]);
-    return true;
-  }
-};
 
 // Pool-adjacent-violators: the weighted least-squares monotone non-decreasing fit.
 std::vector<double> Isotonic(const std::vector<double>& y, const std::vector<double>& w) {
@@ -150,17 +130,11 @@ KnotPair KnotsOf(const Setup& s, double z) {
   return {k, pos - k};
 }
 
-// One well-exposed observation of a sampled pixel.
-struct Observation {
-  size_t pixel;
-  int frame, k;
-  double a, w;
-};
-
-std::vector<Observation> CollectObservations(const std::vector<cv::Mat>& planes,
-                                             const std::vector<ExposureFrame>& frames,
-                                             const Setup& s, const std::vector<cv::Point>& pixels) {
-  std::vector<Observation> obs;
+std::vector<KnotObservation> CollectObservations(const std::vector<cv::Mat>& planes,
+                                                 const std::vector<ExposureFrame>& frames,
+                                                 const Setup& s,
+                                                 const std::vector<cv::Point>& pixels) {
+  std::vector<KnotObservation> obs;
   for (size_t p = 0; p < pixels.size(); ++p) {
     for (int j : s.usable) {
       if (!Usable(frames[j], pixels[p])) continue;
@@ -168,29 +142,23 @@ std::vector<Observation> CollectObservations(const std::vector<cv::Mat>& planes,
       const double w = HatWeight(s, z);
       if (w < 0.05) continue;
       const auto [k, a] = KnotsOf(s, z);
-      obs.push_back({p, j, k, a, w});
+      obs.push_back({static_cast<int>(p), j, k, a, w});
     }
   }
   return obs;
 }
 
-double HOf(const ChannelFit& fit, const Observation& o) {
+double HOf(const ChannelFit& fit, const KnotObservation& o) {
   return (1 - o.a) * fit.h[o.k] + o.a * fit.h[o.k + 1];
 }
 
-// One residual per observation, with a Huber loss beyond 0.05 ln units: misregistered edges and
-// moving objects give a few observations far off, which a square loss lets bend the curve
-// (measured on the registered film scans of hdr_sweep/memorial: median pair consistency 10.9 ->
-// 10.6 %). Each pixel's ln E starts at the median over its frames of h(Z) - ln t.
-void AddObservations(const std::vector<Observation>& obs, ceres::Problem* problem, ChannelFit* fit,
-                     std::vector<double>* ln_e) {
+// Each pixel's ln E starts at the median over its frames of h(Z) - ln t; `counts` holds the
+// observations' weight per knot (for the isotonic weights and the supported range).
+void StartingPoint(const std::vector<KnotObservation>& obs, ChannelFit* fit,
+                   std::vector<double>* ln_e) {
   std::vector<std::vector<double>> est(ln_e->size());
   for (const auto& o : obs) {
     est[o.pixel].push_back(HOf(*fit, o) - fit->ln_t[o.frame]);
-    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ObservationResidual, 1, 1, 1, 1, 1>(
-                                  new ObservationResidual{o.a, o.w}),
-                              new ceres::HuberLoss(0.05), &fit->h[o.k], &fit->h[o.k + 1],
-                              &(*ln_e)[o.pixel], &fit->ln_t[o.frame]);
     fit->counts[o.k] += o.w * (1 - o.a);
     fit->counts[o.k + 1] += o.w * o.a;
   }
@@ -199,15 +167,14 @@ void AddObservations(const std::vector<Observation>& obs, ceres::Problem* proble
 
 // Second differences of h, weighted by the hat function as in Debevec-Malik: ln X curves
 // hardest near the dark end, where a uniform penalty would bias it.
-void AddSmoothness(const Setup& s, double weight, ceres::Problem* problem, ChannelFit* fit) {
+std::vector<double> SmoothWeights(const Setup& s, double weight) {
   const int K = s.num_knots;
+  std::vector<double> w(K, 0.0);
   for (int k = 1; k + 1 < K; ++k) {
     const double z = static_cast<double>(k) * s.max_value / (K - 1);
-    const double w = weight * std::max(0.05, HatWeight(s, z));
-    problem->AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SmoothnessResidual, 1, 1, 1, 1>(new SmoothnessResidual{w}),
-        nullptr, &fit->h[k - 1], &fit->h[k], &fit->h[k + 1]);
+    w[k] = weight * std::max(0.05, HatWeight(s, z));
   }
+  return w;
 }
 
 // Weight of each second-difference residual. A second difference on knots spaced Delta apart is
@@ -223,8 +190,8 @@ double SmoothnessWeight(const Setup& s, double smoothness, size_t observations) 
 }
 
 // RMS of h(Z) - ln E - ln t, and each frame's leave-one-out offset (ChannelFit::frame_offset).
-void Residuals(const std::vector<Observation>& obs, const std::vector<double>& ln_e, size_t frames,
-               ChannelFit* fit) {
+void Residuals(const std::vector<KnotObservation>& obs, const std::vector<double>& ln_e,
+               size_t frames, ChannelFit* fit) {
   double ssr = 0;
   std::vector<double> sum_w(ln_e.size(), 0.0), sum_wl(ln_e.size(), 0.0);
   std::vector<int> count(ln_e.size(), 0);
@@ -259,8 +226,12 @@ void Residuals(const std::vector<Observation>& obs, const std::vector<double>& l
 // (near the 25th and 75th percentile of the observations), so the times come out as
 // a + b ln t_true for some b > 0 however wrong the listed ones are.
 void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
-              const std::vector<Observation>& obs, ceres::Problem* problem, ChannelFit* fit) {
+              const std::vector<KnotObservation>& obs, LinearFitSpec* spec, ChannelFit* fit) {
   const int K = s.num_knots;
+  spec->knot_fixed.assign(K, false);
+  spec->frame_fixed.assign(fit->ln_t.size(), true);
+  std::vector<bool> observed(fit->ln_t.size(), false);
+  for (const auto& ob : obs) observed[ob.frame] = true;
   int k_a = K / 2, k_b = K / 2;
   if (times_unknown) {
     std::vector<double> knots;
@@ -268,22 +239,18 @@ void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setu
     k_a = static_cast<int>(Percentile(knots, 0.25));
     k_b = std::max(k_a + 1, static_cast<int>(Percentile(knots, 0.75)));
     fit->h[k_b] = std::log((k_b + 0.5) / (k_a + 0.5));
-    problem->SetParameterBlockConstant(&fit->h[k_b]);
+    spec->knot_fixed[k_b] = true;
+    bool first = true;
     for (int j : s.usable) {
-      if (problem->HasParameterBlock(&fit->ln_t[j])) {
-        problem->SetParameterBlockConstant(&fit->ln_t[j]);
-        break;
-      }
+      if (!observed[j]) continue;
+      spec->frame_fixed[j] = first;
+      first = false;
     }
   } else {
-    for (int j : s.usable) {
-      if (!free_time[j] && problem->HasParameterBlock(&fit->ln_t[j])) {
-        problem->SetParameterBlockConstant(&fit->ln_t[j]);
-      }
-    }
+    for (int j : s.usable) spec->frame_fixed[j] = !free_time[j];
   }
   fit->h[k_a] = 0.0;
-  problem->SetParameterBlockConstant(&fit->h[k_a]);
+  spec->knot_fixed[k_a] = true;
 }
 
 }  // namespace
@@ -302,20 +269,11 @@ ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<Expo
 
   const auto obs = CollectObservations(planes, frames, s, pixels);
   if (obs.empty()) throw InputError("exposure sweep: no pixel is well exposed in any frame");
-  ceres::Problem problem;
-  AddObservations(obs, &problem, &fit, &ln_e);
-  AddSmoothness(s, SmoothnessWeight(s, o.smoothness, obs.size()), &problem, &fit);
-  FixGauge(free_time, times_unknown, s, obs, &problem, &fit);
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  so.max_num_iterations = 100;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
-  if (!summary.IsSolutionUsable()) {
-    throw NumericalError("response fit failed: " + summary.message);
-  }
+  StartingPoint(obs, &fit, &ln_e);
+  LinearFitSpec spec;
+  spec.smooth_weight = SmoothWeights(s, SmoothnessWeight(s, o.smoothness, obs.size()));
+  FixGauge(free_time, times_unknown, s, obs, &spec, &fit);
+  SolveResponseFit(obs, spec, &fit.h, &ln_e, &fit.ln_t);
   Residuals(obs, ln_e, frames.size(), &fit);
   return fit;
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "calib/response.h"
@@ -22,6 +23,35 @@ struct ChannelFit {
   std::vector<bool> judgeable;
   double rms = 0;
 };
+
+// One well-exposed observation of a sampled pixel: value Z in `frame`, h(Z) = (1 - a) h[k] +
+// a h[k + 1], with the hat weight w.
+struct KnotObservation {
+  int pixel, frame, k;
+  double a, w;
+};
+
+// The fit's least-squares problem (response_solve.cc): minimise
+//   sum_i huber(w_i (h(Z_i) - ln E_p - ln t_j)) + sum_k (smooth_weight[k] (h[k-1] - 2 h[k] +
+//   h[k+1]))^2
+// over the knots and times not held and every observed pixel's ln E.
+struct LinearFitSpec {
+  std::vector<bool> knot_fixed;       // per knot: held at its value in h
+  std::vector<bool> frame_fixed;      // per frame: ln t held (frames without observations are)
+  std::vector<double> smooth_weight;  // per knot (the first and last are unused)
+  double huber_scale = 0.05;          // ln units
+  int max_iterations = 100;
+  double tolerance = 1e-9;  // largest change of a knot or ln t between iterations, ln units
+};
+
+// Iteratively reweighted least squares with every pixel's ln E eliminated in closed form.
+// h, ln_e, ln_t: the start on entry (held values stay), the minimum on return. `weights`: each
+// observation's final weight w^2 rho'; `normal`: the reduced normal matrix over the free knots
+// and times (either may be null). NumericalError when the system has no finite solution.
+void SolveResponseFit(const std::vector<KnotObservation>& obs, const LinearFitSpec& spec,
+                      std::vector<double>* h, std::vector<double>* ln_e, std::vector<double>* ln_t,
+                      std::vector<double>* weights = nullptr, Eigen::MatrixXd* normal = nullptr);
+double HuberWeight(double residual, double scale);
 
 struct Setup {
   int bit_depth, max_value, num_knots;
