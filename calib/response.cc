@@ -1,11 +1,11 @@
 #include "calib/response.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
-#include <ceres/ceres.h>
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -17,25 +17,6 @@
 
 namespace gonio {
 namespace {
-
-// w * (h(Z) - ln E_p - ln t_j) with h linear between knots k and k+1.
-struct ObservationResidual {
-  double a, w;
-  template <typename T>
-  bool operator()(const T* hk, const T* hk1, const T* ln_e, const T* ln_t, T* r) const {
-    r[0] = T(w) * ((T(1.0 - a)) * hk[0] + T(a) * hk1[0] - ln_e[0] - ln_t[0]);
-    return true;
-  }
-};
-
-struct SmoothnessResidual {
-  double w;
-  template <typename T>
-  bool operator()(const T* h0, const T* h1, const T* h2, T* r) const {
-    r[0] = T(w) * (h0[0] - T(2) * h1[0] + h2[0]);
-    return true;
-  }
-};
 
 // Pool-adjacent-violators: the weighted least-squares monotone non-decreasing fit.
 std::vector<double> Isotonic(const std::vector<double>& y, const std::vector<double>& w) {
@@ -61,6 +42,8 @@ std::vector<double> Isotonic(const std::vector<double>& y, const std::vector<dou
   return out;
 }
 
+}  // namespace
+
 bool Usable(const ExposureFrame& f, const cv::Point& p) {
   return f.mask.empty() || f.mask.at<uint8_t>(p) != 0;
 }
@@ -72,6 +55,8 @@ double HatWeight(const Setup& s, double z) {
   const double half = 0.5 * (s.saturation_limit - s.dark_limit);
   return std::min(z - s.dark_limit, s.saturation_limit - z) / half;
 }
+
+namespace {
 
 // Pixels on flat areas (small gradient relative to the value, robust to tiny misalignment),
 // stratified by their mean value over the frames so that dark and bright scene parts are both
@@ -138,11 +123,7 @@ std::vector<cv::Point> SamplePixels(const std::vector<cv::Mat>& planes,
   return picked;
 }
 
-// Where value z falls between knots: h(z) = (1 - a) h[k] + a h[k + 1].
-struct KnotPair {
-  int k;
-  double a;
-};
+}  // namespace
 
 KnotPair KnotsOf(const Setup& s, double z) {
   const double pos = KnotPosition(s, z);
@@ -150,17 +131,11 @@ KnotPair KnotsOf(const Setup& s, double z) {
   return {k, pos - k};
 }
 
-// One well-exposed observation of a sampled pixel.
-struct Observation {
-  size_t pixel;
-  int frame, k;
-  double a, w;
-};
-
-std::vector<Observation> CollectObservations(const std::vector<cv::Mat>& planes,
-                                             const std::vector<ExposureFrame>& frames,
-                                             const Setup& s, const std::vector<cv::Point>& pixels) {
-  std::vector<Observation> obs;
+std::vector<KnotObservation> CollectObservations(const std::vector<cv::Mat>& planes,
+                                                 const std::vector<ExposureFrame>& frames,
+                                                 const Setup& s,
+                                                 const std::vector<cv::Point>& pixels) {
+  std::vector<KnotObservation> obs;
   for (size_t p = 0; p < pixels.size(); ++p) {
     for (int j : s.usable) {
       if (!Usable(frames[j], pixels[p])) continue;
@@ -168,29 +143,25 @@ std::vector<Observation> CollectObservations(const std::vector<cv::Mat>& planes,
       const double w = HatWeight(s, z);
       if (w < 0.05) continue;
       const auto [k, a] = KnotsOf(s, z);
-      obs.push_back({p, j, k, a, w});
+      obs.push_back({static_cast<int>(p), j, k, a, w});
     }
   }
   return obs;
 }
 
-double HOf(const ChannelFit& fit, const Observation& o) {
+namespace {
+
+double HOf(const ChannelFit& fit, const KnotObservation& o) {
   return (1 - o.a) * fit.h[o.k] + o.a * fit.h[o.k + 1];
 }
 
-// One residual per observation, with a Huber loss beyond 0.05 ln units: misregistered edges and
-// moving objects give a few observations far off, which a square loss lets bend the curve
-// (measured on the registered film scans of hdr_sweep/memorial: median pair consistency 10.9 ->
-// 10.6 %). Each pixel's ln E starts at the median over its frames of h(Z) - ln t.
-void AddObservations(const std::vector<Observation>& obs, ceres::Problem* problem, ChannelFit* fit,
-                     std::vector<double>* ln_e) {
+// Each pixel's ln E starts at the median over its frames of h(Z) - ln t; `counts` holds the
+// observations' weight per knot (for the isotonic weights and the supported range).
+void StartingPoint(const std::vector<KnotObservation>& obs, ChannelFit* fit,
+                   std::vector<double>* ln_e) {
   std::vector<std::vector<double>> est(ln_e->size());
   for (const auto& o : obs) {
     est[o.pixel].push_back(HOf(*fit, o) - fit->ln_t[o.frame]);
-    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ObservationResidual, 1, 1, 1, 1, 1>(
-                                  new ObservationResidual{o.a, o.w}),
-                              new ceres::HuberLoss(0.05), &fit->h[o.k], &fit->h[o.k + 1],
-                              &(*ln_e)[o.pixel], &fit->ln_t[o.frame]);
     fit->counts[o.k] += o.w * (1 - o.a);
     fit->counts[o.k + 1] += o.w * o.a;
   }
@@ -199,15 +170,14 @@ void AddObservations(const std::vector<Observation>& obs, ceres::Problem* proble
 
 // Second differences of h, weighted by the hat function as in Debevec-Malik: ln X curves
 // hardest near the dark end, where a uniform penalty would bias it.
-void AddSmoothness(const Setup& s, double weight, ceres::Problem* problem, ChannelFit* fit) {
+std::vector<double> SmoothWeights(const Setup& s, double weight) {
   const int K = s.num_knots;
+  std::vector<double> w(K, 0.0);
   for (int k = 1; k + 1 < K; ++k) {
     const double z = static_cast<double>(k) * s.max_value / (K - 1);
-    const double w = weight * std::max(0.05, HatWeight(s, z));
-    problem->AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SmoothnessResidual, 1, 1, 1, 1>(new SmoothnessResidual{w}),
-        nullptr, &fit->h[k - 1], &fit->h[k], &fit->h[k + 1]);
+    w[k] = weight * std::max(0.05, HatWeight(s, z));
   }
+  return w;
 }
 
 // Weight of each second-difference residual. A second difference on knots spaced Delta apart is
@@ -223,8 +193,8 @@ double SmoothnessWeight(const Setup& s, double smoothness, size_t observations) 
 }
 
 // RMS of h(Z) - ln E - ln t, and each frame's leave-one-out offset (ChannelFit::frame_offset).
-void Residuals(const std::vector<Observation>& obs, const std::vector<double>& ln_e, size_t frames,
-               ChannelFit* fit) {
+void Residuals(const std::vector<KnotObservation>& obs, const std::vector<double>& ln_e,
+               size_t frames, ChannelFit* fit) {
   double ssr = 0;
   std::vector<double> sum_w(ln_e.size(), 0.0), sum_wl(ln_e.size(), 0.0);
   std::vector<int> count(ln_e.size(), 0);
@@ -259,8 +229,12 @@ void Residuals(const std::vector<Observation>& obs, const std::vector<double>& l
 // (near the 25th and 75th percentile of the observations), so the times come out as
 // a + b ln t_true for some b > 0 however wrong the listed ones are.
 void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
-              const std::vector<Observation>& obs, ceres::Problem* problem, ChannelFit* fit) {
+              const std::vector<KnotObservation>& obs, LinearFitSpec* spec, ChannelFit* fit) {
   const int K = s.num_knots;
+  spec->knot_fixed.assign(K, false);
+  spec->frame_fixed.assign(fit->ln_t.size(), true);
+  std::vector<bool> observed(fit->ln_t.size(), false);
+  for (const auto& ob : obs) observed[ob.frame] = true;
   int k_a = K / 2, k_b = K / 2;
   if (times_unknown) {
     std::vector<double> knots;
@@ -268,56 +242,54 @@ void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setu
     k_a = static_cast<int>(Percentile(knots, 0.25));
     k_b = std::max(k_a + 1, static_cast<int>(Percentile(knots, 0.75)));
     fit->h[k_b] = std::log((k_b + 0.5) / (k_a + 0.5));
-    problem->SetParameterBlockConstant(&fit->h[k_b]);
+    spec->knot_fixed[k_b] = true;
+    bool first = true;
     for (int j : s.usable) {
-      if (problem->HasParameterBlock(&fit->ln_t[j])) {
-        problem->SetParameterBlockConstant(&fit->ln_t[j]);
-        break;
-      }
+      if (!observed[j]) continue;
+      spec->frame_fixed[j] = first;
+      first = false;
     }
   } else {
-    for (int j : s.usable) {
-      if (!free_time[j] && problem->HasParameterBlock(&fit->ln_t[j])) {
-        problem->SetParameterBlockConstant(&fit->ln_t[j]);
-      }
-    }
+    for (int j : s.usable) spec->frame_fixed[j] = !free_time[j];
   }
   fit->h[k_a] = 0.0;
-  problem->SetParameterBlockConstant(&fit->h[k_a]);
+  spec->knot_fixed[k_a] = true;
 }
 
 }  // namespace
 
+ChannelFit FitKnotObservations(const std::vector<KnotObservation>& obs, size_t num_pixels,
+                               const std::vector<ExposureFrame>& frames,
+                               const std::vector<bool>& free_time, bool times_unknown,
+                               const Setup& s, const ResponseOptions& o, const ChannelFit* start) {
+  if (obs.empty()) throw InputError("exposure sweep: no pixel is well exposed in any frame");
+  const int K = s.num_knots;
+  ChannelFit fit;
+  fit.counts.assign(K, 0.0);
+  fit.ln_e.assign(num_pixels, 0.0);
+  if (start) {
+    fit.h = start->h;
+    fit.ln_t = start->ln_t;
+  } else {
+    fit.h.resize(K);
+    for (int k = 0; k < K; ++k) fit.h[k] = std::log((k + 0.5) / K);  // start: linear response
+    fit.ln_t.assign(frames.size(), 0.0);
+    for (size_t j = 0; j < frames.size(); ++j) fit.ln_t[j] = std::log(frames[j].exposure_s);
+  }
+  StartingPoint(obs, &fit, &fit.ln_e);
+  LinearFitSpec spec;
+  spec.smooth_weight = SmoothWeights(s, SmoothnessWeight(s, o.smoothness, obs.size()));
+  FixGauge(free_time, times_unknown, s, obs, &spec, &fit);
+  SolveResponseFit(obs, spec, &fit.h, &fit.ln_e, &fit.ln_t);
+  Residuals(obs, fit.ln_e, frames.size(), &fit);
+  return fit;
+}
+
 ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<ExposureFrame>& frames,
                       const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
                       const std::vector<cv::Point>& pixels, const ResponseOptions& o) {
-  const int K = s.num_knots;
-  ChannelFit fit;
-  fit.h.resize(K);
-  for (int k = 0; k < K; ++k) fit.h[k] = std::log((k + 0.5) / K);  // start: linear response
-  fit.ln_t.assign(frames.size(), 0.0);
-  for (size_t j = 0; j < frames.size(); ++j) fit.ln_t[j] = std::log(frames[j].exposure_s);
-  fit.counts.assign(K, 0.0);
-  std::vector<double> ln_e(pixels.size(), 0.0);
-
-  const auto obs = CollectObservations(planes, frames, s, pixels);
-  if (obs.empty()) throw InputError("exposure sweep: no pixel is well exposed in any frame");
-  ceres::Problem problem;
-  AddObservations(obs, &problem, &fit, &ln_e);
-  AddSmoothness(s, SmoothnessWeight(s, o.smoothness, obs.size()), &problem, &fit);
-  FixGauge(free_time, times_unknown, s, obs, &problem, &fit);
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  so.max_num_iterations = 100;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
-  if (!summary.IsSolutionUsable()) {
-    throw NumericalError("response fit failed: " + summary.message);
-  }
-  Residuals(obs, ln_e, frames.size(), &fit);
-  return fit;
+  return FitKnotObservations(CollectObservations(planes, frames, s, pixels), pixels.size(), frames,
+                             free_time, times_unknown, s, o, nullptr);
 }
 
 namespace {
@@ -358,7 +330,7 @@ void CheckSupportedRange(const std::vector<double>& h, int k_lo, int k_hi, doubl
 // estimated (EstimateBlackLevel).
 std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* black_level,
                                std::array<double, 2>* black_range, bool black_given,
-                               double* z_top) {
+                               double* z_bottom, double* z_top) {
   const int K = s.num_knots;
   std::vector<double> w(K);
   for (int k = 0; k < K; ++k) w[k] = fit.counts[k] + 1e-6;
@@ -377,6 +349,7 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
   const double z_hi =
       std::min(static_cast<double>(k_hi) * s.max_value / (K - 1), s.saturation_limit);
   CheckSupportedRange(h, k_lo, k_hi, z_lo, z_hi, s);
+  *z_bottom = z_lo;
   *z_top = z_hi;
   *black_range = {*black_level, *black_level};
   if (!black_given) {
@@ -413,13 +386,14 @@ void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<
   if (!o.channel_black_level.empty()) result->black_level = o.channel_black_level;
   result->black_level_range.resize(result->channels);
   result->saturation_level.assign(result->channels, 0.0);
+  result->lowest_supported_value.assign(result->channels, 0.0);
   double rms = 0;
   std::vector<double> lo(result->channels), hi(result->channels);
   for (int c = 0; c < result->channels; ++c) {
     double z_top = 0;
-    result->inverse_response.push_back(BuildTable(fits[c], setups[c], &result->black_level[c],
-                                                  &result->black_level_range[c], black_given,
-                                                  &z_top));
+    result->inverse_response.push_back(BuildTable(
+        fits[c], setups[c], &result->black_level[c], &result->black_level_range[c], black_given,
+        &result->lowest_supported_value[c], &z_top));
     result->saturation_level[c] = std::floor(z_top) + 1;
     rms += fits[c].rms * fits[c].rms;
     lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
@@ -448,6 +422,9 @@ void ResponseOptions::Check() const {
   }
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
   if (num_pixels < 50) throw InputError("at least 50 pixels are needed");
+  if (error_replicates < 0 || error_replicates == 1 || error_replicates > 1000) {
+    throw InputError("error model replicates must be 0 (none) or 2..1000");
+  }
   if (!(smoothness >= 0)) throw InputError("smoothness must be >= 0");
   if (!(exposure_tolerance > 0)) throw InputError("exposure tolerance must be > 0");
   if (!(saturation_margin >= 0 && saturation_margin < 0.5)) {
@@ -455,15 +432,86 @@ void ResponseOptions::Check() const {
   }
 }
 
+namespace {
+
+// Wall time of the calibration's stages (ResponseResult::timing).
+class StageClock {
+ public:
+  explicit StageClock(ResponseTiming* timing) : timing_(timing) {}
+  void Lap(const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last_).count();
+    timing_->stages.push_back({stage, s});
+    timing_->total_s += s;
+    last_ = now;
+  }
+
+ private:
+  ResponseTiming* timing_;
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// Each channel's dark and saturation limits and its sampled pixels.
+void SetupChannels(const std::vector<ExposureFrame>& frames,
+                   const std::vector<std::vector<cv::Mat>>& planes, const Setup& s,
+                   const ResponseOptions& o, std::vector<Setup>* setups,
+                   std::vector<std::vector<cv::Point>>* pixels) {
+  const int channels = static_cast<int>(planes.size());
+  std::vector<double> listed;
+  for (const auto& f : frames) listed.push_back(f.exposure_s);
+  setups->assign(channels, s);
+  pixels->assign(channels, {});
+  const bool black_given = o.black_level || !o.channel_black_level.empty();
+  if (!o.channel_black_level.empty() && static_cast<int>(o.channel_black_level.size()) != channels) {
+    throw InputError(fmt::format("{} black levels for {}-channel frames",
+                                 o.channel_black_level.size(), channels));
+  }
+  for (int c = 0; c < channels; ++c) {
+    Setup& cs = (*setups)[c];
+    if (!o.channel_black_level.empty()) cs.dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
+    cs.darkest_value = DarkestValue(frames, c, s.bit_depth, &cs.darkest_piled);
+    if (!black_given && cs.darkest_piled) {
+      // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
+      // clipped noise, as those above a measured black level do.
+      cs.dark_limit = cs.darkest_value + 0.02 * s.max_value;
+    }
+    cs.saturation_limit = ChannelSaturation(planes[c], s, listed);
+    (*pixels)[c] = SamplePixels(planes[c], frames, cs, o.num_pixels);
+  }
+}
+
+// The error model of every channel over its supported values (response_error.cc).
+ResponseErrorModel ErrorModel(const std::vector<ExposureFrame>& frames,
+                              const std::vector<std::vector<cv::Mat>>& planes,
+                              const std::vector<bool>& free_time, const std::vector<Setup>& setups,
+                              const std::vector<std::vector<cv::Point>>& pixels,
+                              const std::vector<ChannelFit>& fits,
+                              const std::vector<ChannelFit>& stiff, const ResponseResult& result,
+                              const ResponseOptions& o) {
+  ResponseErrorModel m;
+  m.replicates = o.error_replicates;
+  m.stiffer_prior = kSmoothingSensitivityFactor;
+  m.method = "parametric bootstrap";
+  for (int c = 0; c < result.channels; ++c) {
+    m.channels.push_back(ChannelErrorModel(frames, free_time, setups[c], pixels[c], planes[c],
+                                           fits[c], stiff[c], result.lowest_supported_value[c],
+                                           result.saturation_level[c] - 1, o, c));
+  }
+  return m;
+}
+
+}  // namespace
+
 ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
                                  const ResponseOptions& o) {
   o.Check();
+  ResponseResult result;
+  StageClock clock(&result.timing);
   CheckSweep(input);
   std::vector<ExposureFrame> frames = input;
   const int bit_depth = ResolveBitDepth(o.bit_depth, "the bit depth option", &frames);
   Setup s = MakeSetup(o, bit_depth);
   CheckValueSpan(frames, s);
-  ResponseResult result;
   result.bit_depth = s.bit_depth;
   result.channels = frames[0].image.channels();
   result.regional_mapping_difference = RegionalMappingDifference(frames, bit_depth);
@@ -474,39 +522,28 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
         "so no single response exists; use manual mode or RAW",
         100 * result.regional_mapping_difference));
   }
+  clock.Lap("sweep checks");
   const auto planes = ChannelPlanes(frames, s, result.channels);
   ScreenFrames(frames, planes[0], &s, &result);
-
-  std::vector<double> listed;
-  for (const auto& f : frames) listed.push_back(f.exposure_s);
-  std::vector<Setup> setups(result.channels, s);
-  std::vector<std::vector<cv::Point>> pixels(result.channels);
-  const bool black_given = o.black_level || !o.channel_black_level.empty();
-  if (!o.channel_black_level.empty() &&
-      static_cast<int>(o.channel_black_level.size()) != result.channels) {
-    throw InputError(fmt::format("{} black levels for {}-channel frames",
-                                 o.channel_black_level.size(), result.channels));
-  }
-  for (int c = 0; c < result.channels; ++c) {
-    if (!o.channel_black_level.empty()) {
-      setups[c].dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
-    }
-    setups[c].darkest_value = DarkestValue(frames, c, bit_depth, &setups[c].darkest_piled);
-    if (!black_given && setups[c].darkest_piled) {
-      // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
-      // clipped noise, as those above a measured black level do.
-      setups[c].dark_limit = setups[c].darkest_value + 0.02 * s.max_value;
-    }
-    setups[c].saturation_limit = ChannelSaturation(planes[c], s, listed);
-    pixels[c] = SamplePixels(planes[c], frames, setups[c], o.num_pixels);
-  }
+  std::vector<Setup> setups;
+  std::vector<std::vector<cv::Point>> pixels;
+  SetupChannels(frames, planes, s, o, &setups, &pixels);
+  clock.Lap("pixel sample");
   std::vector<bool> free_time(frames.size(), false);
   const auto fits = FitWithTimeScreening(planes, frames, setups, pixels, o, &s, &free_time);
   ReportFrames(fits, free_time, frames, s, o, &result);
+  clock.Lap("fit");
   FinishResponse(frames, fits, setups, o, &result);
+  clock.Lap("self-check");
   for (auto& cs : setups) cs.usable = s.usable;
-  result.smoothing_sensitivity =
-      SmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, result, o);
+  const std::vector<ChannelFit> stiff =
+      StifferFits(planes, frames, free_time, setups, pixels, fits, o);
+  result.smoothing_sensitivity = SmoothingSensitivity(setups, fits, stiff, result, o);
+  clock.Lap("smoothing sensitivity");
+  if (o.error_replicates > 0) {
+    result.error_model = ErrorModel(frames, planes, free_time, setups, pixels, fits, stiff, result, o);
+    clock.Lap("error model");
+  }
   return result;
 }
 
