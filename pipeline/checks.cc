@@ -170,28 +170,87 @@ FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
   return c;
 }
 
-std::vector<std::string> FitChecks::Messages() const {
-  std::vector<std::string> m;
+std::string ToString(WarningCause cause) {
+  switch (cause) {
+    case WarningCause::kFrameSkipped:
+      return "frame-skipped";
+    case WarningCause::kFit:
+      return "fit";
+    case WarningCause::kNotExplained:
+      return "not-explained";
+    case WarningCause::kAtBound:
+      return "at-bound";
+    case WarningCause::kInconsistentFrames:
+      return "inconsistent-frames";
+    case WarningCause::kResidualIrradiance:
+      return "residual-irradiance";
+    case WarningCause::kResidualView:
+      return "residual-view";
+    case WarningCause::kResidualPosition:
+      return "residual-position";
+    case WarningCause::kAmbientLight:
+      return "ambient-light";
+    case WarningCause::kSampleHeight:
+      return "sample-height";
+    case WarningCause::kResponse:
+      return "response";
+  }
+  return "unknown";
+}
+
+nlohmann::json RunWarning::ToJson() const {
+  return {{"cause", ToString(cause)}, {"message", message}, {"touches", touches}};
+}
+
+std::vector<std::string> AllResults(const JointFitResult& fit) {
+  std::vector<std::string> out = fit.material.param_names;
+  out.push_back("light");
+  out.push_back("intensity");
+  return out;
+}
+
+nlohmann::json TouchedResults(const std::vector<RunWarning>& warnings) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& w : warnings) {
+    for (const auto& t : w.touches) {
+      if (!j.contains(t)) j[t] = nlohmann::json::array();
+      const std::string cause = ToString(w.cause);
+      if (std::find(j[t].begin(), j[t].end(), cause) == j[t].end()) j[t].push_back(cause);
+    }
+  }
+  return j;
+}
+
+std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit) const {
+  std::vector<RunWarning> m;
+  const std::vector<std::string> all = AllResults(fit);
   if (!explains_data) {
-    m.push_back(fmt::format(
-        "no candidate explains these data: the selected model's residuals are {:.1f} times "
-        "what pixel noise and the calibration floor explain; the parameters are the best of "
-        "the candidates, not a measurement (a material outside the candidate set, or a "
-        "calibration error?)",
-        rms_sigma));
+    m.push_back(
+        {WarningCause::kNotExplained,
+         fmt::format(
+             "no candidate explains these data: the selected model's residuals are {:.1f} times "
+             "what pixel noise and the calibration floor explain; the parameters are the best of "
+             "the candidates, not a measurement (a material outside the candidate set, or a "
+             "calibration error?)",
+             rms_sigma),
+         all});
   }
   for (const auto& b : at_bounds) {
-    m.push_back("parameter " + b +
-                " sits on its bound: the data ask for a value the model cannot give; it is a "
-                "limit, not a measurement");
+    // "sigma (upper bound ...)": the parameter's name leads.
+    m.push_back({WarningCause::kAtBound,
+                 "parameter " + b +
+                     " sits on its bound: the data ask for a value the model cannot give; it is "
+                     "a limit, not a measurement",
+                 {b.substr(0, b.find(' '))}});
   }
   if (!inconsistent_frames.empty()) {
     std::string list;
     for (const auto& s : inconsistent_frames) list += (list.empty() ? "" : ", ") + s;
-    m.push_back(
-        "frames that disagree with the fitted scene (moved lamp or sample, wrong "
-        "exposure?): " +
-        list);
+    m.push_back({WarningCause::kInconsistentFrames,
+                 "frames that disagree with the fitted scene (moved lamp or sample, wrong "
+                 "exposure?): " +
+                     list,
+                 all});
   }
   return m;
 }

@@ -174,6 +174,18 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
 }
 
+// The joint fit's own warnings: a lamp too far to measure its distance touches the lamp and
+// the intensity; a frame the model misses, every result.
+void AddFitWarnings(const JointFitResult& f, std::vector<RunWarning>* out) {
+  const bool far_lamp = std::find(f.undetermined_light.begin(), f.undetermined_light.end(),
+                                  "light_distance") != f.undetermined_light.end();
+  for (const auto& w : f.warnings) {
+    const bool distance = far_lamp && w.find("irradiance varies only") != std::string::npos;
+    out->push_back({WarningCause::kFit, w,
+                    distance ? std::vector<std::string>{"light", "intensity"} : AllResults(f)});
+  }
+}
+
 }  // namespace
 
 void RunOptions::Check() const {
@@ -211,8 +223,9 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     throw InputError(in.session.dir.string() + ": the board was found in no frame");
   }
   for (const auto& s : r.poses.skipped) {
-    r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
-    spdlog::warn("{}", r.warnings.back());
+    r.warnings.push_back(
+        {WarningCause::kFrameSkipped, fmt::format("frame {} skipped: {}", s.file, s.reason), {}});
+    spdlog::warn("{}", r.warnings.back().message);
   }
   r.timings.locate_s = clock.Lap();
 
@@ -227,19 +240,33 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   r.fit = FitAndSelect(r.observations, fit_options);
   PropagateCalibration(in, o, fit_options, &r);
   r.timings.fit_s = clock.Lap();
-  for (const auto& w : r.fit.final_fit.warnings) r.warnings.push_back(w);
+  AddFitWarnings(r.fit.final_fit, &r.warnings);
   r.checks = CheckFit(r.fit, r.observations, fit_options, in.session.dir.string(), o.checks);
-  for (const auto& m : r.checks.Messages()) {
-    r.warnings.push_back(m);
-    spdlog::warn("{}", m);
+  for (const auto& w : r.checks.Warnings(r.fit.final_fit)) {
+    r.warnings.push_back(w);
+    spdlog::warn("{}", w.message);
   }
+  std::stable_sort(r.warnings.begin(), r.warnings.end(),
+                   [](const RunWarning& a, const RunWarning& b) { return a.cause < b.cause; });
   return r;
+}
+
+std::string RunResult::WarningLines() const {
+  std::string s;
+  for (const auto& w : warnings) {
+    std::string touched;
+    for (const auto& t : w.touches) touched += (touched.empty() ? "" : ", ") + t;
+    s += fmt::format("WARNING ({}): {}{}\n", ToString(w.cause), w.message,
+                     touched.empty() ? "" : " [touches: " + touched + "]");
+  }
+  return s;
 }
 
 std::string RunResult::Report() const {
   std::string s;
   for (const auto& a : assumptions) s += "ASSUMED: " + a + "\n";
-  if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings below)\n";
+  s += WarningLines();
+  if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings above)\n";
   s += fit.Report();
   s += fmt::format("relative noise floor: {:.2f}% ({})\n", 100 * noise_floor, noise_floor_source);
   if (calibration_error) {
@@ -248,7 +275,6 @@ std::string RunResult::Report() const {
     s += "calibration error: not propagated (the photometric calibration reports no accuracy)\n";
   }
   s += ObservedAnglesOf(fit.final_fit, observations).Report();
-  for (const auto& m : checks.Messages()) s += "WARNING: " + m + "\n";
   s += plan_coverage_report;
   s += fmt::format(
       "timing: detect {:.1f} s, calibrate {:.1f} s, locate {:.1f} s, extract {:.1f} s, fit "
@@ -264,8 +290,16 @@ nlohmann::json RunResult::ToJson() const {
   j["noise_floor"] = {{"relative", noise_floor}, {"source", noise_floor_source}};
   j["calibration_error"] = calibration_error ? calibration_error->ToJson() : nlohmann::json();
   j["checks"] = checks.ToJson();
+  nlohmann::json warnings_json = nlohmann::json::array();
+  std::vector<std::string> messages;
+  for (const auto& w : warnings) {
+    warnings_json.push_back(w.ToJson());
+    messages.push_back(w.message);
+  }
+  j["checks"]["warnings"] = warnings_json;
+  j["checks"]["touched_results"] = TouchedResults(warnings);
   j["observed_angles"] = ObservedAnglesOf(fit.final_fit, observations).ToJson();
-  j["run_warnings"] = warnings;
+  j["run_warnings"] = messages;
   j["timing"] = timings.ToJson();
   j["frames_decoded"] = frames_decoded;
   j["camera_calibrated_from_session"] = calibration.has_value();
