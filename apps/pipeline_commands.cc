@@ -52,7 +52,7 @@ void RunExtract(const ExtractArgs& a) {
 // The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
 struct FitArgs {
   std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
-  std::string robust = "huber", white_albedo, noise_floor, ambient = "none";
+  std::string robust = "huber", white_albedo, noise_floor, ambient = "auto", sample_height = "auto";
   bool grey = false, fit_sample_height = false;
   int threads = 0;
 };
@@ -70,13 +70,17 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_option("--noise-floor", a->noise_floor,
                   "Relative calibration uncertainty in each radiance, e.g. 0.01 (default: "
                   "photometric.json's relative_accuracy for run, else 0.01)");
-  cmd->add_flag("--fit-sample-height", a->fit_sample_height,
-                "Fit a correction to board.json's sample_height_m (docs/pipeline.md)");
+  cmd->add_option("--sample-height", a->sample_height,
+                  "A correction to board.json's sample_height_m: none, fit, or auto (fitted "
+                  "when the criterion says the data need it); docs/pipeline.md")
+      ->capture_default_str();
+  cmd->add_flag("--fit-sample-height", a->fit_sample_height, "The same as --sample-height fit");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
   cmd->add_option("--ambient", a->ambient,
                   "The room's light when the session has no lamp-off frames: none, fit (a "
                   "constant per channel on the sample and on the white reference) or auto "
-                  "(fitted when the criterion says the data need it); docs/pipeline.md")
+                  "(fitted when the criterion says the data need it; lamp-off frames are "
+                  "better); docs/pipeline.md")
       ->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }
@@ -106,7 +110,13 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
     o.relative_noise_floor = f;
   }
   o.per_channel = !a.grey;
-  o.fit_sample_height = a.fit_sample_height;
+  o.sample_height = ParseNuisanceTerm(a.sample_height, "--sample-height");
+  if (a.fit_sample_height) {
+    if (a.sample_height != "auto" && a.sample_height != "fit") {
+      throw InputError("--fit-sample-height contradicts --sample-height " + a.sample_height);
+    }
+    o.sample_height = NuisanceTerm::kFit;
+  }
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
   o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
   o.threads = a.threads;

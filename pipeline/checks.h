@@ -10,6 +10,7 @@
 
 #include "calib/response.h"
 #include "estimation/joint_fit.h"
+#include "pipeline/residual_structure.h"
 
 namespace gonio {
 
@@ -72,6 +73,7 @@ struct FitChecksOptions {
   double max_rms_sigma = 3.0;
   // A parameter within this fraction of its range from a registry bound sits on the bound.
   double bound_fraction = 1e-3;
+  ResidualStructureOptions structure;
   void Check() const;
 };
 
@@ -80,6 +82,7 @@ struct FitChecks {
   bool explains_data = true;
   std::vector<std::string> at_bounds;            // "sigma (upper bound 0.9)"
   std::vector<std::string> inconsistent_frames;  // "frame_0003.png (+12.1%)"
+  ResidualStructure structure;  // residuals against irradiance, view, image position
   // True when nothing above stands in the way of reading the parameters as a measurement.
   bool Measured() const { return explains_data && at_bounds.empty(); }
   // Plain words for the console and report, with the results of `fit` each touches.

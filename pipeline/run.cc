@@ -238,10 +238,17 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
   r.fit = FitAndSelect(r.observations, fit_options);
-  PropagateCalibration(in, o, fit_options, &r);
+  // Refits of the selected model keep the nuisance terms the selection chose.
+  const JointFitOptions chosen = WithChosenNuisances(fit_options, r.fit.final_fit);
+  PropagateCalibration(in, o, chosen, &r);
   r.timings.fit_s = clock.Lap();
   AddFitWarnings(r.fit.final_fit, &r.warnings);
-  r.checks = CheckFit(r.fit, r.observations, fit_options, in.session.dir.string(), o.checks);
+  r.checks = CheckFit(r.fit, r.observations, chosen, in.session.dir.string(), o.checks);
+  r.checks.structure =
+      FindResidualStructure(r.fit.final_fit, r.observations, r.noise_floor,
+                            {r.camera.intrinsics[2], r.camera.intrinsics[3]},
+                            0.5 * std::hypot(r.camera.width, r.camera.height), o.checks.structure);
+  spdlog::info("{}", r.checks.structure.Report());
   for (const auto& w : r.checks.Warnings(r.fit.final_fit)) {
     r.warnings.push_back(w);
     spdlog::warn("{}", w.message);

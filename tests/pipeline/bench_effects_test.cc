@@ -55,7 +55,7 @@ Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, Ambie
   o.fit.candidates = {"lambert", "oren-nayar"};
   o.fit.white_albedo = scene.board.white_albedo;
   o.fit.ambient = ambient;
-  o.fit.fit_sample_height = fit_sample_height;
+  o.fit.sample_height = fit_sample_height ? NuisanceTerm::kFit : NuisanceTerm::kNone;
   o.extract.patch = 4;
   const RunResult run = gonio::Run(in, o);
   Outcome out;
