@@ -7,6 +7,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
+#include "bench/bench_coverage.h"
 #include "bench/bench_lib.h"
 #include "bench/bench_pipeline.h"
 #include "bench/bench_plan.h"
@@ -21,7 +22,7 @@ struct BenchArgs {
   std::string out;
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   bool evaluation = false;
-  bool plan = false, tags = false;
+  bool plan = false, tags = false, coverage = false;
   std::string apriltag_ref;
   int threads = 0;
 };
@@ -31,6 +32,19 @@ void RunBench(const BenchArgs& args) {
   opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
   opt.threads = args.threads;
   opt.Check();
+  if (args.coverage) {
+    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
+    // The user's chain through this very executable, as a user runs it.
+    const bench::CoverageReport rep = bench::RunCoverageBench(
+        opt, bench::CoveragePlanFor(opt), std::filesystem::read_symlink("/proc/self/exe"), work);
+    bench::WriteCoverageOutputs(args.out, rep);
+    std::filesystem::remove_all(work);
+    nlohmann::json j = rep.ToJson();
+    j.erase("runs");
+    j["out"] = args.out;
+    PrintJson(j);
+    return;
+  }
   if (args.pipeline) {
     const std::filesystem::path work = std::filesystem::path(args.out) / "work";
     const bench::PipelineBenchReport rep = bench::RunPipelineBench(opt, work);
@@ -128,6 +142,12 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--pipeline", args->pipeline,
                 "stage times of the whole chain, --models auto vs the right model, fit time vs "
                 "observations (pipeline_bench.json + charts)")
+      ->excludes(stability);
+  cmd->add_flag("--coverage", args->coverage,
+                "error bars against truth: scene kinds x noise seeds x whole- and third-stop "
+                "sweeps through the user's chain (synth, calibrate, photometric response and "
+                "vignette, run); RMS of z = error / reported sd per parameter, with and without "
+                "warnings (coverage.json + chart)")
       ->excludes(stability);
   cmd->add_flag("--plan", args->plan,
                 "gonio plan's predicted scatter against the scatter measured on sessions "

@@ -53,7 +53,7 @@ void RunExtract(const ExtractArgs& a) {
 // The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
 struct FitArgs {
   std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
-  std::string robust = "huber", white_albedo, noise_floor, ambient = "none";
+  std::string robust = "huber", white_albedo, noise_floor, ambient = "auto", sample_height = "auto";
   bool grey = false, fit_sample_height = false;
   int threads = 0;
 };
@@ -71,13 +71,17 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
   cmd->add_option("--noise-floor", a->noise_floor,
                   "Relative calibration uncertainty in each radiance, e.g. 0.01 (default: "
                   "photometric.json's relative_accuracy for run, else 0.01)");
-  cmd->add_flag("--fit-sample-height", a->fit_sample_height,
-                "Fit a correction to board.json's sample_height_m (docs/pipeline.md)");
+  cmd->add_option("--sample-height", a->sample_height,
+                  "A correction to board.json's sample_height_m: none, fit, or auto (fitted "
+                  "when the criterion says the data need it); docs/pipeline.md")
+      ->capture_default_str();
+  cmd->add_flag("--fit-sample-height", a->fit_sample_height, "The same as --sample-height fit");
   cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
   cmd->add_option("--ambient", a->ambient,
                   "The room's light when the session has no lamp-off frames: none, fit (a "
                   "constant per channel on the sample and on the white reference) or auto "
-                  "(fitted when the criterion says the data need it); docs/pipeline.md")
+                  "(fitted when the criterion says the data need it; lamp-off frames are "
+                  "better); docs/pipeline.md")
       ->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }
@@ -107,7 +111,13 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
     o.relative_noise_floor = f;
   }
   o.per_channel = !a.grey;
-  o.fit_sample_height = a.fit_sample_height;
+  o.sample_height = ParseNuisanceTerm(a.sample_height, "--sample-height");
+  if (a.fit_sample_height) {
+    if (a.sample_height != "auto" && a.sample_height != "fit") {
+      throw InputError("--fit-sample-height contradicts --sample-height " + a.sample_height);
+    }
+    o.sample_height = NuisanceTerm::kFit;
+  }
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
   o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
   o.threads = a.threads;
@@ -139,7 +149,8 @@ void RunFit(const FitArgs& a, const std::string& observations, const std::string
   for (const auto& a : data.assumptions) std::cout << "ASSUMED: " << a << "\n";
   if (!r.checks.Measured()) std::cout << "NOT A MEASUREMENT (see the warnings below)\n";
   std::cout << r.fit.Report();
-  for (const auto& m : r.checks.Messages()) std::cout << "WARNING: " << m << "\n";
+  for (const auto& w : r.checks.Warnings(r.fit.final_fit))
+    std::cout << "WARNING: " << w.message << "\n";
 }
 
 struct RunArgs {
@@ -166,14 +177,22 @@ void RunRun(const RunArgs& a) {
   std::cout << r.Report();
 }
 
-void RunDemoCommand(const std::string& out, const std::string& models, int threads) {
+struct DemoArgs {
+  std::string out = "demo-out", models = "auto";
+  int threads = 0;
+  bool oracle = false;
+};
+
+void RunDemoCommand(const DemoArgs& a) {
   DemoOptions o;
-  if (models != "auto") o.models = SplitComma(models);
-  o.threads = threads;
-  const DemoResult d = RunDemo(out, o);
+  if (a.models != "auto") o.models = SplitComma(a.models);
+  o.threads = a.threads;
+  o.oracle = a.oracle;
+  const DemoResult d = RunDemo(a.out, o);
   std::cout << d.run.Report();
   std::cout << "\nrecovered vs true ("
-            << (std::filesystem::path(out) / "result" / "fit.json").string() << "):\n"
+            << (std::filesystem::path(a.out) / "result" / "fit.json").string()
+            << "; z = error / reported standard deviation):\n"
             << d.Report();
 }
 
@@ -221,14 +240,19 @@ void AddPipelineCommands(CLI::App& app) {
   AddFitArgs(run, &ra->fit);
   run->callback([ra] { RunRun(*ra); });
 
-  auto da = std::make_shared<std::tuple<std::string, std::string, int>>("demo-out", "auto", 0);
-  auto* demo =
-      app.add_subcommand("demo", "Render the default synthetic session and recover its material");
-  demo->add_option("--out", std::get<0>(*da), "Output folder")->capture_default_str();
-  demo->add_option("--models", std::get<1>(*da), "auto, or a comma-separated list")
+  auto da = std::make_shared<DemoArgs>();
+  auto* demo = app.add_subcommand(
+      "demo",
+      "Render the default synthetic session and an exposure sweep, calibrate them as a user "
+      "does (mrcal, response, vignetting) and recover the material, compared with the truth");
+  demo->add_option("--out", da->out, "Output folder")->capture_default_str();
+  demo->add_option("--models", da->models, "auto, or a comma-separated list")
       ->capture_default_str();
-  demo->add_option("--threads", std::get<2>(*da), "Threads (0 = all cores)");
-  demo->callback([da] { RunDemoCommand(std::get<0>(*da), std::get<1>(*da), std::get<2>(*da)); });
+  demo->add_flag("--oracle", da->oracle,
+                 "Use the renderer's camera model and photometric chain instead of the user's "
+                 "calibrations (for comparison)");
+  demo->add_option("--threads", da->threads, "Threads (0 = all cores)");
+  demo->callback([da] { RunDemoCommand(*da); });
 }
 
 }  // namespace gonio::cli

@@ -26,8 +26,8 @@ namespace {
 
 constexpr OptionWord<LightFrame> kLightFrameWords[] = {{LightFrame::kBoard, "board"},
                                                        {LightFrame::kCamera, "camera"}};
-constexpr OptionWord<AmbientTerm> kAmbientWords[] = {
-    {AmbientTerm::kNone, "none"}, {AmbientTerm::kFit, "fit"}, {AmbientTerm::kAuto, "auto"}};
+constexpr OptionWord<NuisanceTerm> kNuisanceWords[] = {
+    {NuisanceTerm::kNone, "none"}, {NuisanceTerm::kFit, "fit"}, {NuisanceTerm::kAuto, "auto"}};
 
 using joint_fit_internal::BuildProblem;
 using joint_fit_internal::CountResiduals;
@@ -110,7 +110,7 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
   r.light_position = s.light;
   r.intensity = s.intensity;
   r.ambient = o.ambient;
-  if (o.fit_sample_height) r.sample_height_offset = s.height_offset;
+  if (o.sample_height == NuisanceTerm::kFit) r.sample_height_offset = s.height_offset;
   if (o.ambient == AmbientTerm::kFit) {
     r.ambient_sample = s.ambient_sample;
     if (o.white_albedo) r.ambient_irradiance = s.ambient_irradiance;
@@ -472,17 +472,57 @@ bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles
                          double* irradiance_factor) {
   double lb[3], ls[3], vs[3];
   LightInBoard(o, fit.light_frame, fit.light_position.data(), lb);
-  *irradiance_factor = Geometry(o, lb, ls, vs);
+  // A fitted height correction moves the sample's points along their rays, as in the fit.
+  *irradiance_factor =
+      Geometry(o, lb, ls, vs, o.white ? 0.0 : fit.sample_height_offset.value_or(0.0));
   if (!(ls[2] > 0)) return false;
   *angles = AnglesFromDirections(ls, vs);
   return true;
 }
 
-AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name) {
-  return ParseOptionWord(kAmbientWords, word, option_name);
+NuisanceTerm ParseNuisanceTerm(const std::string& word, const std::string& option_name) {
+  return ParseOptionWord(kNuisanceWords, word, option_name);
 }
 
-std::string ToString(AmbientTerm term) { return OptionWordOf(kAmbientWords, term); }
+AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name) {
+  return ParseNuisanceTerm(word, option_name);
+}
+
+std::string ToString(NuisanceTerm term) { return OptionWordOf(kNuisanceWords, term); }
+
+JointFitOptions WithChosenNuisances(const JointFitOptions& options, const JointFitResult& fit) {
+  JointFitOptions o = options;
+  o.ambient = fit.ambient == AmbientTerm::kFit ? AmbientTerm::kFit : AmbientTerm::kNone;
+  o.sample_height = fit.sample_height_offset ? NuisanceTerm::kFit : NuisanceTerm::kNone;
+  return o;
+}
+
+double PredictedRadiance(const Observation& o, int channel, const JointFitResult& fit,
+                         double white_albedo) {
+  double lb[3], ls[3], vs[3];
+  LightInBoard(o, fit.light_frame, fit.light_position.data(), lb);
+  const double e = Geometry(o, lb, ls, vs, o.white ? 0.0 : fit.sample_height_offset.value_or(0));
+  if (!(ls[2] > 0) || !(e > 0)) return NAN;
+  auto at = [&](const std::vector<double>& v) {
+    return channel < static_cast<int>(v.size()) ? v[channel] : 0.0;
+  };
+  if (o.white) return white_albedo * kInvPi * (fit.intensity * e + at(fit.ambient_irradiance));
+  // The per-channel parameters of this channel over the shared ones.
+  std::vector<double> p = fit.material.params;
+  const size_t c = std::min<size_t>(channel, fit.per_channel_params.size() - 1);
+  for (size_t k = 0, j = 0; k < p.size() && !fit.per_channel_params.empty(); ++k) {
+    const auto& names = fit.per_channel_param_names;
+    if (j < names.size() && names[j] == fit.material.param_names[k]) {
+      p[k] = fit.per_channel_params[c][j++];
+    }
+  }
+  double f = 0;
+  VisitModel(fit.material.model, [&](auto tag) {
+    using M = typename decltype(tag)::type;
+    f = M::Evaluate(p.data(), AnglesFromDirections(ls, vs));
+  });
+  return f * fit.intensity * e + at(fit.ambient_sample);
+}
 
 LightFrame ParseLightFrame(const std::string& word, const std::string& option_name) {
   return ParseOptionWord(kLightFrameWords, word, option_name);
@@ -507,6 +547,9 @@ void JointFitOptions::Check() const {
     throw InputError("relative noise floor must be in [0, 1)");
   }
   if (cv_folds < 2) throw InputError("cv folds must be >= 2");
+  if (!(nuisance_margin >= 0) || !(nuisance_min_z >= 0)) {
+    throw InputError("nuisance margin and minimum z must be >= 0");
+  }
   for (const auto& c : candidates) FindModel(c);
 }
 

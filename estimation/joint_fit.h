@@ -32,17 +32,24 @@ enum class LightFrame { kBoard, kCamera };
 LightFrame ParseLightFrame(const std::string& word, const std::string& option_name);
 std::string ToString(LightFrame frame);
 
+// A nuisance of the scene, something the material does not explain but the data may show
+// (docs/pipeline.md "Nuisances chosen by evidence"): left out (kNone), fitted (kFit), or chosen
+// the way models are (kAuto): the model search without it, then the selected model refitted
+// with it on the selection subsample; kept when the criterion (BIC, or AIC) drops by more than
+// JointFitOptions::nuisance_margin, and then the models searched again with it.
+enum class NuisanceTerm { kNone, kFit, kAuto };
+// "none", "fit" or "auto"; InputError naming `option_name` otherwise.
+NuisanceTerm ParseNuisanceTerm(const std::string& word, const std::string& option_name);
+std::string ToString(NuisanceTerm term);
+
 // The room's light (docs/pipeline.md "Ambient light"): not modelled (kNone: the data are
 // lamp-only, e.g. lamp-off frames were subtracted, or the room is dark), or one constant per
 // colour channel fitted on the sample (ambient radiance L_a) and one on the white reference
 // (ambient irradiance E_a, reflected as A_w E_a / pi):
 //   L = f_r I cos(theta_i) / d^2 + L_a        L_w = A_w / pi (I cos(theta_i) / d^2 + E_a)
-// kAuto: the search without it, then the selected model's final fit both ways; the ambient
-// terms are kept when they lower the criterion (BIC, or AIC) by more than 2.
-enum class AmbientTerm { kNone, kFit, kAuto };
-// "none", "fit" or "auto"; InputError naming `option_name` otherwise.
+// With lamp-off frames subtracted, kAuto leaves it out.
+using AmbientTerm = NuisanceTerm;
 AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name);
-std::string ToString(AmbientTerm term);
 
 // Lamp starts farther than this from the board origin are refused as typos (metres).
 inline constexpr double kMaxLightDistance = 1000.0;
@@ -54,10 +61,14 @@ struct JointFitOptions {
   std::optional<Eigen::Vector3d> light_init;    // in light_frame; none: multi-start
   std::optional<double> white_albedo;           // known albedo of the white reference
   bool per_channel = true;                      // per-channel albedo-like parameters (colour data)
-  AmbientTerm ambient = AmbientTerm::kNone;     // --ambient
-  // --fit-sample-height: a correction to board.json's sample_height_m fitted with the rest
-  // (the sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
-  bool fit_sample_height = false;
+  AmbientTerm ambient = AmbientTerm::kAuto;     // --ambient
+  // --sample-height: a correction to board.json's sample_height_m fitted with the rest (the
+  // sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
+  NuisanceTerm sample_height = NuisanceTerm::kAuto;
+  // kAuto nuisances are kept when they lower the criterion by more than this and each of their
+  // terms exceeds nuisance_min_z of its standard deviations.
+  double nuisance_margin = 2.0;
+  double nuisance_min_z = 3.0;
   RobustLoss robust_loss = RobustLoss::kHuber;  // scale 3 sigma
   double relative_noise_floor = 0.01;           // sigma^2 = variance + (floor * L)^2
   size_t selection_max_observations = 3000;     // candidates compared on a subsample
@@ -108,12 +119,12 @@ struct JointFitResult {
   std::vector<double> ambient_sample, ambient_irradiance;
   std::vector<std::optional<double>> ambient_sample_stddev, ambient_irradiance_stddev;
   double lamp_irradiance = 0;
-  std::string ambient_reason;
-  // --fit-sample-height: the fitted correction to board.json's sample height (metres, > 0:
-  // the top stands further out) and its standard deviation.
-  std::optional<double> sample_height_offset,
-      sample_height_offset_stddev;  // kAuto: why the terms were kept or left out
-  size_t lamp_off_frames = 0;       // frames whose lamp-off radiance extraction subtracted
+  std::string ambient_reason;  // kAuto: why the terms were kept or left out
+  // --sample-height fit (or auto, kept): the fitted correction to board.json's sample height
+  // (metres, > 0: the top stands further out) and its standard deviation.
+  std::optional<double> sample_height_offset, sample_height_offset_stddev;
+  std::string sample_height_reason;  // kAuto: why the correction was kept or left out
+  size_t lamp_off_frames = 0;        // frames whose lamp-off radiance extraction subtracted
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
   size_t n_observations = 0;
@@ -130,8 +141,9 @@ struct JointSelectionResult {
   nlohmann::json ToJson() const;
 };
 
-// The angles and irradiance factor cos(theta_i)/d^2 of an observation under a fitted lamp
-// (the same computation the cost uses). False when the lamp is behind the sample.
+// The angles and irradiance factor cos(theta_i)/d^2 of an observation under a fitted lamp, at
+// the fitted sample height (the same computation the cost uses). False when the lamp is behind
+// the sample.
 bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles<double>* angles,
                          double* irradiance_factor);
 
@@ -142,6 +154,16 @@ JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
 // Lamp starting points: options.light_init, else a deterministic set over the hemisphere in
 // front of the board, screened with a Lambertian fit; returns the best.
 Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& options);
+
+// `options` with the nuisances as `fit` has them (kAuto resolved to kFit or kNone): what a refit
+// of the same model must use (the calibration error's refits, the split test).
+JointFitOptions WithChosenNuisances(const JointFitOptions& options, const JointFitResult& fit);
+
+// The radiance `fit` predicts for observation `o` in `channel`: the material under the lamp,
+// plus the fitted ambient term, at the fitted sample height (the white reference: its known
+// albedo `white_albedo`). NaN when the lamp is behind the point.
+double PredictedRadiance(const Observation& o, int channel, const JointFitResult& fit,
+                         double white_albedo);
 
 // Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).

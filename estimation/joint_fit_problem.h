@@ -197,7 +197,7 @@ inline void HoldUnfittedTerms(const JointFitOptions& o, State* s, ceres::Problem
     for (double& a : s->ambient_sample) held.push_back(&a);
     for (double& a : s->ambient_irradiance) held.push_back(&a);
   }
-  if (!o.fit_sample_height) held.push_back(&s->height_offset);
+  if (o.sample_height != NuisanceTerm::kFit) held.push_back(&s->height_offset);
   for (double* b : held) {
     if (problem->HasParameterBlock(b)) problem->SetParameterBlockConstant(b);
   }
@@ -208,7 +208,7 @@ inline void HoldUnfittedTerms(const JointFitOptions& o, State* s, ceres::Problem
 // block constant.
 inline void ConstrainParameters(const ModelInfo& info, const JointFitOptions& o, State* s,
                                 ceres::Problem* problem) {
-  if (o.fit_sample_height && problem->HasParameterBlock(&s->height_offset)) {
+  if (o.sample_height == NuisanceTerm::kFit && problem->HasParameterBlock(&s->height_offset)) {
     // The sample's top stays in front of the board's far side and within a sane thickness.
     problem->SetParameterLowerBound(&s->height_offset, 0, -kMaxSampleHeightOffset);
     problem->SetParameterUpperBound(&s->height_offset, 0, kMaxSampleHeightOffset);

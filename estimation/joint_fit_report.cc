@@ -59,6 +59,7 @@ nlohmann::json JointFitResult::ToJson() const {
     j["sample_height_offset_stddev_m"] =
         sample_height_offset_stddev ? Finite(*sample_height_offset_stddev) : nlohmann::json();
   }
+  if (!sample_height_reason.empty()) j["sample_height_reason"] = sample_height_reason;
   j["warnings"] = warnings;
   j["n_observations"] = n_observations;
   return j;
@@ -155,6 +156,9 @@ std::string JointSelectionResult::Report() const {
                      f.sample_height_offset_stddev
                          ? fmt::format("+- {:.2f} mm", 1e3 * *f.sample_height_offset_stddev)
                          : std::string("(undetermined)"));
+  }
+  if (!f.sample_height_reason.empty() && f.sample_height_reason != f.ambient_reason) {
+    s << "sample height: " << f.sample_height_reason << "\n";
   }
   for (const auto& u : f.undetermined_light) s << "undetermined: " << u << "\n";
   for (const auto& w : f.warnings) s << "warning: " << w << "\n";

@@ -69,7 +69,8 @@ std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
 // its shared ones once, the lamp position (3), the intensity (1) and the fitted ambient terms
 // (two per channel at most).
 size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions& o) {
-  size_t k = 4 + (o.ambient != AmbientTerm::kNone ? 2 * channels : 0) + o.fit_sample_height;
+  size_t k = 4 + (o.ambient != AmbientTerm::kNone ? 2 * channels : 0) +
+             (o.sample_height != NuisanceTerm::kNone);
   for (const auto& p : info.params) k += (p.per_channel && o.per_channel) ? channels : 1;
   return k;
 }
@@ -143,30 +144,153 @@ void ApplyPracticalSignificance(const ObservationSet& data, const std::vector<si
 
 }  // namespace
 
-// --ambient auto: the final model refitted with the ambient terms, kept when the criterion
-// (BIC, or AIC) drops by more than 2 (the same margin as the model choice).
-void ChooseAmbient(const ObservationSet& data, const std::vector<size_t>& use,
-                   const JointFitOptions& options, JointSelectionResult* out) {
-  if (data.lamp_off_frames > 0) {
-    out->final_fit.ambient_reason = "--ambient auto: lamp-off frames subtracted; no ambient term";
-    return;
+namespace {
+
+// The staged search into out->fits and out->selection: stages of equal parameter count until
+// one explains the data to the noise (all of them with options.exhaustive), the rule, and
+// practical significance.
+void SearchModels(const ObservationSet& data, const std::vector<std::string>& names,
+                  const std::vector<size_t>& use, const Eigen::Vector3d& light0,
+                  const JointFitOptions& search, JointSelectionResult* out,
+                  size_t min_stage_params = 0) {
+  out->fits.clear();
+  out->selection = {};
+  Progress progress("joint fit candidates", names.size());
+  std::string stopped;
+  for (const auto& stage : Stages(names)) {
+    const auto fits = FitStage(stage, data, use, light0, search, &progress);
+    bool explained = false;
+    for (const auto& f : fits) {
+      explained = explained || ExplainsToTheNoise(f);
+      spdlog::info("{}: weighted residual {:.3g} per residual{}", f.material.model,
+                   f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1),
+                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "");
+      out->fits.push_back(f);
+    }
+    if (explained && !search.exhaustive && FindModel(stage[0]).params.size() >= min_stage_params) {
+      if (out->fits.size() < names.size()) {
+        stopped = fmt::format(
+            "; the search stopped after {} of {} candidates: a model with {} material parameters "
+            "explains the "
+            "data to the noise, so richer ones were not tried",
+            out->fits.size(), names.size(), FindModel(stage[0]).params.size());
+      }
+      break;
+    }
   }
-  JointFitOptions with = options;
-  with.ambient = AmbientTerm::kFit;
-  const JointFitResult& none = out->final_fit;
-  JointFitResult fit =
-      FitCandidate(none.material.model, data, use, none.light_position, with, false);
-  const bool aic = options.criterion == Criterion::kAic;
-  const double c_none = aic ? none.material.aic : none.material.bic;
-  const double c_fit = aic ? fit.material.aic : fit.material.bic;
-  const bool keep = fit.material.converged && c_fit < c_none - 2.0;
-  const std::string reason =
-      fmt::format("--ambient auto: {} {:.2f} without the ambient terms, {:.2f} with them: {}",
-                  aic ? "AIC" : "BIC", c_none, c_fit, keep ? "kept" : "left out");
-  spdlog::info("{}", reason);
-  if (keep) out->final_fit = std::move(fit);
-  out->final_fit.ambient_reason = reason;
+  progress.Done();
+  for (const auto& f : out->fits) out->selection.candidates.push_back(f.material);
+  ModelSelectionOptions sel;
+  sel.criterion = search.criterion;
+  ChooseSimplestAdequate(sel, &out->selection);
+  ApplyPracticalSignificance(data, use, search, out);
+  out->selection.reason += stopped;
 }
+
+// |value| / standard deviation of a fit's ambient terms (the largest over the sample's
+// radiance and the white reference's irradiance, per channel) or of its height correction; 0
+// when undetermined.
+double NuisanceZ(const JointFitResult& f, bool ambient_term) {
+  auto z = [](double v, const std::optional<double>& sd) {
+    return sd && *sd > 0 ? std::abs(v) / *sd : 0.0;
+  };
+  if (!ambient_term) {
+    return f.sample_height_offset ? z(*f.sample_height_offset, f.sample_height_offset_stddev) : 0.0;
+  }
+  double best = 0;
+  for (size_t c = 0; c < f.ambient_sample.size() && c < f.ambient_sample_stddev.size(); ++c) {
+    best = std::max(best, z(f.ambient_sample[c], f.ambient_sample_stddev[c]));
+  }
+  for (size_t c = 0; c < f.ambient_irradiance.size() && c < f.ambient_irradiance_stddev.size();
+       ++c) {
+    best = std::max(best, z(f.ambient_irradiance[c], f.ambient_irradiance_stddev[c]));
+  }
+  return best;
+}
+
+// The nuisances (docs/pipeline.md "Nuisances chosen by evidence"): every combination of the
+// kAuto ones refitted with the selected model on the selection subsample `use`, from its lamp.
+// As models are chosen: the best criterion (BIC, or AIC) among the fit without them and the
+// combinations whose every term exceeds options.nuisance_min_z of the standard deviation it
+// will have in the final fit (on final_n observations),
+// then the combination with the fewest terms within options.nuisance_margin of it. Returns
+// `search` with the chosen terms on (kFit); `reason` lists every criterion value ("-": a term
+// within its error bar).
+JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
+                                size_t final_n, const JointFitResult& chosen,
+                                const JointFitOptions& search, const JointFitOptions& options,
+                                std::string* reason) {
+  const bool ambient = options.ambient == AmbientTerm::kAuto && data.lamp_off_frames == 0;
+  const bool height = options.sample_height == NuisanceTerm::kAuto;
+  if (options.ambient == AmbientTerm::kAuto && data.lamp_off_frames > 0) {
+    *reason = "lamp-off frames subtracted: no ambient term";
+  }
+  if (!ambient && !height) return search;
+  const bool aic = options.criterion == Criterion::kAic;
+  auto criterion = [&](const JointFitResult& f) {
+    return !f.material.converged ? INFINITY : aic ? f.material.aic : f.material.bic;
+  };
+  struct Trial {
+    bool ambient = false, height = false;
+    double value = INFINITY;
+  };
+  std::vector<Trial> trials = {{false, false, criterion(chosen)}};
+  for (int mask = 1; mask < 4; ++mask) {
+    Trial t{(mask & 1) != 0, (mask & 2) != 0};
+    if ((t.ambient && !ambient) || (t.height && !height)) continue;
+    JointFitOptions o = search;
+    if (t.ambient) o.ambient = AmbientTerm::kFit;
+    if (t.height) o.sample_height = NuisanceTerm::kFit;
+    const JointFitResult f =
+        FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false);
+    // Every term of the combination must stand out of its own error bar, which the noise model
+    // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
+    // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
+    // The bar is the one the final fit on `final_n` observations will have (1 / sqrt(n)).
+    const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
+                                   static_cast<double>(std::max<size_t>(use.size(), 1)));
+    const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
+                             (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
+    t.value = significant ? criterion(f) : INFINITY;
+    trials.push_back(t);
+  }
+  double best = INFINITY;
+  for (const auto& t : trials) best = std::min(best, t.value);
+  auto terms = [](const Trial& t) { return int(t.ambient) + int(t.height); };
+  const Trial* pick = &trials[0];
+  for (const auto& t : trials) {
+    if (t.value > best + options.nuisance_margin) continue;
+    if (pick->value > best + options.nuisance_margin || terms(t) < terms(*pick) ||
+        (terms(t) == terms(*pick) && t.value < pick->value)) {
+      pick = &t;
+    }
+  }
+  std::string list;
+  for (const auto& t : trials) {
+    const std::string name = t.ambient && t.height ? "ambient and height"
+                             : t.ambient           ? "ambient"
+                             : t.height            ? "height"
+                                                   : "neither";
+    list += fmt::format("{}{} {}", list.empty() ? "" : ", ", name,
+                        std::isfinite(t.value) ? fmt::format("{:.1f}", t.value) : "-");
+  }
+  *reason = fmt::format(
+      "nuisances by {} ({} on {} observations; kept when lower by more than {:g} and each "
+      "term beyond {:g} standard deviations): {}: {}",
+      aic ? "AIC" : "BIC", chosen.material.model, use.size(), options.nuisance_margin,
+      options.nuisance_min_z, list,
+      terms(*pick) == 0               ? "none kept"
+      : pick->ambient && pick->height ? "ambient light and sample height kept"
+      : pick->ambient                 ? "ambient light kept"
+                                      : "sample height kept");
+  spdlog::info("{}", *reason);
+  JointFitOptions out = search;
+  if (pick->ambient) out.ambient = AmbientTerm::kFit;
+  if (pick->height) out.sample_height = NuisanceTerm::kFit;
+  return out;
+}
+
+}  // namespace
 
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
   options.Check();
@@ -183,50 +307,39 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   const std::vector<std::string> names =
       options.candidates.empty() ? AutoCandidates() : options.candidates;
   CheckEnoughResiduals(data, names, options);
-  // --ambient auto searches without the ambient terms; ChooseAmbient decides at the end.
+  // kAuto nuisances: the search without them; ChooseNuisances decides after it.
   JointFitOptions search = options;
   if (search.ambient == AmbientTerm::kAuto) search.ambient = AmbientTerm::kNone;
+  if (search.sample_height == NuisanceTerm::kAuto) search.sample_height = NuisanceTerm::kNone;
   const Eigen::Vector3d light0 = InitialLight(data, search);
   const auto use = Subsample(data, options.selection_max_observations);
   JointSelectionResult out;
-  Progress progress("joint fit candidates", names.size());
-  std::string stopped;
-  for (const auto& stage : Stages(names)) {
-    const auto fits = FitStage(stage, data, use, light0, search, &progress);
-    bool explained = false;
-    for (const auto& f : fits) {
-      explained = explained || ExplainsToTheNoise(f);
-      spdlog::info("{}: weighted residual {:.3g} per residual{}", f.material.model,
-                   f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1),
-                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "");
-      out.fits.push_back(f);
-    }
-    if (explained && !options.exhaustive) {
-      if (out.fits.size() < names.size()) {
-        stopped = fmt::format(
-            "; the search stopped after {} of {} candidates: a model with {} material parameters "
-            "explains the "
-            "data to the noise, so richer ones were not tried",
-            out.fits.size(), names.size(), FindModel(stage[0]).params.size());
-      }
-      break;
-    }
+  SearchModels(data, names, use, light0, search, &out);
+  std::string nuisance_reason;
+  const auto final_use = Subsample(data, options.final_max_observations);
+  const JointFitOptions chosen_options =
+      ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
+                      options, &nuisance_reason);
+  if (chosen_options.ambient != search.ambient ||
+      chosen_options.sample_height != search.sample_height) {
+    // A kept nuisance can change which model explains the data: search again with it, at
+    // least up to the stage of the model selected without it (a nuisance term can mimic some
+    // of a material's shape; the criterion, not the stopping rule, must decide that).
+    spdlog::info("searching the models again with the kept nuisance terms");
+    const JointFitResult before = out.fits[out.selection.selected];
+    SearchModels(data, names, use, before.light_position, chosen_options, &out,
+                 FindModel(before.material.model).params.size());
   }
-  progress.Done();
-  for (const auto& f : out.fits) out.selection.candidates.push_back(f.material);
-  ModelSelectionOptions sel;
-  sel.criterion = options.criterion;
-  ChooseSimplestAdequate(sel, &out.selection);
-  ApplyPracticalSignificance(data, use, search, &out);
-  out.selection.reason += stopped;
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
                data.observations.size());
   // The final fit on (up to final_max_observations of) everything; no folds again.
-  const auto final_use = Subsample(data, options.final_max_observations);
-  out.final_fit =
-      FitCandidate(chosen.material.model, data, final_use, chosen.light_position, search, false);
-  if (options.ambient == AmbientTerm::kAuto) ChooseAmbient(data, final_use, options, &out);
+  out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.light_position,
+                               chosen_options, false);
+  if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
+  if (options.sample_height == NuisanceTerm::kAuto) {
+    out.final_fit.sample_height_reason = nuisance_reason;
+  }
   return out;
 }
 

@@ -62,7 +62,8 @@ CheckedFit FitChecked(const ObservationSet& data, const JointFitOptions& fit_opt
   CheckObservationValues(data, what);
   CheckedFit r;
   r.fit = FitAndSelect(data, fit_options);
-  r.checks = CheckFit(r.fit, data, fit_options, what, options);
+  r.options = WithChosenNuisances(fit_options, r.fit.final_fit);
+  r.checks = CheckFit(r.fit, data, r.options, what, options);
   return r;
 }
 
@@ -75,6 +76,7 @@ void FitChecksOptions::Check() const {
   if (!(bound_fraction >= 0 && bound_fraction < 0.5)) {
     throw InputError("bound_fraction must be in [0, 0.5)");
   }
+  structure.Check();
 }
 
 namespace {
@@ -188,46 +190,189 @@ FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
   return c;
 }
 
-std::vector<std::string> FitChecks::Messages() const {
-  std::vector<std::string> m;
+std::string ToString(WarningCause cause) {
+  switch (cause) {
+    case WarningCause::kFrameSkipped:
+      return "frame-skipped";
+    case WarningCause::kReprojection:
+      return "reprojection";
+    case WarningCause::kFit:
+      return "fit";
+    case WarningCause::kNotExplained:
+      return "not-explained";
+    case WarningCause::kAtBound:
+      return "at-bound";
+    case WarningCause::kInconsistentFrames:
+      return "inconsistent-frames";
+    case WarningCause::kResidualIrradiance:
+      return "residual-irradiance";
+    case WarningCause::kResidualView:
+      return "residual-view";
+    case WarningCause::kResidualPosition:
+      return "residual-position";
+    case WarningCause::kAmbientLight:
+      return "ambient-light";
+    case WarningCause::kSampleHeight:
+      return "sample-height";
+    case WarningCause::kResponse:
+      return "response";
+  }
+  return "unknown";
+}
+
+nlohmann::json RunWarning::ToJson() const {
+  return {{"cause", ToString(cause)}, {"message", message}, {"touches", touches}};
+}
+
+std::vector<std::string> AllResults(const JointFitResult& fit) {
+  std::vector<std::string> out = fit.material.param_names;
+  out.push_back("light");
+  out.push_back("intensity");
+  return out;
+}
+
+nlohmann::json TouchedResults(const std::vector<RunWarning>& warnings) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& w : warnings) {
+    for (const auto& t : w.touches) {
+      if (!j.contains(t)) j[t] = nlohmann::json::array();
+      const std::string cause = ToString(w.cause);
+      if (std::find(j[t].begin(), j[t].end(), cause) == j[t].end()) j[t].push_back(cause);
+    }
+  }
+  return j;
+}
+
+namespace {
+
+// What to try when the residuals follow an axis (docs/pipeline.md "Residual structure").
+std::string StructureAdvice(ResidualAxis axis) {
+  switch (axis) {
+    case ResidualAxis::kIrradiance:
+      return "room light the fit does not model (shoot lamp-off frames, or --ambient fit), or a "
+             "response off in its dark or bright end (a sweep in third stops)";
+    case ResidualAxis::kView:
+      return "the sample standing above the plane board.json gives (measure its thickness into "
+             "sample_height_m, or --sample-height fit), or a material the candidates do not "
+             "hold (--models all)";
+    case ResidualAxis::kPosition:
+      return "the vignetting (calibrate it from a flat field, or from more poses of the board)";
+  }
+  return "";
+}
+
+void AddStructureWarnings(const ResidualStructure& s, const std::vector<std::string>& all,
+                          std::vector<RunWarning>* m) {
+  const WarningCause causes[] = {WarningCause::kResidualIrradiance, WarningCause::kResidualView,
+                                 WarningCause::kResidualPosition};
+  const char* units[] = {"x the median irradiance", "deg", "half-diagonals from the centre"};
+  for (const auto& t : s.trends) {
+    if (!t.structured) continue;
+    const auto lo = std::min_element(t.mean.begin(), t.mean.end());
+    const auto hi = std::max_element(t.mean.begin(), t.mean.end());
+    const int a = static_cast<int>(t.axis);
+    m->push_back({causes[a],
+                  fmt::format("the residuals follow the {}: the model is {:+.1f}% off at {:.2g} {} "
+                              "and {:+.1f}% at {:.2g}, beyond the {:.1f}% the calibration's "
+                              "accuracy allows; try: {}",
+                              ToString(t.axis), 100 * *lo, t.centre[lo - t.mean.begin()], units[a],
+                              100 * *hi, t.centre[hi - t.mean.begin()], 100 * t.threshold,
+                              StructureAdvice(t.axis)),
+                  all});
+  }
+}
+
+// Nuisances that --ambient auto / --sample-height auto found and fitted: the user did not
+// declare them, and each costs precision (docs/pipeline.md "Nuisances chosen by evidence").
+void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>& all,
+                         std::vector<RunWarning>* m) {
+  if (f.ambient == AmbientTerm::kFit && !f.ambient_reason.empty()) {
+    std::string size;
+    if (!f.ambient_irradiance.empty() && f.lamp_irradiance > 0) {
+      const auto& sd = f.ambient_irradiance_stddev;
+      size = fmt::format(" at {:.1f}%{} of the lamp's irradiance on the sample",
+                         100 * f.ambient_irradiance[0] / f.lamp_irradiance,
+                         !sd.empty() && sd[0]
+                             ? fmt::format(" +- {:.1f}%", 100 * *sd[0] / f.lamp_irradiance)
+                             : std::string());
+    }
+    m->push_back({WarningCause::kAmbientLight,
+                  "the data show room light" + size +
+                      ", fitted as a constant: it trades against the lamp's distance and the "
+                      "material's shape, so every error bar is wider; lamp-off frames "
+                      "(session.json lamp_off) remove it exactly",
+                  all});
+  }
+  if (f.sample_height_offset && !f.sample_height_reason.empty()) {
+    m->push_back({WarningCause::kSampleHeight,
+                  fmt::format("the data place the sample's surface {:+.2f} mm{} from the plane "
+                              "board.json gives, fitted: measure the sample's thickness and "
+                              "write it into board.json sample_height_m",
+                              1e3 * *f.sample_height_offset,
+                              f.sample_height_offset_stddev
+                                  ? fmt::format(" +- {:.2f}", 1e3 * *f.sample_height_offset_stddev)
+                                  : std::string()),
+                  all});
+  }
+}
+
+}  // namespace
+
+std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit) const {
+  std::vector<RunWarning> m;
+  const std::vector<std::string> all = AllResults(fit);
   if (!explains_data) {
-    m.push_back(fmt::format(
-        "no candidate explains these data: the selected model's residuals are {:.1f} times "
-        "what pixel noise and the calibration floor explain; the parameters are the best of "
-        "the candidates, not a measurement (a material outside the candidate set, or a "
-        "calibration error?)",
-        rms_sigma));
+    m.push_back(
+        {WarningCause::kNotExplained,
+         fmt::format(
+             "no candidate explains these data: the selected model's residuals are {:.1f} times "
+             "what pixel noise and the calibration floor explain; the parameters are the best of "
+             "the candidates, not a measurement (a material outside the candidate set, or a "
+             "calibration error?)",
+             rms_sigma),
+         all});
   }
   for (const auto& b : at_bounds) {
-    m.push_back("parameter " + b +
-                " sits on its bound: the data ask for a value the model cannot give; it is a "
-                "limit, not a measurement");
+    // "sigma (upper bound ...)": the parameter's name leads.
+    m.push_back({WarningCause::kAtBound,
+                 "parameter " + b +
+                     " sits on its bound: the data ask for a value the model cannot give; it is "
+                     "a limit, not a measurement",
+                 {b.substr(0, b.find(' '))}});
   }
   for (const auto& e : at_domain_edges) {
     m.push_back(
-        "parameter " + e +
-        (explains_data
-             ? " is at the edge of the model's domain, a value the model defines (not a fit "
-               "bound); the fit explains the data, so the value is measured there"
-             : " is at the edge of the model's domain; the fit does not explain the data, so "
-               "they may ask for a value beyond it"));
+        {WarningCause::kAtBound,
+         "parameter " + e +
+             (explains_data
+                  ? " is at the edge of the model's domain, a value the model defines (not a fit "
+                    "bound); the fit explains the data, so the value is measured there"
+                  : " is at the edge of the model's domain; the fit does not explain the data, "
+                    "so they may ask for a value beyond it"),
+         {e.substr(0, e.find(' '))}});
   }
   if (!inconsistent_frames.empty()) {
     std::string list;
     for (const auto& s : inconsistent_frames) list += (list.empty() ? "" : ", ") + s;
-    m.push_back(
-        "frames that disagree with the fitted scene (moved lamp or sample, wrong "
-        "exposure?): " +
-        list);
+    m.push_back({WarningCause::kInconsistentFrames,
+                 "frames that disagree with the fitted scene (moved lamp or sample, wrong "
+                 "exposure?): " +
+                     list,
+                 all});
   }
+  AddStructureWarnings(structure, all, &m);
+  AddNuisanceWarnings(fit, all, &m);
   return m;
 }
 
 nlohmann::json FitChecks::ToJson() const {
-  return {
-      {"rms_residual_over_sigma", rms_sigma},       {"explains_data", explains_data},
-      {"parameters_at_bounds", at_bounds},          {"parameters_at_domain_edges", at_domain_edges},
-      {"inconsistent_frames", inconsistent_frames}, {"measured", Measured()}};
+  return {{"rms_residual_over_sigma", rms_sigma},
+          {"explains_data", explains_data},
+          {"parameters_at_bounds", at_bounds},
+          {"parameters_at_domain_edges", at_domain_edges},
+          {"inconsistent_frames", inconsistent_frames},
+          {"residual_structure", structure.ToJson()},
+          {"measured", Measured()}};
 }
 
 }  // namespace gonio

@@ -9,6 +9,7 @@
 
 #include "calib/response.h"
 #include "estimation/joint_fit.h"
+#include "pipeline/residual_structure.h"
 
 namespace gonio {
 
@@ -25,6 +26,40 @@ void CheckObservationValues(const ObservationSet& data, const std::string& what)
 void CheckBitDepths(int session_bit_depth, const ResponseResult& response,
                     const std::string& session_what, const std::string& photometric_what);
 
+// What a warning is about (fit.json checks.warnings[].cause; docs/pipeline.md "Warnings").
+// In order of severity: the console, the report and fit.json list warnings in this order.
+enum class WarningCause {
+  kNotExplained,        // no candidate explains the data
+  kInconsistentFrames,  // frames that disagree with the fitted scene
+  kAtBound,             // a parameter on its registry bound
+  kResponse,            // the response calibration limits the result
+  kResidualIrradiance,  // residuals that follow the lamp's irradiance
+  kResidualView,        // residuals that follow the viewing angle
+  kResidualPosition,    // residuals that follow the position in the image
+  kAmbientLight,        // the room's light, fitted as a constant
+  kSampleHeight,        // the sample's height, fitted off board.json's
+  kReprojection,        // frames whose board does not fit a given camera model
+  kFit,                 // the joint fit's own (a frame the model misses, a far lamp)
+  kFrameSkipped,        // a frame without a usable board pose: less data, no bias
+};
+std::string ToString(WarningCause cause);  // "frame-skipped", "residual-irradiance", ...
+
+// A warning a person sees first (console, report, fit.json), with the results it touches.
+struct RunWarning {
+  WarningCause cause = WarningCause::kFit;
+  std::string message;
+  // Material parameter names, "light" (the lamp position) and "intensity"; empty: none (the
+  // warning concerns the data, not the values).
+  std::vector<std::string> touches;
+  nlohmann::json ToJson() const;
+};
+
+// Every result of a fit: its material parameters, "light" and "intensity".
+std::vector<std::string> AllResults(const JointFitResult& fit);
+
+// fit.json checks.touched_results: result -> the causes of the warnings that touch it.
+nlohmann::json TouchedResults(const std::vector<RunWarning>& warnings);
+
 struct FitChecksOptions {
   // A frame whose mean relative residual exceeds this many times the fit's relative noise
   // floor (the calibration uncertainty it assumes) does not agree with the fitted scene.
@@ -40,6 +75,7 @@ struct FitChecksOptions {
   double max_rms_sigma = 3.0;
   // A parameter within this fraction of its range from a registry bound sits on the bound.
   double bound_fraction = 1e-3;
+  ResidualStructureOptions structure;
   void Check() const;
 };
 
@@ -51,9 +87,11 @@ struct FitChecks {
   // the model's domain, 1)"; a value there is a measurement when the data are explained.
   std::vector<std::string> at_domain_edges;
   std::vector<std::string> inconsistent_frames;  // "frame_0003.png (+12.1%)"
+  ResidualStructure structure;  // residuals against irradiance, view, image position
   // True when nothing above stands in the way of reading the parameters as a measurement.
   bool Measured() const { return explains_data && at_bounds.empty(); }
-  std::vector<std::string> Messages() const;  // plain words for the console and report
+  // Plain words for the console and report, with the results of `fit` each touches.
+  std::vector<RunWarning> Warnings(const JointFitResult& fit) const;
   nlohmann::json ToJson() const;
 };
 
@@ -70,6 +108,7 @@ FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
 struct CheckedFit {
   JointSelectionResult fit;
   FitChecks checks;
+  JointFitOptions options;  // the fit's options with the nuisances the selection chose
 };
 CheckedFit FitChecked(const ObservationSet& data, const JointFitOptions& fit_options,
                       const std::string& what, const FitChecksOptions& options);

@@ -1,9 +1,17 @@
-// `gonio demo`: the default synthetic session rendered by data_synth, run through the same chain
-// as `gonio run` (pipeline/run.h), and the result compared with the renderer's truth.
+// `gonio demo`: the user's chain on the default synthetic session (docs/pipeline.md "Demo").
+// data_synth renders what a user shoots: the session (default preset) and an exposure sweep of
+// the same camera in third stops (docs/capture-guide.md). The demo then calibrates as a user
+// does, from those images only: the camera model with mrcal from the session's frames, the
+// inverse response from the sweep, the vignetting from the board's paper (calib/vignette.h);
+// and runs the chain of `gonio run` (pipeline/run.h). truth.json only judges: the recovered
+// values against the true ones, each with z = error / reported standard deviation.
+// With `oracle`, the renderer's own camera model and photometric chain replace the user's
+// calibrations (no sweep is rendered): what the fit reaches when the calibrations are exact.
 #pragma once
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -15,20 +23,41 @@ namespace gonio {
 struct DemoOptions {
   std::vector<std::string> models;  // empty: every auto candidate
   int threads = 0;
+  bool oracle = false;  // the renderer's calibrations instead of the user's
   void Check() const;
+};
+
+// One recovered quantity against the truth.
+struct DemoValue {
+  std::string name;  // a material parameter, or light_x, light_y, light_z (metres)
+  double recovered = 0, truth = 0;
+  double stddev = -1;   // reported standard deviation; < 0: undetermined
+  bool angle = false;   // radians, shown in degrees
+  bool warned = false;  // a warning touches it
+  double Z() const { return stddev > 0 ? (recovered - truth) / stddev : 0.0; }
+};
+
+struct DemoStageTime {
+  std::string stage;
+  double wall_s = 0, cpu_s = 0;  // CPU: this process and its children (mrcal)
 };
 
 struct DemoResult {
   RunResult run;
+  bool oracle = false;
   std::string true_model;
-  // Parameter name -> (recovered, true); angles in radians.
-  std::vector<std::tuple<std::string, double, double>> params;
+  std::vector<DemoValue> values;  // the true model's parameters (when selected), the lamp
   Eigen::Vector3d light = Eigen::Vector3d::Zero(), light_true = Eigen::Vector3d::Zero();
   double light_error_fraction = 0;  // |light - truth| / distance of the true lamp from the sample
-  std::string Report() const;       // recovered vs true, a few lines
+  // What the user's calibrations gave (camera, response, vignetting): a few lines.
+  std::string calibration_report;
+  // Each stage: render, sweep, camera, response, vignetting, run.
+  std::vector<DemoStageTime> seconds;
+  std::string Report() const;  // recovered vs true with z, a few lines
 };
 
-// Renders into OUT/session/, runs the chain into OUT/result/ (written as a whole).
+// Renders into OUT/session/ (and OUT/sweep/), calibrates into OUT/calibration/, runs the chain
+// into OUT/result/ (written as a whole).
 DemoResult RunDemo(const std::filesystem::path& out, const DemoOptions& options);
 
 }  // namespace gonio

@@ -226,10 +226,41 @@ std::string AmbientRows(const JointFitResult& f) {
   return rows;
 }
 
+// The warnings at the top of the page, numbered, each with the results it touches.
+std::string WarningBox(const std::vector<RunWarning>& warnings) {
+  if (warnings.empty()) return "<p><b>Warnings:</b> none.</p>";
+  std::string h =
+      "<div style='border:2px solid #b00;padding:6px;margin:6px 0'><b style='color:#b00'>" +
+      fmt::format("{} warning{}", warnings.size(), warnings.size() > 1 ? "s" : "") +
+      "</b> (the results they touch are marked below)<ol>";
+  for (const auto& w : warnings) {
+    std::string touched;
+    for (const auto& t : w.touches) touched += (touched.empty() ? "" : ", ") + t;
+    h += "<li style='color:#b00'>[" + Escape(ToString(w.cause)) + "] " + Escape(w.message) +
+         (touched.empty() ? std::string(" <i>(touches no result)</i>")
+                          : " <i>(touches: " + Escape(touched) + ")</i>") +
+         "</li>";
+  }
+  return h + "</ol></div>";
+}
+
+// The numbers of the warnings that touch `result`, as a table cell ("" when none).
+std::string WarnedCell(const std::vector<RunWarning>& warnings, const std::string& result) {
+  std::string list;
+  for (size_t k = 0; k < warnings.size(); ++k) {
+    const auto& t = warnings[k].touches;
+    if (std::find(t.begin(), t.end(), result) != t.end()) {
+      list += (list.empty() ? "" : ", ") + std::to_string(k + 1);
+    }
+  }
+  return list.empty() ? "<td></td>" : "<td style='color:#b00'>warning " + list + "</td>";
+}
+
 }  // namespace
 
 void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
-                 const std::vector<std::string>& notes, const std::filesystem::path& dir) {
+                 const std::vector<std::string>& notes, const std::vector<RunWarning>& warnings,
+                 const std::filesystem::path& dir) {
   EnsureDirectory(dir);
   const JointFitResult& f = fit.final_fit;
   BrdfPlot(f, data, dir / "brdf_vs_theta_r.png");
@@ -257,6 +288,7 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   for (const auto& a : notes) {
     h << "<p style='color:#b00;border:2px solid #b00;padding:6px'>" << Escape(a) << "</p>";
   }
+  h << WarningBox(warnings);
   h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
   // What the geometry could measure: a lamp beside the lens sees the backscatter diagonal only.
   const ObservedAngles angles = ObservedAnglesOf(f, data);
@@ -264,24 +296,26 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   std::istringstream angle_lines(angles.Report());
   for (std::string line; std::getline(angle_lines, line);) h << " " << Escape(line) << "<br>";
   h << "</p>";
-  h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th></tr>";
+  h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th>"
+       "<th>touched by</th></tr>";
   for (size_t k = 0; k < f.material.params.size(); ++k) {
     const auto& sd = f.material.stddev[k];
-    h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td></tr>", f.material.param_names[k],
-                     f.material.params[k], sd ? fmt::format("{:.2g}", *sd) : "undetermined");
+    h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td>{}</tr>", f.material.param_names[k],
+                     f.material.params[k], sd ? fmt::format("{:.2g}", *sd) : "undetermined",
+                     WarnedCell(warnings, f.material.param_names[k]));
   }
   h << fmt::format(
-      "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td></tr>",
+      "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td>{}</tr>",
       ToString(f.light_frame), f.light_position.x(), f.light_position.y(), f.light_position.z(),
       f.light_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(),
                                    f.light_stddev->y(), f.light_stddev->z())
-                     : "undetermined");
-  h << fmt::format(
-      "<tr><td>intensity</td><td>{:.5g}</td><td>{}</td></tr>", f.intensity,
-      f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined");
+                     : "undetermined",
+      WarnedCell(warnings, "light"));
+  h << fmt::format("<tr><td>intensity</td><td>{:.5g}</td><td>{}</td>{}</tr>", f.intensity,
+                   f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined",
+                   WarnedCell(warnings, "intensity"));
   h << AmbientRows(f) << "</table>";
   if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
-  for (const auto& w : f.warnings) h << "<p style='color:#b00'>warning: " << Escape(w) << "</p>";
   h << "<h2>Model comparison</h2><table><tr><th>model</th><th>k</th><th>rel_rms</th><th>AIC</th>"
        "<th>BIC</th><th>CV rms (held-out frames)</th><th>undetermined</th></tr>";
   for (size_t k = 0; k < fit.selection.candidates.size(); ++k) {

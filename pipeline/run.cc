@@ -176,6 +176,18 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
 }
 
+// The joint fit's own warnings: a lamp too far to measure its distance touches the lamp and
+// the intensity; a frame the model misses, every result.
+void AddFitWarnings(const JointFitResult& f, std::vector<RunWarning>* out) {
+  const bool far_lamp = std::find(f.undetermined_light.begin(), f.undetermined_light.end(),
+                                  "light_distance") != f.undetermined_light.end();
+  for (const auto& w : f.warnings) {
+    const bool distance = far_lamp && w.find("irradiance varies only") != std::string::npos;
+    out->push_back({WarningCause::kFit, w,
+                    distance ? std::vector<std::string>{"light", "intensity"} : AllResults(f)});
+  }
+}
+
 }  // namespace
 
 void RunOptions::Check() const {
@@ -215,17 +227,20 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     throw InputError(in.session.dir.string() + ": the board was found in no frame");
   }
   for (const auto& s : r.poses.skipped) {
-    r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
-    spdlog::warn("{}", r.warnings.back());
+    r.warnings.push_back(
+        {WarningCause::kFrameSkipped, fmt::format("frame {} skipped: {}", s.file, s.reason), {}});
+    spdlog::warn("{}", r.warnings.back().message);
   }
   if (in.camera) {  // a given model must fit the session (a calibrated one does by construction)
     const auto off = CheckReprojection(r.poses, r.camera, in.camera_source);
     if (!off.empty()) {
-      r.warnings.push_back(fmt::format(
-          "frames whose board does not fit the camera model (reprojection error above {:.1f} "
-          "px: blur, a bent board, a misdetected tag?): {}",
-          ReprojectionCheck::LimitPx(r.camera), fmt::join(off, ", ")));
-      spdlog::warn("{}", r.warnings.back());
+      r.warnings.push_back(
+          {WarningCause::kReprojection,
+           fmt::format("frames whose board does not fit the camera model (reprojection error "
+                       "above {:.1f} px: blur, a bent board, a misdetected tag?): {}",
+                       ReprojectionCheck::LimitPx(r.camera), fmt::join(off, ", ")),
+           {}});
+      spdlog::warn("{}", r.warnings.back().message);
     }
   }
   r.timings.locate_s = clock.Lap();
@@ -240,25 +255,45 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   const JointFitOptions fit_options = FitOptionsFor(in, o, &r);
   spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
-  // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); the
-  // calibration's error is propagated after them (it widens error bars, it moves no residual).
+  // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the
+  // selected model keep the nuisance terms the selection chose, and the calibration's error is
+  // propagated after the checks (it widens error bars, it moves no residual).
   CheckedFit checked = FitChecked(r.observations, fit_options, in.session.dir.string(), o.checks);
   r.fit = std::move(checked.fit);
   r.checks = std::move(checked.checks);
-  PropagateCalibration(in, o, fit_options, &r);
+  PropagateCalibration(in, o, checked.options, &r);
   r.timings.fit_s = clock.Lap();
-  for (const auto& w : r.fit.final_fit.warnings) r.warnings.push_back(w);
-  for (const auto& m : r.checks.Messages()) {
-    r.warnings.push_back(m);
-    spdlog::warn("{}", m);
+  AddFitWarnings(r.fit.final_fit, &r.warnings);
+  r.checks.structure =
+      FindResidualStructure(r.fit.final_fit, r.observations, r.noise_floor,
+                            {r.camera.intrinsics[2], r.camera.intrinsics[3]},
+                            0.5 * std::hypot(r.camera.width, r.camera.height), o.checks.structure);
+  spdlog::info("{}", r.checks.structure.Report());
+  for (const auto& w : r.checks.Warnings(r.fit.final_fit)) {
+    r.warnings.push_back(w);
+    spdlog::warn("{}", w.message);
   }
+  std::stable_sort(r.warnings.begin(), r.warnings.end(),
+                   [](const RunWarning& a, const RunWarning& b) { return a.cause < b.cause; });
   return r;
+}
+
+std::string RunResult::WarningLines() const {
+  std::string s;
+  for (const auto& w : warnings) {
+    std::string touched;
+    for (const auto& t : w.touches) touched += (touched.empty() ? "" : ", ") + t;
+    s += fmt::format("WARNING ({}): {}{}\n", ToString(w.cause), w.message,
+                     touched.empty() ? "" : " [touches: " + touched + "]");
+  }
+  return s;
 }
 
 std::string RunResult::Report() const {
   std::string s;
   for (const auto& a : assumptions) s += "ASSUMED: " + a + "\n";
-  if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings below)\n";
+  s += WarningLines();
+  if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings above)\n";
   s += fit.Report();
   s += fmt::format("relative noise floor: {:.2f}% ({})\n", 100 * noise_floor, noise_floor_source);
   if (calibration_error) {
@@ -267,7 +302,6 @@ std::string RunResult::Report() const {
     s += "calibration error: not propagated (the photometric calibration reports no accuracy)\n";
   }
   s += ObservedAnglesOf(fit.final_fit, observations).Report();
-  for (const auto& m : checks.Messages()) s += "WARNING: " + m + "\n";
   s += plan_coverage_report;
   s += fmt::format(
       "timing: detect {:.1f} s, calibrate {:.1f} s, locate {:.1f} s, extract {:.1f} s, fit "
@@ -283,8 +317,16 @@ nlohmann::json RunResult::ToJson() const {
   j["noise_floor"] = {{"relative", noise_floor}, {"source", noise_floor_source}};
   j["calibration_error"] = calibration_error ? calibration_error->ToJson() : nlohmann::json();
   j["checks"] = checks.ToJson();
+  nlohmann::json warnings_json = nlohmann::json::array();
+  std::vector<std::string> messages;
+  for (const auto& w : warnings) {
+    warnings_json.push_back(w.ToJson());
+    messages.push_back(w.message);
+  }
+  j["checks"]["warnings"] = warnings_json;
+  j["checks"]["touched_results"] = TouchedResults(warnings);
   j["observed_angles"] = ObservedAnglesOf(fit.final_fit, observations).ToJson();
-  j["run_warnings"] = warnings;
+  j["run_warnings"] = messages;
   j["timing"] = timings.ToJson();
   j["frames_decoded"] = frames_decoded;
   j["camera_calibrated_from_session"] = calibration.has_value();

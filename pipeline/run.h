@@ -94,8 +94,10 @@ struct RunResult {
   double noise_floor = 0;                // the relative floor the fit used
   // The calibration part of the uncertainty (already added to fit.final_fit's), when measured.
   std::optional<CalibrationPropagation> calibration_error;
-  std::string noise_floor_source;     // "photometric.json", "--noise-floor" or "default"
-  std::vector<std::string> warnings;  // frames skipped, fit warnings
+  std::string noise_floor_source;  // "photometric.json", "--noise-floor" or "default"
+  // Everything a person must see before the numbers (frames skipped, the fit's and the checks'
+  // warnings), each with the results it touches; first in the console, the report and fit.json.
+  std::vector<RunWarning> warnings;
   RunTimings timings;
   // Image decodes (lamp-off frames included) and board detections over the whole run, as
   // counted by ReadImage and DetectBoard in this process (one run at a time).
@@ -106,8 +108,10 @@ struct RunResult {
   std::string plan_coverage_report;
   nlohmann::json plan_coverage;
 
-  std::string Report() const;     // the fit's report plus warnings and timings
+  std::string Report() const;     // warnings first, then the fit's report and timings
   nlohmann::json ToJson() const;  // fit.json (docs/formats.md)
+  // The warnings as one line each, "WARNING (cause): message [touches: ...]".
+  std::string WarningLines() const;
 };
 
 // The chain on loaded inputs. InputError when a frame's values do not match the session's bit

@@ -109,9 +109,8 @@ void WriteRunOutputs(const RunResult& r, const RunInputs& in, const fs::path& ou
   const auto start = std::chrono::steady_clock::now();
   std::vector<std::string> notes;
   for (const auto& a : r.assumptions) notes.push_back("Assumed: " + a);
-  if (!r.checks.Measured()) notes.push_back("NOT A MEASUREMENT: see below.");
-  for (const auto& m : r.checks.Messages()) notes.push_back(m);
-  WriteReport(r.fit, r.observations, in.board, notes, tmp / "report");
+  if (!r.checks.Measured()) notes.push_back("NOT A MEASUREMENT: see the warnings.");
+  WriteReport(r.fit, r.observations, in.board, notes, r.warnings, tmp / "report");
   nlohmann::json j = r.ToJson();
   j["timing"]["report_s"] =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

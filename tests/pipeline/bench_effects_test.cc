@@ -55,7 +55,7 @@ Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, Ambie
   o.fit.candidates = {"lambert", "oren-nayar"};
   o.fit.white_albedo = scene.board.white_albedo;
   o.fit.ambient = ambient;
-  o.fit.fit_sample_height = fit_sample_height;
+  o.fit.sample_height = fit_sample_height ? NuisanceTerm::kFit : NuisanceTerm::kNone;
   o.extract.patch = 4;
   const RunResult run = gonio::Run(in, o);
   Outcome out;
@@ -174,7 +174,7 @@ TEST(BenchEffects, AmbientAutoLeavesTheTermOutInADarkRoom) {
   WriteTruePhotometric(dir.path());
   const Outcome r = RunOn(dir.path(), scene, AmbientTerm::kAuto);
   EXPECT_EQ(r.fit.ambient, AmbientTerm::kNone) << r.report;
-  EXPECT_NE(r.fit.ambient_reason.find("left out"), std::string::npos) << r.report;
+  EXPECT_NE(r.fit.ambient_reason.find("none kept"), std::string::npos) << r.report;
   EXPECT_NEAR(r.albedo, kAlbedo, 0.003) << r.report;
 }
 

@@ -2,6 +2,9 @@
 // same Run() that `gonio run` and `gonio demo` call.
 // Tolerances are stated per test; each is justified by the noise of the render and the
 // measured figures recorded in docs/pipeline.md.
+#include <fstream>
+#include <iterator>
+
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -287,6 +290,27 @@ TEST(Pipeline, MaterialOutsideTheCandidatesIsNotAMeasurement) {
   EXPECT_GT(r.checks.rms_sigma, 3.0);
   EXPECT_NE(r.Report().find("no candidate explains these data"), std::string::npos);
   EXPECT_FALSE(r.ToJson()["checks"]["measured"].get<bool>());
+  // Warnings first: in the console report before the model table, in fit.json with the results
+  // they touch, and at the top of report/index.html with the touched rows marked.
+  const std::string report = r.Report();
+  EXPECT_EQ(report.find("WARNING (not-explained): no candidate explains"), 0u) << report;
+  const nlohmann::json checks = r.ToJson()["checks"];
+  ASSERT_FALSE(checks["warnings"].empty()) << checks;
+  EXPECT_EQ(checks["warnings"][0]["cause"], "not-explained") << checks;
+  for (const char* result : {"albedo", "light", "intensity"}) {
+    ASSERT_TRUE(checks["touched_results"].contains(result)) << checks;
+    EXPECT_EQ(checks["touched_results"][result][0], "not-explained") << checks;
+  }
+  testing::TempDir out;
+  WriteRunOutputs(r, LoadRunInputs(dir.path(), "", ""), out.path() / "run");
+  std::ifstream html_file(out.path() / "run" / "report" / "index.html");
+  const std::string html((std::istreambuf_iterator<char>(html_file)), {});
+  const size_t box = html.find("[not-explained] no candidate explains");
+  ASSERT_NE(box, std::string::npos) << html;
+  EXPECT_LT(box, html.find("<h2>Parameters"));
+  const size_t albedo_row = html.find("<td>albedo</td>", box);
+  ASSERT_NE(albedo_row, std::string::npos);
+  EXPECT_LT(html.find("warning 1,", albedo_row), html.find("</tr>", albedo_row)) << html;
 }
 
 // One pass over the data: every frame is decoded once and its board detected once, whether the

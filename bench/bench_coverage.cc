@@ -1,0 +1,386 @@
+// `gonio bench --coverage`: scenes rendered and run through the user's chain by the gonio
+// executable, fit.json judged against truth.json (bench/bench_coverage.h).
+#include "bench/bench_coverage.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "common/error.h"
+#include "common/io.h"
+#include "common/math.h"
+
+extern char** environ;
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace gonio::bench {
+namespace {
+
+// A step of the chain that exited with an error: the run is recorded as failed, with the step
+// and the last line the command wrote (its one-line reason for a refusal).
+struct StepFailed : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+std::string LastLine(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+  }
+  return last;
+}
+
+// `exe args...` with stdout and stderr appended to `log` (no shell: arguments are passed as
+// they are, globs included, which gonio expands itself). Returns the exit code (-1: killed).
+int RunLogged(const fs::path& exe, const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<std::string> all = {exe.string()};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) throw std::runtime_error(exe.string() + ": cannot be started");
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// One gonio command of a run, logged into the run's folder as STEP.log.
+class Chain {
+ public:
+  Chain(fs::path exe, fs::path dir, int threads)
+      : exe_(std::move(exe)), dir_(std::move(dir)), threads_(threads) {}
+  const fs::path& dir() const { return dir_; }
+
+  void Step(const std::string& name, std::vector<std::string> args, bool threaded = false) {
+    if (threaded && threads_ > 0) {
+      args.push_back("--threads");
+      args.push_back(std::to_string(threads_));
+    }
+    const fs::path log = dir_ / (name + ".log");
+    const int code = RunLogged(exe_, args, log);
+    if (code != 0) throw StepFailed(fmt::format("{} (exit {}): {}", name, code, LastLine(log)));
+  }
+
+  // `gonio synth --scene` of `scene` into `out`.
+  void Render(const std::string& name, const synth::Scene& scene, const fs::path& out) {
+    const fs::path file = dir_ / (name + "_scene.json");
+    WriteJsonAtomically(file, synth::SceneToJson(scene));
+    Step("synth_" + name, {"synth", "--scene", file.string(), "--out", out.string()}, true);
+  }
+
+ private:
+  fs::path exe_, dir_;
+  int threads_;
+};
+
+// The camera with its image scaled to width x height (same field of view and lens).
+void ScaleCamera(int width, int height, CameraModel* camera) {
+  const double s = static_cast<double>(width) / camera->width;
+  auto& k = camera->intrinsics;
+  k[0] *= s;
+  k[1] *= s;
+  k[2] = (k[2] + 0.5) * s - 0.5;
+  k[3] = (k[3] + 0.5) * s - 0.5;
+  camera->width = width;
+  camera->height = height;
+}
+
+synth::Scene SessionScene(const CoverageKind& kind, const CoveragePlan& plan, int seed) {
+  synth::Scene s = synth::PresetScene(kind.flash ? "flash" : "default");
+  s.material.model = kind.model;
+  s.material.params = kind.params;
+  if (!kind.flash) s.views.per_ring = plan.views_per_ring;
+  ScaleCamera(plan.width, plan.height, &s.camera);
+  s.photometric.bit_depth = kind.bit_depth;
+  s.photometric.response = kind.response;
+  s.photometric.black_level = kind.black_level;
+  s.seed = static_cast<uint64_t>(seed);
+  return s;
+}
+
+// Another session of the same camera (its lens, photometric chain and noise seed).
+synth::Scene SameCamera(const std::string& preset, const synth::Scene& session) {
+  synth::Scene s = synth::PresetScene(preset);
+  s.camera = session.camera;
+  s.photometric = session.photometric;
+  s.seed = session.seed;
+  return s;
+}
+
+// The exposure sweep: the exposure-sweep preset's whole stops (14 frames, 0.5 ms .. 4.1 s, what
+// a camera's auto-bracketing gives) or third stops over the same range (40 frames, as
+// docs/capture-guide.md asks).
+synth::Scene SweepScene(const std::string& sweep, const synth::Scene& session) {
+  synth::Scene s = SameCamera("exposure-sweep", session);
+  if (sweep == "third") {
+    s.views.exposures_s.clear();
+    for (int k = 0; k < 40; ++k) s.views.exposures_s.push_back(0.0005 * std::exp2(k / 3.0));
+  }
+  return s;
+}
+
+// A tag-free flat field has no pose to locate; the vignetting needs distinct poses only (the
+// target's brightness is one constant), so the renderer's are written as a poses file.
+fs::path FlatPoses(const fs::path& flat, const fs::path& out) {
+  json poses = {{"format", "gonio-poses"}, {"frames", json::array()}};
+  for (const auto& f : ReadJsonFile(flat / "truth.json").at("frames")) {
+    poses["frames"].push_back({{"file", f.at("file")}, {"cam_from_board", f.at("cam_from_board")}});
+  }
+  WriteJsonAtomically(out, poses);
+  return out;
+}
+
+Eigen::Vector3d Vec3(const json& j) {
+  return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()};
+}
+
+// fit.json against truth.json: every material parameter of the true model (when it was
+// selected) and the lamp position per axis, each with the warnings that touch it.
+void Judge(const json& fit, const json& truth, CoverageRun* run) {
+  const json& fin = fit.at("final");
+  run->true_model = truth.at("material").at("model").get<std::string>();
+  run->selected_model = fin.at("model").get<std::string>();
+  std::map<std::string, bool> touched;
+  const json checks = fit.value("checks", json::object());
+  for (const auto& w : checks.value("warnings", json::array())) {
+    run->warnings.push_back(w.value("cause", "") + ": " + w.value("message", ""));
+    for (const auto& t : w.value("touches", json::array())) {
+      touched[t.get<std::string>()] = true;
+      run->results_warned = true;
+    }
+  }
+  auto add = [&](const std::string& name, const std::string& touch_name, double truth_value,
+                 double value, const json& sd) {
+    CoverageValue v;
+    v.parameter = name;
+    v.truth = truth_value;
+    v.value = value;
+    v.stddev = sd.is_number() ? sd.get<double>() : -1.0;
+    if (v.Determined()) v.z = (value - truth_value) / v.stddev;
+    v.warned = touched.count(touch_name) > 0;
+    run->values.push_back(v);
+  };
+  if (run->selected_model == run->true_model) {
+    for (const auto& [name, t] : truth.at("material").at("params").items()) {
+      if (!fin.at("params").contains(name)) continue;
+      add(name, name, t.get<double>(), fin.at("params").at(name).get<double>(),
+          fin.at("stddev").value(name, json()));
+    }
+  }
+  const json& light = truth.at("light");
+  const bool camera_frame = light.contains("position_in_camera");
+  const Eigen::Vector3d lamp_true =
+      Vec3(light.at(camera_frame ? "position_in_camera" : "position_in_board"));
+  const Eigen::Vector3d lamp = Vec3(fin.at("light").at("position"));
+  const json& sd = fin.at("light").at("stddev");
+  const char* axes[] = {"light_x", "light_y", "light_z"};
+  for (int k = 0; k < 3; ++k) {
+    add(axes[k], "light", lamp_true[k], lamp[k], sd.is_array() ? sd.at(k) : json());
+  }
+}
+
+// The user's chain on one kind and seed, one run per sweep; the session, its camera model and
+// poses (or the flat field) are shared by the sweeps.
+std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePlan& plan, int seed,
+                                     const fs::path& exe, const fs::path& dir, int threads) {
+  std::vector<CoverageRun> runs;
+  for (const auto& sweep : plan.sweeps) {
+    CoverageRun r;
+    r.kind = kind.name;
+    r.sweep = sweep;
+    r.seed = seed;
+    runs.push_back(r);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  fs::remove_all(dir);
+  EnsureDirectory(dir);
+  Chain chain(exe, dir, threads);
+  const fs::path session = dir / "session", cal = dir / "cal", camera = cal / "camera.cameramodel";
+  fs::path vignette_session = session, vignette_poses = cal / "poses.json";
+  const synth::Scene scene = SessionScene(kind, plan, seed);
+  double shared_s = 0;
+  try {
+    chain.Render("session", scene, session);
+    fs::remove(session / "camera.cameramodel");  // the renderer's geometry is not the user's
+    EnsureDirectory(cal);
+    chain.Step("calibrate", {"calibrate", "--images", (session / "frame_*.png").string(), "--board",
+                             (session / "board.json").string(), "--out", camera.string()});
+    if (kind.flash) {
+      vignette_session = dir / "flat";
+      chain.Render("flat", SameCamera("flat-field", scene), vignette_session);
+      vignette_poses = FlatPoses(vignette_session, cal / "flat_poses.json");
+    } else {
+      chain.Step("locate", {"locate", "--session", session.string(), "--camera", camera.string(),
+                            "--out", vignette_poses.string()});
+    }
+  } catch (const StepFailed& e) {
+    for (auto& r : runs) r.failed = e.what();
+    return runs;
+  }
+  shared_s = elapsed();
+  const double white_albedo = ReadJsonFile(session / "truth.json").at("white_albedo").get<double>();
+  for (auto& r : runs) {
+    const auto run_start = std::chrono::steady_clock::now();
+    const fs::path sweep_dir = dir / ("sweep-" + r.sweep), sc = dir / ("cal-" + r.sweep);
+    const fs::path out = dir / ("run-" + r.sweep);
+    try {
+      chain.Render("sweep-" + r.sweep, SweepScene(r.sweep, scene), sweep_dir);
+      EnsureDirectory(sc);
+      chain.Step("response-" + r.sweep, {"photometric", "response", "--sweep", sweep_dir.string(),
+                                         "--out", (sc / "response.json").string()});
+      chain.Step("vignette-" + r.sweep,
+                 {"photometric", "vignette", "--session", vignette_session.string(), "--camera",
+                  camera.string(), "--board", (vignette_session / "board.json").string(), "--poses",
+                  vignette_poses.string(), "--response", (sc / "response.json").string(), "--out",
+                  (sc / "vignette.tiff").string(), "--photometric-out",
+                  (sc / "photometric.json").string()});
+      std::vector<std::string> args = {"run",
+                                       "--session",
+                                       session.string(),
+                                       "--camera",
+                                       camera.string(),
+                                       "--photometric",
+                                       (sc / "photometric.json").string(),
+                                       "--white-albedo",
+                                       fmt::format("{}", white_albedo),
+                                       "--out",
+                                       out.string()};
+      if (kind.flash) args.insert(args.end(), {"--light-frame", "camera"});
+      chain.Step("run-" + r.sweep, args, true);
+      Judge(ReadJsonFile(out / "fit.json"), ReadJsonFile(session / "truth.json"), &r);
+    } catch (const StepFailed& e) {
+      r.failed = e.what();
+    }
+    r.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count() +
+        shared_s / static_cast<double>(runs.size());
+  }
+  return runs;
+}
+
+std::string Slug(const std::string& s) {
+  std::string out;
+  for (char c : s) out += std::isalnum(static_cast<unsigned char>(c)) ? c : '-';
+  return out;
+}
+
+}  // namespace
+
+CoveragePlan CoveragePlanFor(const BenchOptions& options) {
+  options.Check();
+  // The five kinds: the default material on a 12-bit gamma camera (MSB-free in 16-bit PNGs), a
+  // specular sample on a 16-bit linear camera, a pitted sample on an 8-bit sRGB camera (a JPEG),
+  // a dark rough sample on the 8-bit camera, and a lamp beside the lens on a 12-bit linear
+  // camera (the flash preset: RAW-like values above a black level of 64).
+  const CoverageKind oren_nayar{"oren-nayar/gamma12",
+                                "oren-nayar",
+                                {{"sigma", DegToRad(30)}, {"albedo", 0.6}},
+                                12,
+                                "gamma",
+                                64};
+  const CoverageKind tson{
+      "tson/linear16",
+      "tson",
+      {{"albedo", 0.5}, {"sigma", DegToRad(20)}, {"ks", 0.3}, {"sigma_s", 0.15}},
+      16,
+      "linear",
+      64};
+  const CoverageKind pitted{"pitted-exact/srgb8",
+                            "pitted-exact",
+                            {{"albedo", 0.7}, {"aperture", DegToRad(60)}, {"coverage", 0.8}},
+                            8,
+                            "srgb",
+                            0};
+  const CoverageKind dark{"dark-oren-nayar/srgb8",
+                          "oren-nayar",
+                          {{"sigma", DegToRad(20)}, {"albedo", 0.3}},
+                          8,
+                          "srgb",
+                          0};
+  const CoverageKind flash{"flash/linear12",
+                           "oren-nayar",
+                           {{"sigma", DegToRad(30)}, {"albedo", 0.6}},
+                           12,
+                           "linear",
+                           64,
+                           true};
+  CoveragePlan p;
+  if (options.size == "full") {
+    p.kinds = {oren_nayar, tson, pitted, dark, flash};
+    p.seeds = 4;
+  } else if (options.size == "quick") {
+    p.kinds = {oren_nayar, pitted, flash};
+    p.seeds = 1;
+  } else {
+    // CI: the plumbing of one run (the 14-frame sweep, 8 views; mrcal needs 640x480 there).
+    p.kinds = {oren_nayar};
+    p.seeds = 1;
+    p.sweeps = {"whole"};
+    p.views_per_ring = 2;
+  }
+  return p;
+}
+
+CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan& plan,
+                                const fs::path& gonio_exe, const fs::path& work) {
+  options.Check();
+  if (plan.kinds.empty() || plan.seeds < 1 || plan.sweeps.empty()) {
+    throw InputError("coverage plan: no kinds, seeds or sweeps");
+  }
+  for (const auto& s : plan.sweeps) {
+    if (s != "third" && s != "whole") throw InputError("coverage plan: sweep '" + s + "'");
+  }
+  CoverageReport rep;
+  rep.size = options.size;
+  rep.plan = plan;
+  const auto start = std::chrono::steady_clock::now();
+  const size_t total = plan.kinds.size() * plan.seeds * plan.sweeps.size();
+  EnsureDirectory(work);
+  for (const auto& kind : plan.kinds) {
+    for (int seed = 1; seed <= plan.seeds; ++seed) {
+      const fs::path dir = work / fmt::format("{}-seed{}", Slug(kind.name), seed);
+      for (auto& r : RunKindSeed(kind, plan, seed, gonio_exe, dir, options.threads)) {
+        rep.runs.push_back(r);
+        std::string zs;
+        for (const auto& v : r.values) {
+          if (v.Determined())
+            zs += fmt::format(" {} {:+.2f}{}", v.parameter, v.z, v.warned ? "*" : "");
+        }
+        spdlog::info("coverage {}/{}: {} seed {} {} stops: {} ({:.0f} s){}", rep.runs.size(), total,
+                     r.kind, r.seed, r.sweep,
+                     r.failed.empty() ? r.selected_model + ", z" + zs : "failed: " + r.failed,
+                     r.seconds,
+                     r.warnings.empty() ? "" : fmt::format(", {} warning(s)", r.warnings.size()));
+      }
+      fs::remove_all(dir);
+    }
+  }
+  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  SummarizeCoverage(&rep);
+  return rep;
+}
+
+}  // namespace gonio::bench

@@ -1,0 +1,115 @@
+// `gonio bench --coverage` (docs/bench.md, docs/pipeline.md "Coverage"): do the error bars mean
+// what they say? Synthetic scenes of several kinds (materials, cameras, a lamp on the camera)
+// are rendered with several noise seeds and run through the user's chain as a user runs it, by
+// the gonio executable itself: `gonio synth` (session, exposure sweep in whole or third stops, a
+// flat field for a lamp on the camera), `gonio calibrate` (mrcal, from the session's frames),
+// `gonio locate`, `gonio photometric response`, `gonio photometric vignette`, `gonio run`.
+// truth.json only judges fit.json: per parameter z = (fitted - true) / reported standard
+// deviation, over runs whose result no warning touches and over runs it does, separately.
+// Targets over the runs without a warning: RMS z in [0.6, 1.6] and at least 90% of |z| < 2; a
+// run that misses (|z| > 3, the wrong model, a failed step) must carry a warning naming why.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench/bench_lib.h"
+#include "data_synth/scene.h"
+
+namespace gonio::bench {
+
+// One kind of scene: a material on a camera, the lamp on a stand or on the camera.
+struct CoverageKind {
+  std::string name;  // "oren-nayar/gamma12": material / camera
+  std::string model;
+  std::map<std::string, double> params;  // registry names and units
+  int bit_depth = 12;
+  std::string response = "gamma";  // data_synth response: linear, gamma, srgb
+  double black_level = 64;
+  // The lamp beside the lens (data_synth's flash preset, board turned in front of the camera):
+  // vignetting from a flat field, `gonio run --light-frame camera`.
+  bool flash = false;
+};
+
+// What a size runs.
+struct CoveragePlan {
+  std::vector<CoverageKind> kinds;
+  int seeds = 4;
+  std::vector<std::string> sweeps = {"third", "whole"};  // third stops (40 frames), whole (14)
+  int width = 640, height = 480;                         // the camera, intrinsics scaled
+  int views_per_ring = 3;                                // board scenes: 4 rings
+};
+CoveragePlan CoveragePlanFor(const BenchOptions& options);
+
+// One judged quantity of one run.
+struct CoverageValue {
+  std::string parameter;  // a material parameter's name, or light_x, light_y, light_z
+  double truth = 0, value = 0;
+  double stddev = -1;   // reported standard deviation; < 0: undetermined (no z)
+  double z = 0;         // (value - truth) / stddev
+  bool warned = false;  // a warning in fit.json's checks touches this result
+  bool Determined() const { return stddev > 0; }
+};
+
+struct CoverageRun {
+  std::string kind, sweep;
+  int seed = 0;
+  std::string failed;  // empty, or the step that failed and its message
+  std::string true_model, selected_model;
+  std::vector<CoverageValue> values;
+  std::vector<std::string> warnings;  // fit.json checks.warnings: "cause: message"
+  bool results_warned = false;        // some warning touches some result
+  double seconds = 0;                 // the whole chain of this run, rendering included
+  // A miss: a failed step, the wrong model, or a |z| above kMissZ. It is warned when a
+  // warning touches the missed value (a wrong model: any result).
+  bool Missed() const { return !MissReason().empty(); }
+  std::string MissReason() const;
+  bool MissWarned() const;
+  nlohmann::json ToJson() const;
+};
+
+inline constexpr double kMissZ = 3.0;
+
+// z statistics of one parameter (or "all") over one group of runs.
+struct CoverageStat {
+  std::string parameter;
+  bool warned = false;  // over results a warning touches (true) or none does (false)
+  int n = 0;
+  double rms_z = 0, share_below_2 = 0, max_abs_z = 0;
+  nlohmann::json ToJson() const;
+};
+
+struct CoverageTargets {
+  double min_rms_z = 0.6, max_rms_z = 1.6, min_share_below_2 = 0.9;
+};
+
+struct CoverageReport {
+  std::string size;
+  CoveragePlan plan;
+  std::vector<CoverageRun> runs;
+  std::vector<CoverageStat> stats;           // per parameter and "all", without and with warnings
+  std::vector<std::string> unwarned_misses;  // runs that missed without a warning
+  double seconds = 0;
+  // The "all" statistic without warnings within the targets, and no unwarned miss.
+  bool TargetsMet(const CoverageTargets& t = {}) const;
+  const CoverageStat* Find(const std::string& parameter, bool warned) const;
+  nlohmann::json ToJson() const;
+};
+
+// The statistics and unwarned misses of `runs` (fills stats and unwarned_misses).
+void SummarizeCoverage(CoverageReport* report);
+
+// Renders and runs the plan with `gonio_exe` into `work` (one folder per kind and seed, removed
+// after each), progress on stderr.
+CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan& plan,
+                                const std::filesystem::path& gonio_exe,
+                                const std::filesystem::path& work);
+
+// coverage.json and coverage_z.{png,svg} (z per run, coloured by scene kind) in `dir`.
+void WriteCoverageOutputs(const std::filesystem::path& dir, const CoverageReport& report);
+
+}  // namespace gonio::bench

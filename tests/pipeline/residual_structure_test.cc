@@ -1,0 +1,146 @@
+// Residual structure (pipeline/residual_structure.h) and the warnings it and the other checks
+// give (pipeline/checks.h), on observations synthesized from the geometry with the true scene as
+// the "fit": a clean set shows no structure; an added room light, a view-dependent error and a
+// radial (vignetting-like) error each show on their own axis.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "common/math.h"
+#include "pipeline/checks.h"
+#include "pipeline/residual_structure.h"
+#include "tests/estimation/synthetic_observations.h"
+
+namespace gonio {
+namespace {
+
+using testing_obs::kLight;
+using testing_obs::Synthesize;
+
+// The generating scene as a fit result (oren-nayar, albedo 0.6, sigma 30 deg, intensity 1).
+JointFitResult TrueFit() {
+  JointFitResult f;
+  f.material.model = "oren-nayar";
+  f.material.param_names = {"albedo", "sigma"};
+  f.material.params = {0.6, DegToRad(30)};
+  f.material.stddev = {0.001, 0.001};
+  f.material.converged = true;
+  f.light_position = kLight;
+  f.intensity = 1.0;
+  return f;
+}
+
+const Eigen::Vector2d kCentre(639.5, 479.5);
+constexpr double kHalfDiagonal = 800.0;
+constexpr double kFloor = 0.005;
+
+const ResidualTrend& Axis(const ResidualStructure& s, ResidualAxis axis) {
+  for (const auto& t : s.trends) {
+    if (t.axis == axis) return t;
+  }
+  throw std::runtime_error("no trend for " + ToString(axis));
+}
+
+// Pixel noise of 0.2%: no bin of the clean set departs by more than twice the 0.5% floor.
+TEST(ResidualStructure, CleanDataShowNone) {
+  const ObservationSet data = Synthesize(24, 1, true, 0.002);
+  const ResidualStructure s =
+      FindResidualStructure(TrueFit(), data, kFloor, kCentre, kHalfDiagonal, {});
+  ASSERT_EQ(s.trends.size(), 3u);
+  for (const auto& t : s.trends) {
+    EXPECT_FALSE(t.structured) << s.Report();
+    EXPECT_LT(t.amplitude, 0.002) << s.Report();
+  }
+}
+
+// A room light of 5% of the median sample radiance, not in the fit: the model is too dark where
+// the lamp is weak, so the irradiance axis shows it (the relative residual is -L_a / L, which
+// spans +-0.6% about its mean over the sample's irradiance range here), judged against a 0.2%
+// calibration.
+TEST(ResidualStructure, RoomLightShowsAgainstIrradiance) {
+  ObservationSet data = Synthesize(24, 1, true, 0.002);
+  std::vector<double> sample;
+  for (const auto& o : data.observations) {
+    if (!o.white) sample.push_back(o.radiance[0]);
+  }
+  std::nth_element(sample.begin(), sample.begin() + sample.size() / 2, sample.end());
+  const double ambient = 0.05 * sample[sample.size() / 2];
+  for (auto& o : data.observations) {
+    if (!o.white) o.radiance[0] += ambient;
+  }
+  const ResidualStructure s =
+      FindResidualStructure(TrueFit(), data, 0.002, kCentre, kHalfDiagonal, {});
+  const ResidualTrend& t = Axis(s, ResidualAxis::kIrradiance);
+  EXPECT_TRUE(t.structured) << s.Report();
+  // Weakest irradiance bin: the model darker than the data (negative), the strongest brighter
+  // than the mean.
+  EXPECT_LT(t.mean.front(), 0) << s.Report();
+  EXPECT_GT(t.mean.back(), 0) << s.Report();
+  // The warning names the axis and what to try.
+  FitChecks checks;
+  checks.structure = s;
+  const auto warnings = checks.Warnings(TrueFit());
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_EQ(warnings[0].cause, WarningCause::kResidualIrradiance);
+  EXPECT_NE(warnings[0].message.find("lamp-off frames"), std::string::npos) << warnings[0].message;
+  EXPECT_EQ(warnings[0].touches, AllResults(TrueFit()));
+}
+
+// A radial error of 6% at the image corner (1 - 0.06 r^2): the image-position axis shows it.
+TEST(ResidualStructure, VignettingErrorShowsAgainstImagePosition) {
+  ObservationSet data = Synthesize(24, 1, true, 0.002);
+  for (auto& o : data.observations) {
+    const double r = std::hypot(o.px - kCentre.x(), o.py - kCentre.y()) / kHalfDiagonal;
+    o.radiance[0] *= 1 - 0.06 * r * r;
+  }
+  const ResidualStructure s =
+      FindResidualStructure(TrueFit(), data, kFloor, kCentre, kHalfDiagonal, {});
+  EXPECT_TRUE(Axis(s, ResidualAxis::kPosition).structured) << s.Report();
+  // The model is brighter than the data towards the edge.
+  EXPECT_GT(Axis(s, ResidualAxis::kPosition).mean.back(), 0) << s.Report();
+}
+
+// An error growing with the viewing angle (a raised sample's parallax, a material outside the
+// candidates): 4% at theta_r = 60 deg.
+TEST(ResidualStructure, ViewDependentErrorShowsAgainstView) {
+  ObservationSet data = Synthesize(24, 1, true, 0.002);
+  for (auto& o : data.observations) {
+    const Eigen::Vector3d v = o.camera_in_board - o.p_in_board;
+    const double theta_r = std::acos(-v.z() / v.norm());
+    o.radiance[0] *= 1 + 0.04 * std::pow(theta_r / DegToRad(60), 2);
+  }
+  const ResidualStructure s =
+      FindResidualStructure(TrueFit(), data, kFloor, kCentre, kHalfDiagonal, {});
+  EXPECT_TRUE(Axis(s, ResidualAxis::kView).structured) << s.Report();
+  EXPECT_LT(Axis(s, ResidualAxis::kView).mean.back(), 0) << s.Report();
+}
+
+// The same structure judged against a calibration ten times less accurate is within what that
+// calibration could cause: no warning.
+TEST(ResidualStructure, AStructureWithinTheCalibrationsAccuracyIsNone) {
+  ObservationSet data = Synthesize(24, 1, true, 0.002);
+  for (auto& o : data.observations) {
+    const double r = std::hypot(o.px - kCentre.x(), o.py - kCentre.y()) / kHalfDiagonal;
+    o.radiance[0] *= 1 - 0.06 * r * r;
+  }
+  const ResidualStructure s =
+      FindResidualStructure(TrueFit(), data, 10 * kFloor, kCentre, kHalfDiagonal, {});
+  EXPECT_FALSE(Axis(s, ResidualAxis::kPosition).structured) << s.Report();
+}
+
+// Warnings touch results; fit.json's touched_results lists each result's causes once.
+TEST(RunWarnings, TouchedResultsListEachCauseOnce) {
+  const std::vector<RunWarning> w = {
+      {WarningCause::kAtBound, "sigma on its bound", {"sigma"}},
+      {WarningCause::kResidualView, "view", {"albedo", "sigma", "light", "intensity"}},
+      {WarningCause::kResidualView, "view again", {"sigma"}},
+      {WarningCause::kFrameSkipped, "frame skipped", {}}};
+  const nlohmann::json t = TouchedResults(w);
+  EXPECT_EQ(t["sigma"], nlohmann::json({"at-bound", "residual-view"}));
+  EXPECT_EQ(t["light"], nlohmann::json({"residual-view"}));
+  EXPECT_FALSE(t.contains("frame"));
+  EXPECT_EQ(w[0].ToJson()["cause"], "at-bound");
+}
+
+}  // namespace
+}  // namespace gonio
