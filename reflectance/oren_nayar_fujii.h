@@ -38,6 +38,7 @@
 
 #include "common/math.h"
 #include "reflectance/angles.h"
+#include "reflectance/batch_math.h"
 #include "reflectance/model.h"
 
 namespace gonio {
@@ -47,23 +48,24 @@ namespace fujii_internal {
 inline constexpr double kC1 = 0.5 - 2.0 / (3.0 * kPi);          // A = 1/(1 + kC1 sigma)
 inline constexpr double kC2 = 2.0 / 3.0 - 28.0 / (15.0 * kPi);  // E_avg = A (1 + kC2 sigma)
 
-// A (1 + sigma s/t): the single-scatter lobe divided by rho/pi.
+// A (1 + sigma s/t): the single-scatter lobe divided by rho/pi. cos theta as CosAsSin, so the
+// batch kernel vectorises (reflectance/batch_math.h).
 template <typename T>
 T SingleScatter(const T& sigma, const Angles<T>& a) {
   using std::cos;
   using std::sin;
-  const T ci = cos(a.theta_i), cr = cos(a.theta_r);
+  const T ci = CosAsSin(a.theta_i), cr = CosAsSin(a.theta_r);
   T s = sin(a.theta_i) * sin(a.theta_r) * cos(a.phi);
   if (s > T(0)) s = s / (ci > cr ? ci : cr);
   return (T(1) + sigma * s) / (T(1) + T(kC1) * sigma);
 }
 
-// G(theta) of the directional albedo, written without the 1/cos pole.
+// G(theta) of the directional albedo, written without the 1/cos pole (cos as CosAsSin, as
+// above).
 template <typename T>
 T G(const T& theta) {
-  using std::cos;
   using std::sin;
-  const T si = sin(theta), co = cos(theta);
+  const T si = sin(theta), co = CosAsSin(theta);
   return si * (theta - si * co) +
          T(2.0 / 3.0) * (si * co * (T(1) + si + si * si) / (T(1) + si) - si);
 }

@@ -49,6 +49,7 @@
 
 #include "common/math.h"
 #include "reflectance/angles.h"
+#include "reflectance/batch_math.h"
 #include "reflectance/model.h"
 #include "reflectance/oren_nayar.h"
 #include "reflectance/quadrature.h"
@@ -110,7 +111,9 @@ T FresnelDielectric(const T& c, const T& n) {
   return T(0.5) * (gmc * gmc) / (gpc * gpc) * (T(1) + q * q);
 }
 
-// f_r / (ks F) of the lobe; *cos_sh receives <s,h> for the Fresnel factor.
+// f_r / (ks F) of the lobe; *cos_sh receives <s,h> for the Fresnel factor. Written so the batch
+// kernel vectorises (reflectance/batch_math.h): cosines as CosAsSin, and the atan of the
+// theta_a branch evaluated outside it.
 template <typename T>
 T LobeWithoutFresnel(const T& sigma_s, const Angles<T>& a, T* cos_sh) {
   using std::atan;
@@ -118,28 +121,26 @@ T LobeWithoutFresnel(const T& sigma_s, const Angles<T>& a, T* cos_sh) {
   using std::exp;
   using std::sin;
   using std::sqrt;
-  const T sti = sin(a.theta_i), cti = cos(a.theta_i);
-  const T str = sin(a.theta_r), ctr = cos(a.theta_r);
+  const T sti = sin(a.theta_i), cti = CosAsSin(a.theta_i);
+  const T str = sin(a.theta_r), ctr = CosAsSin(a.theta_r);
   // s = (sin ti, 0, cos ti), v = (sin tr cos phi, sin tr sin phi, cos tr): phi = 0 puts the
-  // viewer on the source side (backscatter), as in the paper.
-  const T hx = sti + str * cos(a.phi), hy = str * sin(a.phi), hz = cti + ctr;  // s + v
-  const T rho2 = hx * hx + hy * hy;
+  // viewer on the source side (backscatter), as in the paper. Only |h_xy|^2 enters, so
+  // sin^2 phi = 1 - cos^2 phi (no sin(phi) to merge with the cos(phi) of tson's body).
+  const T cos_phi = cos(a.phi);
+  const T hx = sti + str * cos_phi, hz = cti + ctr;  // s + v
+  const T rho2 = hx * hx + str * str * (T(1) - cos_phi * cos_phi);
   const T h2 = rho2 + hz * hz;  // |s + v|^2 = 2 (1 + <s,v>)
   const T inv_h = T(1) / sqrt(h2);
   const T cos_a = hz * inv_h;
   *cos_sh = T(0.5) * sqrt(h2);  // <s,h> = (1 + <s,v>)/|s+v| = |s+v|/2
   // theta_a^2 without sqrt/acos at theta_a = 0 (specular direction along the normal):
-  // theta_a = atan(u), u = |h_xy|/h_z; theta_a^2 = u^2 (atan(u)/u)^2, series for small u.
+  // theta_a = atan(u), u = |h_xy|/h_z; theta_a^2 = u^2 (atan(u)/u)^2, series for small u. The
+  // atan is taken on every entry (its Jet at u = 0 is not finite but is not the one chosen).
   const T u2 = rho2 / (hz * hz);
-  T theta_a2;
-  if (u2 < T(1e-6)) {
-    // atan(u)/u = 1 - u^2/3 + u^4/5 - u^6/7 (error < 1e-24 here).
-    const T r = T(1) - u2 * (T(1.0 / 3) - u2 * (T(0.2) - u2 * T(1.0 / 7)));
-    theta_a2 = u2 * r * r;
-  } else {
-    const T th = atan(sqrt(u2));
-    theta_a2 = th * th;
-  }
+  // atan(u)/u = 1 - u^2/3 + u^4/5 - u^6/7 (error < 1e-24 here).
+  const T r = T(1) - u2 * (T(1.0 / 3) - u2 * (T(0.2) - u2 * T(1.0 / 7)));
+  const T th = atan(sqrt(u2));
+  const T theta_a2 = u2 < T(1e-6) ? u2 * r * r : th * th;
   // GAF (eq. 11/38) at a = h: <s,h> = <v,h>, so the smaller of the two ratios uses the
   // smaller of cos ti, cos tr.
   const T cmin = cti < ctr ? cti : ctr;
