@@ -321,9 +321,12 @@ Eigen::MatrixXd FreeJacobian(ceres::Problem* problem, const std::vector<double*>
 std::vector<size_t> Subsample(const ObservationSet& data, size_t max_n);
 
 // One registry model fitted jointly with the lamp (joint_fit.cc), for the model search
-// (joint_selection.cc).
+// (joint_selection.cc): from the registry defaults and `light_start`, or from `warm`, a
+// converged fit of the same model and options (on other observations of the same scene), so a
+// refit does not descend again from the defaults.
 JointFitResult FitCandidate(const std::string& model, const ObservationSet& data,
                             const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
-                            const JointFitOptions& options, bool cross_validate);
+                            const JointFitOptions& options, bool cross_validate,
+                            const JointFitResult* warm = nullptr);
 
 }  // namespace gonio::joint_fit_internal

@@ -222,10 +222,13 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
                data.observations.size());
-  // The final fit on (up to final_max_observations of) everything; no folds again.
+  // The final fit on (up to final_max_observations of) everything; no folds again. It starts
+  // from the chosen candidate's solution on the subsample, which is within its noise of the
+  // final one, instead of descending again from the registry defaults (the search's largest
+  // single cost for the expensive models: 10x the subsample, docs/bench.md).
   const auto final_use = Subsample(data, options.final_max_observations);
-  out.final_fit =
-      FitCandidate(chosen.material.model, data, final_use, chosen.light_position, search, false);
+  out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.light_position,
+                               search, false, &chosen);
   if (options.ambient == AmbientTerm::kAuto) ChooseAmbient(data, final_use, options, &out);
   return out;
 }
