@@ -277,6 +277,20 @@ const std::vector<ReferenceLoopEntry>& ReferenceLoopEntries() {
       {"oren-nayar-qualitative", "Oren & Nayar 1994 eq. 30", OrenNayarQualitativeReferenceLoop},
       {"oren-nayar", "Oren & Nayar 1994 eq. 27-29", OrenNayarReferenceLoop},
       {"minnaert", "Minnaert 1941 (Oren & Nayar 1994 sec. 1)", MinnaertReferenceLoop},
+      {"oren-nayar-fujii", "Fujii 2012 (Cycles, MaterialX)", OrenNayarFujiiReferenceLoop},
+      {"oren-nayar-fujii-ec", "Fujii 2012 + OpenPBR compensation (MaterialX)",
+       OrenNayarFujiiEcReferenceLoop},
+      {"torrance-sparrow", "Oren & Nayar 1994 eq. 31, 26, 11/38; Cook & Torrance Fresnel",
+       TorranceSparrowReferenceLoop},
+      {"torrance-sparrow-f1", "Oren & Nayar 1994 eq. 31, 26, 11/38, F = 1",
+       TorranceSparrowF1ReferenceLoop},
+      {"tson", "Oren & Nayar 1994 eq. 32 (27-29 + 31)", TsonReferenceLoop},
+      {"li-torrance", "Li & Torrance eq. 5-14", LiTorranceFullReferenceLoop},
+      {"li-torrance:dd", "Li & Torrance eq. 5-10", LiTorranceDdReferenceLoop},
+      {"li-torrance:dd+udf", "Li & Torrance eq. 5-11", LiTorranceDdUdfReferenceLoop},
+      {"li-torrance:dd+uds", "Li & Torrance eq. 5-10, 12", LiTorranceDdUdsReferenceLoop},
+      {"li-torrance:dd+uds+fs", "Li & Torrance eq. 5-10, 12-14", LiTorranceDdUdsFsReferenceLoop},
+      {"li-torrance:coh+dd", "Li & Torrance eq. 3-10", LiTorranceCohDdReferenceLoop},
   };
   return entries;
 }

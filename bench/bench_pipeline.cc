@@ -4,6 +4,7 @@
 #include "bench/bench_pipeline.h"
 
 #include <chrono>
+#include <map>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -11,6 +12,7 @@
 #include "bench/bench_internal.h"
 #include "bench/bench_plan.h"
 #include "common/io.h"
+#include "common/math.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
 #include "estimation/synth_photometric.h"
@@ -32,6 +34,26 @@ synth::Scene BenchScene(const std::string& size) {
   return s;
 }
 
+// The default preset's scene with another material (tests/pipeline/pipeline_test.cc's samples).
+synth::Scene WithMaterial(synth::Scene s, const std::string& model,
+                          const std::map<std::string, double>& params) {
+  s.material.model = model;
+  s.material.params = params;
+  return s;
+}
+
+// Renders `scene` into `dir` with the renderer's photometric calibration beside it; the inputs
+// and options of `gonio run` on it (the white reference's albedo from truth.json).
+RunInputs RenderForRun(const synth::Scene& scene, const fs::path& dir, int threads, RunOptions* o) {
+  synth::RenderBoardSession(scene, dir, threads);
+  const nlohmann::json truth = ReadJsonFile(dir / "truth.json");
+  const CameraModel camera = CameraModel::Read(dir / "camera.cameramodel");
+  PhotometricFromSynthTruth(truth, camera.width, camera.height).Write(dir / "photometric.json");
+  o->fit.white_albedo = truth.at("white_albedo").get<double>();
+  o->fit.threads = o->extract.threads = threads;
+  return LoadRunInputs(dir, "", "");
+}
+
 PipelineRunRow TimedRun(const std::string& label, const RunInputs& in, RunOptions o) {
   const auto start = std::chrono::steady_clock::now();
   const RunResult r = Run(in, o);
@@ -48,43 +70,64 @@ PipelineRunRow TimedRun(const std::string& label, const RunInputs& in, RunOption
   return row;
 }
 
+// The model search on one sample against the chain's fixed cost, in the same run.
+SceneSearchRow SearchAgainstFixedCost(const std::string& label, const std::string& material,
+                                      const RunInputs& in, const RunOptions& o) {
+  SceneSearchRow row;
+  row.scene = label;
+  row.material = material;
+  RunOptions fixed = o;
+  fixed.fit.candidates = {"lambert"};
+  row.fixed = TimedRun(label + ": --models lambert (the fixed cost)", in, fixed);
+  row.search = TimedRun(label + ": --models auto", in, o);
+  row.search_over_fixed = row.search.total_s / std::max(row.fixed.total_s, 1e-9);
+  spdlog::info("bench pipeline: {} ({}): search / fixed cost = {:.2f}", label, row.material,
+               row.search_over_fixed);
+  return row;
+}
+
+nlohmann::json RunJson(const PipelineRunRow& r) {
+  return {{"label", r.label},
+          {"total_s", r.total_s},
+          {"stages", r.timings.ToJson()},
+          {"selected", r.selected},
+          {"candidates_fitted", r.candidates_fitted},
+          {"observations", r.observations},
+          {"rel_rms", r.rel_rms}};
+}
+
 }  // namespace
 
 nlohmann::json PipelineBenchReport::ToJson() const {
   nlohmann::json j = {
       {"size", size}, {"frames", frames}, {"auto_over_right_model", auto_over_right_model}};
-  for (const auto& r : runs) {
-    j["runs"].push_back({{"label", r.label},
-                         {"total_s", r.total_s},
-                         {"stages", r.timings.ToJson()},
-                         {"selected", r.selected},
-                         {"candidates_fitted", r.candidates_fitted},
-                         {"observations", r.observations},
-                         {"rel_rms", r.rel_rms}});
+  for (const auto& r : runs) j["runs"].push_back(RunJson(r));
+  for (const auto& sc : scenes) {
+    j["search_vs_fixed_cost"].push_back({{"scene", sc.scene},
+                                         {"material", sc.material},
+                                         {"fixed", RunJson(sc.fixed)},
+                                         {"search", RunJson(sc.search)},
+                                         {"search_over_fixed", sc.search_over_fixed}});
   }
+  j["user_chain"] = user_chain ? user_chain->ToJson() : nlohmann::json();
   for (const auto& [n, s] : fit_time_vs_observations) {
     j["fit_time_vs_observations"].push_back({{"observations", n}, {"fit_s", s}});
   }
   return j;
 }
 
-PipelineBenchReport RunPipelineBench(const BenchOptions& options, const fs::path& work) {
+PipelineBenchReport RunPipelineBench(const BenchOptions& options, const fs::path& work,
+                                     const fs::path& gonio) {
   options.Check();
   PipelineBenchReport rep;
   rep.size = options.size;
-  const fs::path session = work / "session";
-  synth::RenderBoardSession(BenchScene(options.size), session, options.threads);
-  const nlohmann::json truth = ReadJsonFile(session / "truth.json");
-  const CameraModel camera = CameraModel::Read(session / "camera.cameramodel");
-  PhotometricFromSynthTruth(truth, camera.width, camera.height).Write(session / "photometric.json");
-  const RunInputs in = LoadRunInputs(session, "", "");
-  rep.frames = in.session.frames.size();
+  const synth::Scene scene = BenchScene(options.size);
   RunOptions o;
-  o.fit.white_albedo = truth.at("white_albedo").get<double>();
-  o.fit.threads = o.extract.threads = options.threads;
+  const RunInputs in = RenderForRun(scene, work / "session", options.threads, &o);
+  rep.frames = in.session.frames.size();
   rep.runs.push_back(TimedRun("--models auto (staged search)", in, o));
   RunOptions right = o;
-  right.fit.candidates = {truth["material"]["model"].get<std::string>()};
+  right.fit.candidates = {scene.material.model};
   rep.runs.push_back(TimedRun("the one right model", in, right));
   rep.auto_over_right_model = rep.runs[0].total_s / std::max(rep.runs[1].total_s, 1e-9);
   if (options.size == "full") {
@@ -98,6 +141,25 @@ PipelineBenchReport RunPipelineBench(const BenchOptions& options, const fs::path
     sized.fit.selection_max_observations = sized.fit.final_max_observations = n;
     const PipelineRunRow row = TimedRun(fmt::format("right model, {} observations", n), in, sized);
     rep.fit_time_vs_observations.emplace_back(n, row.timings.fit_s);
+  }
+  // The search against the fixed cost: the default preset's sample and, on the same scene, a
+  // specular and a pitted one (tests/pipeline/pipeline_test.cc's materials).
+  rep.scenes.push_back(SearchAgainstFixedCost("diffuse", scene.material.model, in, o));
+  const std::vector<std::pair<std::string, synth::Scene>> samples = {
+      {"specular",
+       WithMaterial(scene, "tson",
+                    {{"albedo", 0.5}, {"sigma", DegToRad(20)}, {"ks", 0.3}, {"sigma_s", 0.15}})},
+      {"pitted", WithMaterial(scene, "pitted-exact",
+                              {{"albedo", 0.7}, {"aperture", DegToRad(60)}, {"coverage", 0.8}})}};
+  for (const auto& [label, sample] : samples) {
+    RunOptions so;
+    const RunInputs sin = RenderForRun(sample, work / ("sample_" + label), options.threads, &so);
+    rep.scenes.push_back(SearchAgainstFixedCost(label, sample.material.model, sin, so));
+  }
+  // The user chain needs a calibration from the session's own photos: at smoke size (3 views)
+  // there are too few.
+  if (options.size != "smoke") {
+    rep.user_chain = RunUserChainBench(scene, work / "user_chain", gonio, options.threads);
   }
   return rep;
 }

@@ -25,4 +25,38 @@ void OrenNayarReferenceLoop(const double* params, const double* theta_i, const d
 void MinnaertReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
                            const double* phi, size_t n, double* out);
 
+// Fujii's improved Oren-Nayar as Cycles and MaterialX define it (docs/models/oren-nayar-fujii.md;
+// params: albedo, roughness).
+void OrenNayarFujiiReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
+                                 const double* phi, size_t n, double* out);
+// The same plus the OpenPBR energy compensation (MaterialX mx_oren_nayar_compensated_diffuse).
+void OrenNayarFujiiEcReferenceLoop(const double* params, const double* theta_i,
+                                   const double* theta_r, const double* phi, size_t n, double* out);
+// Oren & Nayar 1994 eq. 31 with the normalised slope-area distribution of eq. 26 and the GAF of
+// eq. 11/38, Fresnel of Cook & Torrance 1982 (params: ks, sigma_s, n) or F = 1 (ks, sigma_s).
+void TorranceSparrowReferenceLoop(const double* params, const double* theta_i,
+                                  const double* theta_r, const double* phi, size_t n, double* out);
+void TorranceSparrowF1ReferenceLoop(const double* params, const double* theta_i,
+                                    const double* theta_r, const double* phi, size_t n,
+                                    double* out);
+// Oren & Nayar 1994 eq. 32 with F = 1: (1 - ks) eq. 27-29 + ks eq. 31 (albedo, sigma, ks,
+// sigma_s).
+void TsonReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
+                       const double* phi, size_t n, double* out);
+// Li & Torrance eq. 3-14 (docs/models/li-torrance.md), the registry's six variants in their
+// parameter orders.
+void LiTorranceFullReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
+                                 const double* phi, size_t n, double* out);
+void LiTorranceDdReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
+                               const double* phi, size_t n, double* out);
+void LiTorranceDdUdfReferenceLoop(const double* params, const double* theta_i,
+                                  const double* theta_r, const double* phi, size_t n, double* out);
+void LiTorranceDdUdsReferenceLoop(const double* params, const double* theta_i,
+                                  const double* theta_r, const double* phi, size_t n, double* out);
+void LiTorranceDdUdsFsReferenceLoop(const double* params, const double* theta_i,
+                                    const double* theta_r, const double* phi, size_t n,
+                                    double* out);
+void LiTorranceCohDdReferenceLoop(const double* params, const double* theta_i,
+                                  const double* theta_r, const double* phi, size_t n, double* out);
+
 }  // namespace gonio::bench

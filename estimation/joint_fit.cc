@@ -432,17 +432,51 @@ std::optional<double> HeldOutFrameRms(const ModelInfo& info, const ObservationSe
   return std::sqrt(cv_sq / cv_n);
 }
 
-// One model on the `use` observations from `light_start`: solve, uncertainty, the lamp
-// distance's contrast check, metrics and (optionally) cross-validation over frames.
+// The state a converged result of the same model and options stands for: its parameters (the
+// per-channel ones of every channel), lamp, intensity and fitted terms.
+State StateFromResult(const ModelInfo& info, const JointFitResult& r, const ObservationSet& data,
+                      const JointFitOptions& o) {
+  State s;
+  s.shared = r.material.params;
+  s.chan.assign(o.per_channel ? data.channels : 1, s.shared);
+  for (size_t c = 0; c < s.chan.size() && c < r.per_channel_params.size(); ++c) {
+    size_t j = 0;
+    for (int k = 0; k < info.num_params(); ++k) {
+      if (info.params[k].per_channel && j < r.per_channel_params[c].size()) {
+        s.chan[c][k] = r.per_channel_params[c][j++];
+      }
+    }
+  }
+  s.light = r.light_position;
+  s.intensity = r.intensity;
+  s.ambient_sample.assign(data.channels, 0.0);
+  s.ambient_irradiance.assign(data.channels, 0.0);
+  for (size_t c = 0; c < r.ambient_sample.size() && c < s.ambient_sample.size(); ++c) {
+    s.ambient_sample[c] = r.ambient_sample[c];
+  }
+  for (size_t c = 0; c < r.ambient_irradiance.size() && c < s.ambient_irradiance.size(); ++c) {
+    s.ambient_irradiance[c] = r.ambient_irradiance[c];
+  }
+  if (o.fit_sample_height) s.height_offset = r.sample_height_offset.value_or(0.0);
+  return s;
+}
+
+// One model on the `use` observations from `light_start` (or from `warm`, a converged fit of
+// the same model and options): solve, uncertainty, the lamp distance's contrast check, metrics
+// and (optionally) cross-validation over frames.
 template <typename M>
 JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
                         const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
-                        const JointFitOptions& o, bool cross_validate) {
+                        const JointFitOptions& o, bool cross_validate,
+                        const JointFitResult* warm = nullptr) {
   using Fast = typename Tabulated<M>::type;  // estimation/tabulated_models.h
   if constexpr (!std::is_same_v<Fast, M>) {
-    if (o.tabulated_models) return FitModel<Fast>(info, data, use, light_start, o, cross_validate);
+    if (o.tabulated_models) {
+      return FitModel<Fast>(info, data, use, light_start, o, cross_validate, warm);
+    }
   }
-  State s = InitialState<M>(info, data, use, light_start, o);
+  State s = warm && warm->material.converged ? StateFromResult(info, *warm, data, o)
+                                             : InitialState<M>(info, data, use, light_start, o);
   Solve<M>(data, use, info, o, &s);
   JointFitResult r = ResultFromState(info, s, o, use.size());
   r.material.n_samples = CountResiduals(data, use, o);
@@ -457,13 +491,16 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
 
 }  // namespace
 
-JointFitResult joint_fit_internal::FitCandidate(
-    const std::string& model, const ObservationSet& data, const std::vector<size_t>& use,
-    const Eigen::Vector3d& light_start, const JointFitOptions& options, bool cross_validate) {
+JointFitResult joint_fit_internal::FitCandidate(const std::string& model,
+                                                const ObservationSet& data,
+                                                const std::vector<size_t>& use,
+                                                const Eigen::Vector3d& light_start,
+                                                const JointFitOptions& options, bool cross_validate,
+                                                const JointFitResult* warm) {
   JointFitResult r;
   VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    r = FitModel<M>(FindModel(model), data, use, light_start, options, cross_validate);
+    r = FitModel<M>(FindModel(model), data, use, light_start, options, cross_validate, warm);
   });
   return r;
 }

@@ -333,9 +333,12 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
                data.observations.size());
-  // The final fit on (up to final_max_observations of) everything; no folds again.
+  // The final fit on (up to final_max_observations of) everything; no folds again. It starts
+  // from the chosen candidate's solution on the subsample, which is within its noise of the
+  // final one, instead of descending again from the registry defaults (the search's largest
+  // single cost for the expensive models: 10x the subsample, docs/bench.md).
   out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.light_position,
-                               chosen_options, false);
+                               chosen_options, false, &chosen);
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
   if (options.sample_height == NuisanceTerm::kAuto) {
     out.final_fit.sample_height_reason = nuisance_reason;

@@ -46,15 +46,27 @@ __attribute__((flatten)) size_t VectorisedKernel(const double* params, const dou
   return flagged;
 }
 
-template size_t VectorisedKernel<Lambert>(const double*, const double*, const double*,
-                                          const double*, size_t, double*);
-template size_t VectorisedKernel<Minnaert>(const double*, const double*, const double*,
-                                           const double*, size_t, double*);
-template size_t VectorisedKernel<OrenNayarQualitative>(const double*, const double*, const double*,
-                                                       const double*, size_t, double*);
-template size_t VectorisedKernel<OrenNayar>(const double*, const double*, const double*,
-                                            const double*, size_t, double*);
-static_assert(std::tuple_size_v<VectorisedModels> == 4,
+// One instantiation per model of VectorisedModels.
+#define GONIO_VECTORISED_KERNEL(M)                                                                \
+  template size_t VectorisedKernel<M>(const double*, const double*, const double*, const double*, \
+                                      size_t, double*)
+GONIO_VECTORISED_KERNEL(Lambert);
+GONIO_VECTORISED_KERNEL(Minnaert);
+GONIO_VECTORISED_KERNEL(OrenNayarQualitative);
+GONIO_VECTORISED_KERNEL(OrenNayar);
+GONIO_VECTORISED_KERNEL(OrenNayarFujii);
+GONIO_VECTORISED_KERNEL(OrenNayarFujiiEc);
+GONIO_VECTORISED_KERNEL(TorranceSparrow);
+GONIO_VECTORISED_KERNEL(TorranceSparrowF1);
+GONIO_VECTORISED_KERNEL(Tson);
+GONIO_VECTORISED_KERNEL(LiTorranceFull);
+GONIO_VECTORISED_KERNEL(LiTorranceDd);
+GONIO_VECTORISED_KERNEL(LiTorranceDdUdf);
+GONIO_VECTORISED_KERNEL(LiTorranceDdUds);
+GONIO_VECTORISED_KERNEL(LiTorranceDdUdsFs);
+GONIO_VECTORISED_KERNEL(LiTorranceCohDd);
+#undef GONIO_VECTORISED_KERNEL
+static_assert(std::tuple_size_v<VectorisedModels> == 15,
               "instantiate VectorisedKernel for every model of VectorisedModels");
 
 }  // namespace gonio::batch_internal

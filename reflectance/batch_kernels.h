@@ -16,17 +16,22 @@
 #include <type_traits>
 
 #include "reflectance/lambert.h"
+#include "reflectance/li_torrance.h"
 #include "reflectance/minnaert.h"
 #include "reflectance/oren_nayar.h"
+#include "reflectance/oren_nayar_fujii.h"
+#include "reflectance/torrance_sparrow.h"
 
 namespace gonio::batch_internal {
 
 // The closed forms whose loop GCC 12 vectorises (checked with -fopt-info-vec, docs/bench.md).
-// The others stay on the scalar loop: oren-nayar-fujii(-ec) and torrance-sparrow take sin and
-// cos of the same angle, which GCC merges into one sincos call that it does not vectorise;
-// torrance-sparrow, tson and li-torrance also have calls (atan, sqrt, log) inside their
-// Jet-safe value branches (theta_a -> 0, cos -> 1), which GCC does not if-convert.
-using VectorisedModels = std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar>;
+// Their headers are written for it (reflectance/batch_math.h): no sin and cos of the same angle
+// (GCC merges such a pair into one sincos call, which it does not vectorise) and no call inside
+// a branch (GCC does not if-convert calls); the Jet-safe value branches select results instead.
+using VectorisedModels =
+    std::tuple<Lambert, Minnaert, OrenNayarQualitative, OrenNayar, OrenNayarFujii, OrenNayarFujiiEc,
+               TorranceSparrow, TorranceSparrowF1, Tson, LiTorranceFull, LiTorranceDd,
+               LiTorranceDdUdf, LiTorranceDdUds, LiTorranceDdUdsFs, LiTorranceCohDd>;
 
 template <typename M, typename Tuple>
 struct InTuple;

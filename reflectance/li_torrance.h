@@ -47,6 +47,7 @@
 #include "common/error.h"
 #include "common/math.h"
 #include "reflectance/angles.h"
+#include "reflectance/batch_math.h"
 #include "reflectance/model.h"
 
 namespace gonio {
@@ -127,13 +128,17 @@ inline double SmithShadowing(double cos_theta, double sigma, double tau) {
   return (1.0 - 0.5 * std::erfc(nu / std::sqrt(2.0))) / (1.0 + lambda);
 }
 
-// sqrt(cos^2(phi) tau_x^2 + sin^2(phi) tau_y^2) / sigma for the azimuth of (x, y), eq. 25.
+// sqrt(cos^2(phi) tau_x^2 + sin^2(phi) tau_y^2) / sigma for the azimuth of (x, y), eq. 25. The
+// sqrt is taken on every call (on 1 at the normal) and the result selected, so the batch kernel
+// vectorises (reflectance/batch_math.h).
 template <typename T>
 T DirectionalK(const T& x, const T& y, const T& tau_x, const T& tau_y, const T& sigma) {
   using std::sqrt;
   const T rho2 = x * x + y * y;
-  if (!(rho2 > T(1e-24))) return tau_x / sigma;  // at the normal (1 - cos)^k = 0 anyway
-  return sqrt((x * x * tau_x * tau_x + y * y * tau_y * tau_y) / rho2) / sigma;
+  const bool off_normal = rho2 > T(1e-24);  // at the normal (1 - cos)^k = 0 anyway
+  const T k =
+      sqrt(off_normal ? (x * x * tau_x * tau_x + y * y * tau_y * tau_y) / rho2 : T(1)) / sigma;
+  return off_normal ? k : tau_x / sigma;
 }
 
 }  // namespace lt
@@ -167,25 +172,32 @@ T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int m
   const T k_i = lt::DirectionalK(l[0], l[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
   const T k_r = lt::DirectionalK(v[0], v[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
   // (1 - cos)^k of eq. 6 and (1 - cos)^(1.6 k) of eq. 8 share one log per direction; at
-  // cos = 1 both powers are exactly 0 (lt::PowUnit).
+  // cos = 1 both powers are exactly 0 (lt::PowUnit). Every log and exp below is taken on a
+  // finite argument (log(1) = 0 where the branch does not apply) and its result selected, so
+  // the batch kernel vectorises (no call inside a branch, reflectance/batch_math.h).
   const T zero(0.0);
-  const T log_i = one - ci > zero ? log(one - ci) : zero;
-  const T log_r = one - cr > zero ? log(one - cr) : zero;
-  const T pow_i = one - ci > zero ? exp(k_i * log_i) : zero;
-  const T pow_r = one - cr > zero ? exp(k_r * log_r) : zero;
+  const bool lit_i = one - ci > zero, lit_r = one - cr > zero;
+  const T log_i = log(lit_i ? one - ci : one);
+  const T log_r = log(lit_r ? one - cr : one);
+  const T pow_i = lit_i ? exp(k_i * log_i) : zero;
+  const T pow_r = lit_r ? exp(k_r * log_r) : zero;
   T s = (one - pow_i) * (one - pow_r);
   if (opt.shadowing_cutoff && ci > one - exp(T(std::log(0.005)) / k_i) &&
       cr > one - exp(T(std::log(0.005)) / k_r)) {
     s = one;
   }
-  const T base_i = one - (one - ci > zero ? exp(T(1.6) * k_i * log_i) : zero);
-  const T base_r = one - (one - cr > zero ? exp(T(1.6) * k_r * log_r) : zero);
-  // sigma_e -> 0 at grazing angles; floor it at 1e-6 sigma so 1/m_e stays finite.
-  T sigma_e = T(1e-6) * p.sigma_um;
-  if (base_i > T(1e-300) && base_r > T(1e-300)) {
-    const T se = p.sigma_um * exp(T(0.1) * (k_i * log(base_i) + k_r * log(base_r)));
-    if (se > sigma_e) sigma_e = se;
-  }
+  const T pow16_i = exp(T(1.6) * k_i * log_i), pow16_r = exp(T(1.6) * k_r * log_r);
+  const T base_i = one - (lit_i ? pow16_i : zero);
+  const T base_r = one - (lit_r ? pow16_r : zero);
+  // sigma_e -> 0 at grazing angles; floor it at 1e-6 sigma so 1/m_e stays finite. (Single
+  // comparisons and selects of values: GCC does not vectorise selects on combined masks.)
+  const T min_base = base_i < base_r ? base_i : base_r;
+  const bool both = min_base > T(1e-300);
+  const T se =
+      p.sigma_um * exp(T(0.1) * (k_i * log(both ? base_i : one) + k_r * log(both ? base_r : one)));
+  const T floor_e = T(1e-6) * p.sigma_um;
+  const T se_valid = both ? se : zero;
+  const T sigma_e = se_valid > floor_e ? se_valid : floor_e;
   const T mx = sigma_e / p.tau_x_um, my = sigma_e / p.tau_y_um;
 
   // Bisector h = l + v; tan^2(theta_b) = (hx^2 + hy^2)/hz^2, hz = cos i + cos r.
@@ -195,7 +207,7 @@ T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int m
   // Schlick F at theta_h, the angle between h and v: cos = sqrt((1 + l.v)/2).
   const T ldv = l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
   const T half = T(0.5) * (one + ldv);
-  const T cos_h = half > T(1e-30) ? sqrt(half) : T(0.0);
+  const T cos_h = half > T(1e-30) ? sqrt(half > T(1e-30) ? half : one) : T(0.0);
   const T fresnel = lt::Schlick(f0, cos_h);
 
   if (mask & kLtDd) {
@@ -215,17 +227,19 @@ T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int m
     // keep the forward half only (cos(theta_f) > 0), which is continuous because
     // exp(-tan^2/16m^2) -> 0 at theta_f -> 90 deg, and matches "forward scattering".
     const T lxy2 = l[0] * l[0] + l[1] * l[1];
-    if (lxy2 > T(1e-24)) {
-      const T cos_f = -(v[0] * l[0] + v[1] * l[1]) / sqrt(lxy2);
-      if (cos_f > T(0.0)) {
-        const T tan2_f = (one - cos_f * cos_f) / (cos_f * cos_f);
-        // eq. 26 weights by the bisector azimuth phi_b.
-        const T aniso =
-            hxy2 > T(1e-24) ? (hx * hx / (mx * mx) + hy * hy / (my * my)) / hxy2 : one / (mx * mx);
-        f += p.k_fs * T(kInvPi) * trans_i * trans_r * (one - ci) * (one - cr) *
-             exp(-tan2_f * aniso / T(16.0));
-      }
-    }
+    const bool off_normal = lxy2 > T(1e-24);
+    const T cos_f = -(v[0] * l[0] + v[1] * l[1]) / sqrt(off_normal ? lxy2 : one);
+    const T cos_f_valid = off_normal ? cos_f : zero;
+    const bool forward = cos_f_valid > T(0.0);
+    const T cf2 = forward ? cos_f * cos_f : one;
+    const T tan2_f = (one - cf2) / cf2;
+    // eq. 26 weights by the bisector azimuth phi_b.
+    const bool has_b = hxy2 > T(1e-24);
+    const T aniso = has_b ? (hx * hx / (mx * mx) + hy * hy / (my * my)) / (has_b ? hxy2 : one)
+                          : one / (mx * mx);
+    const T fs = p.k_fs * T(kInvPi) * trans_i * trans_r * (one - ci) * (one - cr) *
+                 exp(-tan2_f * aniso / T(16.0));
+    if (forward) f += fs;
   }
 
   if (mask & kLtCoh) {
@@ -234,11 +248,10 @@ T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int m
     // reflectance F S exp(-g).
     const T cos_mirror = -l[0] * v[0] - l[1] * v[1] + l[2] * v[2];
     const double cos_cone = 1.0 - opt.lamp_solid_angle_sr / (2.0 * kPi);
-    if (cos_mirror >= T(cos_cone)) {
-      const T lambda_um = T(opt.wavelength_nm * 1e-3);
-      const T gq = T(2.0 * kPi) * sigma_e / lambda_um * hz;
-      f += p.k_dd * fresnel * s * exp(-gq * gq) / (ci * T(opt.lamp_solid_angle_sr));
-    }
+    const T lambda_um = T(opt.wavelength_nm * 1e-3);
+    const T gq = T(2.0 * kPi) * sigma_e / lambda_um * hz;
+    const T coh = p.k_dd * fresnel * s * exp(-gq * gq) / (ci * T(opt.lamp_solid_angle_sr));
+    if (cos_mirror >= T(cos_cone)) f += coh;
   }
   return f;
 }
@@ -339,12 +352,13 @@ struct LiTorrance {
     return q;
   }
 
+  // Cosines as CosAsSin so the batch kernel vectorises (reflectance/batch_math.h).
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
-    using std::cos;
     using std::sin;
-    const T l[3] = {sin(a.theta_i), T(0.0), cos(a.theta_i)};
-    const T v[3] = {sin(a.theta_r) * cos(a.phi), sin(a.theta_r) * sin(a.phi), cos(a.theta_r)};
+    const T l[3] = {sin(a.theta_i), T(0.0), CosAsSin(a.theta_i)};
+    const T str = sin(a.theta_r);
+    const T v[3] = {str * CosAsSin(a.phi), str * sin(a.phi), CosAsSin(a.theta_r)};
     return LiTorranceBrdf(Unpack(p), l, v, Mask);
   }
 };

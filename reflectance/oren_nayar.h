@@ -121,25 +121,32 @@ struct OrenNayar {
   }
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
-    using std::abs;
     using std::cos;
     using std::sin;
     using std::tan;
-    const T& rho = p[0];
-    const T s2 = p[1] * p[1];
     T alpha, beta;
     oren_nayar_internal::AlphaBeta(a, &alpha, &beta);
-    const T cos_phi = cos(a.phi);
+    return FromTrig(p, alpha, beta, cos(a.phi), sin(alpha), tan(beta),
+                    tan(T(0.5) * (alpha + beta)));
+  }
+
+  // Eq. 27-29 from alpha, beta and the trigonometric values they need, for callers that have
+  // them from other terms (tson shares them with its lobe; reflectance/batch_math.h).
+  template <typename T>
+  static T FromTrig(const T* p, const T& alpha, const T& beta, const T& cos_phi, const T& sin_alpha,
+                    const T& tan_beta, const T& tan_half_sum) {
+    using std::abs;
+    const T& rho = p[0];
+    const T s2 = p[1] * p[1];
     const T two_beta_over_pi = T(2.0 * kInvPi) * beta;
     const T c1 = T(1) - T(0.5) * s2 / (s2 + T(0.33));
     const T g = s2 / (s2 + T(0.09));
     // Eq. 27, C2: the (2 beta/pi)^3 correction applies on the forward side only.
-    T c2 = T(0.45) * g * sin(alpha);
+    T c2 = T(0.45) * g * sin_alpha;
     if (cos_phi < T(0)) c2 -= T(0.45) * g * two_beta_over_pi * two_beta_over_pi * two_beta_over_pi;
     const T ab = T(4.0 * kInvPi * kInvPi) * alpha * beta;
     const T c3 = T(0.125) * g * ab * ab;
-    const T direct =
-        c1 + cos_phi * c2 * tan(beta) + (T(1) - abs(cos_phi)) * c3 * tan(T(0.5) * (alpha + beta));
+    const T direct = c1 + cos_phi * c2 * tan_beta + (T(1) - abs(cos_phi)) * c3 * tan_half_sum;
     // Eq. 28 divided by E0 cos(theta_i): the interreflection term carries rho^2.
     const T inter = T(0.17) * rho * s2 / (s2 + T(0.13)) *
                     (T(1) - cos_phi * two_beta_over_pi * two_beta_over_pi);

@@ -38,6 +38,7 @@
 
 #include "common/math.h"
 #include "reflectance/angles.h"
+#include "reflectance/batch_math.h"
 #include "reflectance/model.h"
 
 namespace gonio {
@@ -47,32 +48,50 @@ namespace fujii_internal {
 inline constexpr double kC1 = 0.5 - 2.0 / (3.0 * kPi);          // A = 1/(1 + kC1 sigma)
 inline constexpr double kC2 = 2.0 / 3.0 - 28.0 / (15.0 * kPi);  // E_avg = A (1 + kC2 sigma)
 
-// A (1 + sigma s/t): the single-scatter lobe divided by rho/pi.
+// A (1 + sigma s/t): the single-scatter lobe divided by rho/pi, from s = sin ti sin tr cos phi
+// and max(cos ti, cos tr) = cos(min(ti, tr)).
+template <typename T>
+T SingleScatter(const T& sigma, T s, const T& cos_max) {
+  if (s > T(0)) s = s / cos_max;
+  return (T(1) + sigma * s) / (T(1) + T(kC1) * sigma);
+}
+
+// The same from the angles: four trigonometric calls, the cosine as CosAsSin so the batch
+// kernel vectorises (reflectance/batch_math.h).
 template <typename T>
 T SingleScatter(const T& sigma, const Angles<T>& a) {
   using std::cos;
   using std::sin;
-  const T ci = cos(a.theta_i), cr = cos(a.theta_r);
-  T s = sin(a.theta_i) * sin(a.theta_r) * cos(a.phi);
-  if (s > T(0)) s = s / (ci > cr ? ci : cr);
-  return (T(1) + sigma * s) / (T(1) + T(kC1) * sigma);
+  const T beta = a.theta_i < a.theta_r ? a.theta_i : a.theta_r;
+  return SingleScatter(sigma, sin(a.theta_i) * sin(a.theta_r) * cos(a.phi), CosAsSin(beta));
 }
 
-// G(theta) of the directional albedo, written without the 1/cos pole.
+// G(theta) of the directional albedo from theta and its sine and cosine, written without the
+// 1/cos pole.
 template <typename T>
-T G(const T& theta) {
-  using std::cos;
-  using std::sin;
-  const T si = sin(theta), co = cos(theta);
+T G(const T& theta, const T& si, const T& co) {
   return si * (theta - si * co) +
          T(2.0 / 3.0) * (si * co * (T(1) + si + si * si) / (T(1) + si) - si);
 }
 
-// Directional albedo of the single-scatter lobe for rho = 1.
+// G(theta) alone.
+template <typename T>
+T G(const T& theta) {
+  using std::sin;
+  return G(theta, sin(theta), CosAsSin(theta));
+}
+
+// Directional albedo of the single-scatter lobe for rho = 1, from G(theta).
+template <typename T>
+T DirectionalAlbedoFromG(const T& sigma, const T& g) {
+  const T A = T(1) / (T(1) + T(kC1) * sigma);
+  return A + sigma * A * g * T(kInvPi);
+}
+
+// The same at theta.
 template <typename T>
 T DirectionalAlbedo(const T& sigma, const T& theta) {
-  const T A = T(1) / (T(1) + T(kC1) * sigma);
-  return A + sigma * A * G(theta) * T(kInvPi);
+  return DirectionalAlbedoFromG(sigma, G(theta));
 }
 
 template <typename T>
@@ -80,16 +99,22 @@ T AverageAlbedo(const T& sigma) {
   return (T(1) + T(kC2) * sigma) / (T(1) + T(kC1) * sigma);
 }
 
-// The OpenPBR compensation lobe divided by 1/pi: rho_ms (1 - E_i)(1 - E_r) / (1 - E_avg).
-// At sigma = 0 the lobe is Lambert (E = E_avg = 1) and the 0/0 term is 0 (MaterialX clamps
-// the denominators to an epsilon for the same reason).
+// The OpenPBR compensation lobe divided by 1/pi: rho_ms (1 - E_i)(1 - E_r) / (1 - E_avg), from
+// G(theta_i) and G(theta_r). At sigma = 0 the lobe is Lambert (E = E_avg = 1) and the 0/0 term
+// is 0 (MaterialX clamps the denominators to an epsilon for the same reason).
 template <typename T>
-T Compensation(const T& rho, const T& sigma, const Angles<T>& a) {
+T CompensationFromG(const T& rho, const T& sigma, const T& g_i, const T& g_r) {
   const T e_avg = AverageAlbedo(sigma);
   if (!(T(1) - e_avg > T(1e-12))) return T(0);
   const T rho_ms = rho * rho * e_avg / (T(1) - rho * (T(1) - e_avg));
-  return rho_ms * (T(1) - DirectionalAlbedo(sigma, a.theta_i)) *
-         (T(1) - DirectionalAlbedo(sigma, a.theta_r)) / (T(1) - e_avg);
+  return rho_ms * (T(1) - DirectionalAlbedoFromG(sigma, g_i)) *
+         (T(1) - DirectionalAlbedoFromG(sigma, g_r)) / (T(1) - e_avg);
+}
+
+// The same at the angles.
+template <typename T>
+T Compensation(const T& rho, const T& sigma, const Angles<T>& a) {
+  return CompensationFromG(rho, sigma, G(a.theta_i), G(a.theta_r));
 }
 
 // Source and viewer both at the horizon: s/t = cos(phi) sin(alpha) tan(beta) for s > 0 grows
@@ -154,10 +179,17 @@ struct OrenNayarFujiiEc {
     info.auto_candidate = false;  // as oren-nayar-fujii
     return info;
   }
+  // One sine and cosine per direction serve the lobe and both G (five trigonometric calls).
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
     using namespace fujii_internal;
-    return T(kInvPi) * (p[0] * SingleScatter(p[1], a) + Compensation(p[0], p[1], a));
+    using std::cos;
+    using std::sin;
+    const T si = sin(a.theta_i), ci = CosAsSin(a.theta_i);
+    const T sr = sin(a.theta_r), cr = CosAsSin(a.theta_r);
+    const T single = SingleScatter(p[1], si * sr * cos(a.phi), ci > cr ? ci : cr);
+    const T comp = CompensationFromG(p[0], p[1], G(a.theta_i, si, ci), G(a.theta_r, sr, cr));
+    return T(kInvPi) * (p[0] * single + comp);
   }
 };
 

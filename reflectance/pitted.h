@@ -49,6 +49,7 @@
 #include "common/math.h"
 #include "reflectance/angles.h"
 #include "reflectance/model.h"
+#include "reflectance/pitted_cap.h"
 
 namespace gonio {
 
@@ -385,8 +386,11 @@ struct Pitted {
   }
 };
 
-// Any aperture, single scattering by the quadrature CapSingleScatter (deterministic, smooth in
-// every parameter), interreflection closed form (eq. 11). The exact reference for `pitted`.
+// Any aperture: single scattering in closed form (CapSingleScatterClosed, pitted_cap.h: the
+// boundary-arc integrals of the lit and visible wall; within 1e-9 of the quadrature up to
+// 89.9 deg, docs/models/pitted.md), interreflection closed form (eq. 11). The exact reference
+// for `pitted`. EvaluateWithNodes is the same model by the quadrature CapSingleScatter, the
+// independent reference of the closed form in the tests and `gonio bench`.
 struct PittedExact {
   static constexpr int kNumParams = 3;
   static ModelInfo Info() {
@@ -394,22 +398,25 @@ struct PittedExact {
     info.name = "pitted-exact";
     info.description =
         "Lambertian surface pitted with spherical caps: exact shadowing and interreflection, "
-        "quadrature over the pit wall";
+        "closed-form integral over the pit wall";
     info.reference = "Koenderink, van Doorn, Dana, Nayar 1999, eq. 9-12, sec. 2.1";
-    info.method = "numerical";
+    info.method = "closed-form";
     info.reference_model = "";
-    info.cost_rank = 30;
+    info.cost_rank = 5;
     info.auto_candidate = true;  // Pitted::Info() (copied above) is not a candidate
     return info;
   }
 
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
-    return EvaluateWithNodes(p, a, kPittedQuadratureNodes);
+    return EvaluateWithNodes(p, a, 0);
   }
 
-  // The same with `nodes` Gauss-Legendre points per quadrature dimension (gonio bench compares
-  // against 3x the nodes to measure the quadrature error).
+  // The same with the single scattering by the quadrature CapSingleScatter with `nodes`
+  // Gauss-Legendre points per piece (nodes = 0: the closed form). The closed form loses
+  // precision where the lit and the visible wall both shrink to slivers (both directions
+  // within 0.006 deg of the horizon, cos theta_i cos theta_r < 1e-8): there it is the
+  // quadrature at kPittedQuadratureNodes.
   template <typename T>
   static T EvaluateWithNodes(const T* p, const Angles<T>& a, int nodes) {
     using std::cos;
@@ -425,8 +432,12 @@ struct PittedExact {
     // Orifice -> 0: the cap is flat and f_pit = rho/pi to O(Psi^2); avoid 0/0 at Psi = 0.
     if (!(psi > T(1e-6))) return rho * T(kInvPi);
     const T sp = sin(psi);
-    const T single = pitted_internal::CapSingleScatter(psi, theta_i, theta_r, a.phi, nodes) /
-                     (T(kPi) * sp * sp * cos(theta_i) * cos(theta_r));
+    const T cos_cos = cos(theta_i) * cos(theta_r);
+    if (nodes == 0 && cos_cos < T(1e-8)) nodes = kPittedQuadratureNodes;
+    const T integral = nodes > 0
+                           ? pitted_internal::CapSingleScatter(psi, theta_i, theta_r, a.phi, nodes)
+                           : pitted_internal::CapSingleScatterClosed(psi, theta_i, theta_r, a.phi);
+    const T single = integral / (T(kPi) * sp * sp * cos_cos);
     const T pit_gain = single - T(1) + pitted_internal::DiffuseFactor(rho, psi);
     return rho * T(kInvPi) * (T(1) + p[2] * pit_gain);
   }
@@ -436,9 +447,10 @@ struct PittedExact {
   }
 };
 
-// Hemispherical pits anywhere in the hemisphere: eq. 21 by quadrature; the multiple-scattering
-// bracket of eq. 21 equals pi cos beta (it is the projected orifice area), so that term is D of
-// eq. 29 exactly.
+// Hemispherical pits anywhere in the hemisphere: the single scattering of eq. 21 in closed
+// form (PittedExact at Psi = pi/2); the multiple-scattering bracket of eq. 21 equals pi cos beta
+// (it is the projected orifice area), so that term is D of eq. 29 exactly. EvaluateWithNodes
+// integrates eq. 21 by quadrature (eq. 22-25): the independent reference.
 struct PittedHemispherical {
   static constexpr int kNumParams = 2;
   static ModelInfo Info() {
@@ -447,19 +459,21 @@ struct PittedHemispherical {
     info.params = {
         {"albedo", "1", 0.0, 1.0, 0.8, "micro-scale Lambertian albedo", true},
         {"coverage", "1", 0.0, 1.0, 1.0, "fraction of the area covered by pit orifices"}};
-    info.description = "Lambertian surface pitted with hemispherical pits (eq. 21 quadrature)";
+    info.description = "Lambertian surface pitted with hemispherical pits (eq. 21 in closed form)";
     info.reference = "Koenderink, van Doorn, Dana, Nayar 1999, eq. 21-25, 29";
-    info.method = "numerical";
-    info.cost_rank = 20;
+    info.method = "closed-form";
+    info.cost_rank = 5;
     return info;
   }
 
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
-    return EvaluateWithNodes(p, a, kPittedQuadratureNodes);
+    const T exact[3] = {p[0], T(kHalfPi), p[1]};
+    return PittedExact::Evaluate(exact, a);
   }
 
-  // The same with `nodes` quadrature points (gonio bench: quadrature error vs 3x the nodes).
+  // Eq. 21 by quadrature with `nodes` points per piece (the reference of the closed form;
+  // gonio bench: quadrature error vs 3x the nodes).
   template <typename T>
   static T EvaluateWithNodes(const T* p, const Angles<T>& a, int nodes) {
     const bool swap = a.theta_r > a.theta_i;

@@ -49,6 +49,7 @@
 
 #include "common/math.h"
 #include "reflectance/angles.h"
+#include "reflectance/batch_math.h"
 #include "reflectance/model.h"
 #include "reflectance/oren_nayar.h"
 #include "reflectance/quadrature.h"
@@ -110,43 +111,57 @@ T FresnelDielectric(const T& c, const T& n) {
   return T(0.5) * (gmc * gmc) / (gpc * gpc) * (T(1) + q * q);
 }
 
-// f_r / (ks F) of the lobe; *cos_sh receives <s,h> for the Fresnel factor.
+// The sines and cosines of theta_i and theta_r and the cosine of phi: the lobe's inputs,
+// computed once where the Oren-Nayar body of tson needs them too. The cosines as CosAsSin, so
+// the batch kernel vectorises (reflectance/batch_math.h).
 template <typename T>
-T LobeWithoutFresnel(const T& sigma_s, const Angles<T>& a, T* cos_sh) {
+struct LobeTrig {
+  T sti, cti, str, ctr, cos_phi;
+  explicit LobeTrig(const Angles<T>& a) {
+    using std::cos;
+    using std::sin;
+    sti = sin(a.theta_i), cti = CosAsSin(a.theta_i);
+    str = sin(a.theta_r), ctr = CosAsSin(a.theta_r);
+    cos_phi = cos(a.phi);
+  }
+};
+
+// f_r / (ks F) of the lobe; *cos_sh receives <s,h> for the Fresnel factor. Written so the batch
+// kernel vectorises: the atan of the theta_a branch is evaluated outside it.
+template <typename T>
+T LobeWithoutFresnel(const T& sigma_s, const LobeTrig<T>& t, T* cos_sh) {
   using std::atan;
-  using std::cos;
   using std::exp;
-  using std::sin;
   using std::sqrt;
-  const T sti = sin(a.theta_i), cti = cos(a.theta_i);
-  const T str = sin(a.theta_r), ctr = cos(a.theta_r);
   // s = (sin ti, 0, cos ti), v = (sin tr cos phi, sin tr sin phi, cos tr): phi = 0 puts the
-  // viewer on the source side (backscatter), as in the paper.
-  const T hx = sti + str * cos(a.phi), hy = str * sin(a.phi), hz = cti + ctr;  // s + v
-  const T rho2 = hx * hx + hy * hy;
+  // viewer on the source side (backscatter), as in the paper. Only |h_xy|^2 enters, so
+  // sin^2 phi = 1 - cos^2 phi (no sin(phi) to merge with the cos(phi) into a sincos).
+  const T hx = t.sti + t.str * t.cos_phi, hz = t.cti + t.ctr;  // s + v
+  const T rho2 = hx * hx + t.str * t.str * (T(1) - t.cos_phi * t.cos_phi);
   const T h2 = rho2 + hz * hz;  // |s + v|^2 = 2 (1 + <s,v>)
   const T inv_h = T(1) / sqrt(h2);
   const T cos_a = hz * inv_h;
   *cos_sh = T(0.5) * sqrt(h2);  // <s,h> = (1 + <s,v>)/|s+v| = |s+v|/2
   // theta_a^2 without sqrt/acos at theta_a = 0 (specular direction along the normal):
-  // theta_a = atan(u), u = |h_xy|/h_z; theta_a^2 = u^2 (atan(u)/u)^2, series for small u.
+  // theta_a = atan(u), u = |h_xy|/h_z; theta_a^2 = u^2 (atan(u)/u)^2, series for small u. The
+  // atan is taken on every entry (its Jet at u = 0 is not finite but is not the one chosen).
   const T u2 = rho2 / (hz * hz);
-  T theta_a2;
-  if (u2 < T(1e-6)) {
-    // atan(u)/u = 1 - u^2/3 + u^4/5 - u^6/7 (error < 1e-24 here).
-    const T r = T(1) - u2 * (T(1.0 / 3) - u2 * (T(0.2) - u2 * T(1.0 / 7)));
-    theta_a2 = u2 * r * r;
-  } else {
-    const T th = atan(sqrt(u2));
-    theta_a2 = th * th;
-  }
+  // atan(u)/u = 1 - u^2/3 + u^4/5 - u^6/7 (error < 1e-24 here).
+  const T r = T(1) - u2 * (T(1.0 / 3) - u2 * (T(0.2) - u2 * T(1.0 / 7)));
+  const T th = atan(sqrt(u2));
+  const T theta_a2 = u2 < T(1e-6) ? u2 * r * r : th * th;
   // GAF (eq. 11/38) at a = h: <s,h> = <v,h>, so the smaller of the two ratios uses the
   // smaller of cos ti, cos tr.
-  const T cmin = cti < ctr ? cti : ctr;
+  const T cmin = t.cti < t.ctr ? t.cti : t.ctr;
   T gaf = T(2) * cos_a * cmin / *cos_sh;
   if (gaf > T(1)) gaf = T(1);
   const T p = exp(-theta_a2 / (T(2) * sigma_s * sigma_s)) / SlopeAreaNormaliser(sigma_s);
-  return gaf * p / (T(4) * cti * ctr * cos_a);
+  return gaf * p / (T(4) * t.cti * t.ctr * cos_a);
+}
+
+template <typename T>
+T LobeWithoutFresnel(const T& sigma_s, const Angles<T>& a, T* cos_sh) {
+  return LobeWithoutFresnel(sigma_s, LobeTrig<T>(a), cos_sh);
 }
 
 // Source and viewer both at the horizon: the 1/(cos theta_i cos theta_r) of the
@@ -231,12 +246,24 @@ struct Tson {
     info.cost_rank = 4;
     return info;
   }
+  // The body's sin(alpha), tan(beta) and tan((alpha + beta)/2) from the lobe's sines and
+  // cosines (sin is increasing on [0, pi/2]; tan((a + b)/2) = (sin a + sin b)/(cos a + cos b)):
+  // one set of trigonometric calls for both terms.
   template <typename T>
   static T Evaluate(const T* p, const Angles<T>& a) {
+    using torrance_sparrow_internal::LobeTrig;
+    const LobeTrig<T> t(a);
+    T alpha, beta;
+    oren_nayar_internal::AlphaBeta(a, &alpha, &beta);
+    const T sin_alpha = t.sti > t.str ? t.sti : t.str;
+    const T sin_beta = t.sti > t.str ? t.str : t.sti;
+    const T cos_beta = t.cti > t.ctr ? t.cti : t.ctr;
+    const T body = OrenNayar::FromTrig(p, alpha, beta, t.cos_phi, sin_alpha, sin_beta / cos_beta,
+                                       (t.sti + t.str) / (t.cti + t.ctr));
     T cos_sh;
     const T& ks = p[2];
-    return (T(1) - ks) * OrenNayar::Evaluate(p, a) +
-           ks * torrance_sparrow_internal::LobeWithoutFresnel(p[3], a, &cos_sh);
+    return (T(1) - ks) * body +
+           ks * torrance_sparrow_internal::LobeWithoutFresnel(p[3], t, &cos_sh);
   }
 };
 
