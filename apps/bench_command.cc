@@ -8,6 +8,7 @@
 #include "apps/cli_util.h"
 #include "apps/commands.h"
 #include "bench/bench_lib.h"
+#include "bench/bench_maps.h"
 #include "bench/bench_pipeline.h"
 #include "bench/bench_plan.h"
 #include "bench/bench_tabulation.h"
@@ -21,6 +22,7 @@ struct BenchArgs {
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   bool evaluation = false;
   bool plan = false;
+  bool maps = false;
   int threads = 0;
 };
 
@@ -33,6 +35,14 @@ void RunBench(const BenchArgs& args) {
     const std::filesystem::path work = std::filesystem::path(args.out) / "work";
     const bench::PipelineBenchReport rep = bench::RunPipelineBench(opt, work);
     bench::WritePipelineBenchOutputs(args.out, rep);
+    std::filesystem::remove_all(work);
+    PrintJson(rep.ToJson());
+    return;
+  }
+  if (args.maps) {
+    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
+    const bench::MapsBenchReport rep = bench::RunMapsBench(opt, work);
+    bench::WriteMapsBenchOutputs(args.out, rep);
     std::filesystem::remove_all(work);
     PrintJson(rep.ToJson());
     return;
@@ -119,6 +129,11 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--plan", args->plan,
                 "gonio plan's predicted scatter against the scatter measured on sessions "
                 "rendered from the plan and from the default orbit (plan_bench.json + chart)")
+      ->excludes(stability);
+  cmd->add_flag("--maps", args->maps,
+                "per-texel maps of textured sessions: time, peak memory, accuracy and error-bar "
+                "coverage against truth, and a held-out view against Lambert and diffuse + GGX "
+                "maps (maps_bench.json + chart; docs/maps.md)")
       ->excludes(stability);
   cmd->add_flag("--sfs", args->sfs,
                 "shape from shading instead: solve time vs normal error of solver configurations "
