@@ -9,6 +9,7 @@
 #include "apps/commands.h"
 #include "bench/bench_coverage.h"
 #include "bench/bench_lib.h"
+#include "bench/bench_maps.h"
 #include "bench/bench_pipeline.h"
 #include "bench/bench_plan.h"
 #include "bench/bench_tabulation.h"
@@ -22,7 +23,7 @@ struct BenchArgs {
   std::string out;
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   bool evaluation = false;
-  bool plan = false, tags = false, coverage = false;
+  bool plan = false, tags = false, coverage = false, maps = false;
   std::string apriltag_ref;
   int threads = 0;
 };
@@ -62,6 +63,14 @@ void RunBench(const BenchArgs& args) {
                            args.apriltag_ref.empty() ? bench::DefaultAprilTagRefDir()
                                                      : std::filesystem::path(args.apriltag_ref));
     bench::WriteTagBenchOutputs(args.out, rep);
+    std::filesystem::remove_all(work);
+    PrintJson(rep.ToJson());
+    return;
+  }
+  if (args.maps) {
+    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
+    const bench::MapsBenchReport rep = bench::RunMapsBench(opt, work);
+    bench::WriteMapsBenchOutputs(args.out, rep);
     std::filesystem::remove_all(work);
     PrintJson(rep.ToJson());
     return;
@@ -165,6 +174,11 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_option("--apriltag-ref", args->apriltag_ref,
                   "--tags: folder of AprilTag's test photos and reference corners (default: "
                   "../shared/data/apriltag_ref of the source tree)");
+  cmd->add_flag("--maps", args->maps,
+                "per-texel maps of textured sessions: time, peak memory, accuracy and error-bar "
+                "coverage against truth, and a held-out view against Lambert and diffuse + GGX "
+                "maps (maps_bench.json + chart; docs/maps.md)")
+      ->excludes(stability);
   cmd->add_flag("--sfs", args->sfs,
                 "shape from shading instead: solve time vs normal error of solver configurations "
                 "and robustness curves (sfs_bench.json + charts)")

@@ -22,5 +22,6 @@ void AddBenchCommand(CLI::App& app);  // speed vs accuracy, stability sweeps
 void AddPipelineCommands(CLI::App& app);
 void AddPlanCommand(CLI::App& app);  // camera poses from the predicted uncertainty
 void AddSfsCommand(CLI::App& app);
+void AddMapsCommand(CLI::App& app);  // per-texel maps of a textured sample
 
 }  // namespace gonio::cli

@@ -12,7 +12,7 @@ namespace gonio::cli {
 namespace {
 
 struct ExportArgs {
-  std::string fit, model, format, out, theta_i, theta_s, phi_s;
+  std::string fit, model, maps, format, out, theta_i, theta_s, phi_s;
   std::vector<std::string> params;
   double max_theta = 80.0;
   bool allow_relative = false;
@@ -25,8 +25,19 @@ std::vector<double> DegreeList(const std::string& text, const std::string& what)
 }
 
 void RunExport(const ExportArgs& args) {
-  if (args.fit.empty() == args.model.empty()) {
-    throw InputError("export: give either --fit fit.json or --model NAME [--param K=V ...]");
+  if ((args.fit.empty() ? 0 : 1) + (args.model.empty() ? 0 : 1) + (args.maps.empty() ? 0 : 1) !=
+      1) {
+    throw InputError(
+        "export: give one of --fit fit.json, --model NAME [--param K=V ...] or --maps DIR");
+  }
+  if (!args.maps.empty()) {
+    ExportOptions opt;
+    opt.format = ParseExportFormat(args.format);
+    opt.domain.max_theta_deg = args.max_theta;
+    CheckOutputIsNotInput(args.out, {(std::filesystem::path(args.maps) / "maps.json").string()});
+    const TextureExportResult r = ExportMaps(args.maps, opt, args.out, args.allow_relative);
+    std::cout << r.Report();
+    return;
   }
   FittedMaterial material;
   if (!args.fit.empty()) {
@@ -57,6 +68,9 @@ void AddExportCommand(CLI::App& app) {
       "ASTM E1392 / MERL table");
   cmd->add_option("--fit", args->fit, "fit.json of gonio fit or gonio fit-table");
   cmd->add_option("--model", args->model, "Instead of --fit: a registry model");
+  cmd->add_option("--maps", args->maps,
+                  "Instead of --fit: a gonio maps output, exported with image textures "
+                  "(mitsuba, blender, materialx; docs/maps.md)");
   cmd->add_option("--param", args->params, "With --model: KEY=VALUE, registry units; repeatable");
   cmd->add_option("--format", args->format, "mitsuba, pbrt3, blender, materialx, astm or merl")
       ->required();

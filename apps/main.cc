@@ -77,6 +77,7 @@ int main(int argc, char** argv) {
   gonio::cli::AddSynthCommand(app);
   gonio::cli::AddBenchCommand(app);
   gonio::cli::AddSfsCommand(app);
+  gonio::cli::AddMapsCommand(app);
   RefuseNonFiniteNumbers(&app);
 
   try {

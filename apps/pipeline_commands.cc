@@ -157,6 +157,8 @@ struct RunArgs {
   std::string session, out, camera, photometric, plan;
   int patch = 4;
   bool assume_linear = false;
+  bool maps = false;  // also the per-texel maps into OUT/maps (docs/maps.md)
+  double maps_texel_mm = 0;
   FitArgs fit;
 };
 
@@ -166,6 +168,10 @@ void RunRun(const RunArgs& a) {
   o.noise_floor_from_calibration = a.fit.noise_floor.empty();
   o.extract.patch = a.patch;
   o.extract.threads = a.fit.threads;
+  if (a.maps) {
+    o.maps = MapsOptions();
+    o.maps->sampling.texel_m = 1e-3 * a.maps_texel_mm;
+  }
   o.Check();
   const RunInputs in = LoadRunInputs(a.session, a.camera, a.photometric, a.assume_linear);
   CheckRunOutput(a.out, in);
@@ -237,6 +243,11 @@ void AddPipelineCommands(CLI::App& app) {
   run->add_option("--plan", ra->plan,
                   "plan.json of gonio plan: report how well the frames cover the planned poses");
   run->add_option("--patch", ra->patch, "Extraction patch size")->capture_default_str();
+  run->add_flag("--maps", ra->maps,
+                "Also per-texel albedo, normal, height, roughness and material maps of a textured "
+                "sample into OUT/maps, lamp from the fit (docs/maps.md)");
+  run->add_option("--maps-texel", ra->maps_texel_mm, "--maps: texel size in mm (0: the pixels')")
+      ->capture_default_str();
   AddFitArgs(run, &ra->fit);
   run->callback([ra] { RunRun(*ra); });
 

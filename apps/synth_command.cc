@@ -9,8 +9,10 @@
 #include "common/io.h"
 #include "common/log.h"
 #include "data_synth/board_renderer.h"
+#include "data_synth/rectified_views.h"
 #include "data_synth/scene.h"
 #include "data_synth/sfs_renderer.h"
+#include "estimation/synth_photometric.h"
 
 namespace fs = std::filesystem;
 
@@ -21,8 +23,10 @@ struct SynthArgs {
   std::string scene_file, preset, out_dir, write_scene;
   double sfs_light_offaxis_deg = 0.0;
   int threads = 0;
+  int rectified = 0;
   long long seed = -1;
   bool no_noise = false;
+  bool with_calibration = false;
 };
 
 void RunSynth(const SynthArgs& args) {
@@ -48,6 +52,15 @@ void RunSynth(const SynthArgs& args) {
     PrintJson({{"scene", args.write_scene}});
     return;
   }
+  if (args.rectified > 0) {
+    const auto r = synth::RenderRectifiedViews(scene, args.rectified, args.out_dir, args.threads);
+    PrintJson({{"out", args.out_dir},
+               {"type", "rectified"},
+               {"views", r.views},
+               {"size", r.size},
+               {"seconds", r.seconds}});
+    return;
+  }
   if (scene.type == "sfs") {
     const auto r = synth::RenderSfsScene(scene, args.out_dir, args.threads);
     spdlog::info("synth: {}", r.Report());
@@ -58,6 +71,14 @@ void RunSynth(const SynthArgs& args) {
   } else {
     const auto r = synth::RenderBoardSession(scene, args.out_dir, args.threads);
     spdlog::info("synth: {}", r.Report());
+    if (args.with_calibration) {
+      // What a user measures once for the camera (gonio photometric); here the renderer's own
+      // chain, so the session runs through gonio run / maps without a calibration step.
+      const fs::path dir(args.out_dir);
+      PhotometricFromSynthTruth(ReadJsonFile(dir / "truth.json"), scene.camera.width,
+                                scene.camera.height)
+          .Write(dir / "photometric.json");
+    }
     PrintJson({{"out", args.out_dir},
                {"type", "board"},
                {"frames", r.frames},
@@ -75,7 +96,8 @@ void AddSynthCommand(CLI::App& app) {
   cmd->add_option("--scene", args->scene_file, "scene.json (docs/formats.md)");
   cmd->add_option("--preset", args->preset,
                   "default, flat-field, exposure-sweep, sfs-sphere, sfs-vase, sfs-bumps, "
-                  "raised-sample, ambient");
+                  "flash, flash-8bit, raised-sample, ambient, textured, textured-3mat, "
+                  "textured-flash");
   cmd->add_option("--out", args->out_dir, "Output folder");
   cmd->add_option("--write-scene", args->write_scene, "Write the scene (e.g. a preset) as JSON");
   cmd->add_option("--sfs-light-offaxis-deg", args->sfs_light_offaxis_deg,
@@ -83,6 +105,13 @@ void AddSynthCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", args->seed, "Override the scene's noise seed");
   cmd->add_flag("--no-noise", args->no_noise, "Turn shot and read noise off");
+  cmd->add_flag("--with-calibration", args->with_calibration,
+                "Board scenes: also write the renderer's photometric chain as the session's "
+                "photometric.json (the calibration a user measures once with gonio photometric)");
+  cmd->add_option("--rectified", args->rectified,
+                  "Textured scenes: write MaterialGAN's rectified layout (N x N views of the "
+                  "sample's square, NN.png, camera_pos.txt, light_pos.txt) instead of a session")
+      ->check(CLI::Range(16, 4096));
   cmd->add_option("--threads", args->threads, "Threads (0 = all cores)")->capture_default_str();
   cmd->callback([args] { RunSynth(*args); });
 }

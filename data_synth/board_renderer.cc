@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -16,6 +17,7 @@
 #include "data_synth/photometric.h"
 #include "data_synth/shading.h"
 #include "data_synth/tag_board.h"
+#include "data_synth/textured_shading.h"
 
 namespace fs = std::filesystem;
 
@@ -84,11 +86,27 @@ class BoardShader {
         rho_dh_.push_back(material.DirectionalAlbedo(0.5 * kPi * k / kAlbedoSteps));
       }
     }
+    if (scene.texture.enabled()) textured_.emplace(scene);
   }
 
-  // Radiance of surface s at board point p (z = 0, the sample z = -sample_height) seen from
-  // the pose's camera; with the lamp off, the ambient alone.
-  double Radiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g, bool lamp_on) const {
+  // Radiance (R, G, B; equal for grey surfaces) of surface s at board point p (z = 0, the
+  // sample z = -sample_height) seen from the pose's camera; with the lamp off, the ambient
+  // alone. A textured sample is shaded per point (textured_shading.h).
+  Rgb Radiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g, bool lamp_on) const {
+    if (s == Surface::kSample && textured_) {
+      if (!lamp_on) return {0, 0, 0};  // textured scenes have no ambient light (Scene::Check)
+      return point_light_
+                 ? textured_->Point(p, g.camera_in_board, g.light_in_board, scene_.light.intensity)
+                 : textured_->Distant(p, g.camera_in_board, g.to_light_in_board,
+                                      scene_.light.irradiance);
+    }
+    const double v = GreyRadiance(s, p, g, lamp_on);
+    return {v, v, v};
+  }
+
+ private:
+  double GreyRadiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g,
+                      bool lamp_on) const {
     if (s == Surface::kBackground) return 0.0;
     const Eigen::Vector3d n(0, 0, -1);  // outward normal of the board's printed side
     Eigen::Vector3d l;
@@ -115,7 +133,6 @@ class BoardShader {
     }
   }
 
- private:
   static constexpr int kAlbedoSteps = 90;
   double RhoDh(double theta_r) const {
     const double x = std::clamp(theta_r / (0.5 * kPi), 0.0, 1.0) * kAlbedoSteps;
@@ -134,6 +151,8 @@ class BoardShader {
   const Scene& scene_;
   const Material& material_;
   std::vector<double> rho_dh_;
+  std::optional<TexturedShader> textured_;
+  bool point_light_ = scene_.light.type == "point";
 };
 
 // One pixel footprint: the board points of its four corners (z = 0) and, for a raised sample,
@@ -154,8 +173,8 @@ struct Footprint {
 // S^2 x S^2 grid, so an edge along either image axis is resolved to 1/S^2 of a pixel), each
 // surface's radiance evaluated once at the footprint centre (the sample's on its top plane).
 // A point whose ray passes the raised sample's side is black.
-double SupersampledRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
-                            const PoseGeometry& g, const Footprint& fp, bool raised, bool lamp_on) {
+Rgb SupersampledRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
+                         const PoseGeometry& g, const Footprint& fp, bool raised, bool lamp_on) {
   const int ss = scene.supersampling;
   const double h = scene.board.sample_height;
   const auto& rect = scene.board.sample_region;
@@ -177,22 +196,24 @@ double SupersampledRadiance(const Scene& scene, const TagBoard& board, const Boa
     }
   }
   const Eigen::Vector2d centre = fp.Board(0.5, 0.5);
-  double sum = 0;
+  Rgb sum = {0, 0, 0};
   for (int k = 1; k < 4; ++k) {
     if (!counts[k]) continue;
     const bool top = raised && k == static_cast<int>(Surface::kSample);
     const Eigen::Vector2d q = top ? fp.Top(0.5, 0.5) : centre;
-    sum += counts[k] * shader.Radiance(static_cast<Surface>(k),
-                                       Eigen::Vector3d(q.x(), q.y(), top ? -h : 0.0), g, lamp_on);
+    const Rgb r = shader.Radiance(static_cast<Surface>(k),
+                                  Eigen::Vector3d(q.x(), q.y(), top ? -h : 0.0), g, lamp_on);
+    for (int c = 0; c < 3; ++c) sum[c] += counts[k] * r[c];
   }
-  return sum / (ss * ss);
+  for (double& v : sum) v /= ss * ss;
+  return sum;
 }
 
 // Radiance of one footprint: one surface seen whole (evaluated at the centre), else
 // supersampled. Counts supersampled footprints.
-double FootprintRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
-                         const PoseGeometry& g, const Footprint& fp, bool lamp_on,
-                         size_t* supersampled) {
+Rgb FootprintRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
+                      const PoseGeometry& g, const Footprint& fp, bool lamp_on,
+                      size_t* supersampled) {
   const double h = scene.board.sample_height;
   const auto& rect = scene.board.sample_region;
   const Eigen::Vector2d lo = fp.a->cwiseMin(*fp.b).cwiseMin(*fp.c).cwiseMin(*fp.d);
@@ -237,7 +258,8 @@ void TraceCorners(const std::vector<Eigen::Vector3d>& rays, const PoseGeometry& 
   });
 }
 
-// Radiance image of one pose (the lamp on or off); counts supersampled footprints.
+// Radiance image of one pose (the lamp on or off), CV_64FC(scene.Channels()) in R, G, B order;
+// counts supersampled footprints.
 cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardShader& shader,
                        const std::vector<Eigen::Vector3d>& rays, const PoseGeometry& g,
                        bool lamp_on, int threads, size_t* supersampled) {
@@ -247,7 +269,8 @@ cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardSha
   TraceCorners(rays, g, 0.0, threads, &corner, &hit);
   const bool raised = scene.board.sample_height > 0;
   if (raised) TraceCorners(rays, g, -scene.board.sample_height, threads, &top, &top_hit);
-  cv::Mat radiance(h, w, CV_64F);
+  const int channels = scene.Channels();
+  cv::Mat radiance(h, w, CV_64FC(channels));
   std::atomic<size_t> count{0};
   ParallelFor(h, threads, [&](size_t b, size_t e) {
     size_t local = 0;
@@ -255,13 +278,16 @@ cv::Mat RenderRadiance(const Scene& scene, const TagBoard& board, const BoardSha
       double* row = radiance.ptr<double>(static_cast<int>(y));
       for (int x = 0; x < w; ++x) {
         const size_t i00 = y * w1 + x, i10 = i00 + 1, i01 = i00 + w1, i11 = i01 + 1;
+        double* out = row + x * channels;
         if (!hit[i00] || !hit[i10] || !hit[i01] || !hit[i11]) {
-          row[x] = 0.0;  // the footprint reaches the board's horizon: far off the board
+          // The footprint reaches the board's horizon: far off the board.
+          for (int c = 0; c < channels; ++c) out[c] = 0.0;
           continue;
         }
         Footprint fp{&corner[i00], &corner[i10], &corner[i01], &corner[i11]};
         if (raised) fp = {fp.a, fp.b, fp.c, fp.d, &top[i00], &top[i10], &top[i01], &top[i11]};
-        row[x] = FootprintRadiance(scene, board, shader, g, fp, lamp_on, &local);
+        const Rgb r = FootprintRadiance(scene, board, shader, g, fp, lamp_on, &local);
+        for (int c = 0; c < channels; ++c) out[c] = r[c];
       }
     }
     count += local;
@@ -308,12 +334,15 @@ PoseGeometry PoseGeometryOf(const Scene& scene, const Rigid3d& cam_from_board) {
   return g;
 }
 
-// Pixel values of frame `frame` from its radiance image; counts saturated pixels.
+// Pixel values of frame `frame` from its radiance image (R, G, B order); a colour frame is
+// stored in OpenCV's B, G, R order so the file reads as RGB. Counts pixels with a saturated
+// channel.
 cv::Mat ExposeFrame(const Scene& scene, const PhotometricChain& chain, const cv::Mat& radiance,
                     double exposure_s, int frame, int threads, size_t* saturated_pixels) {
   const int w = scene.camera.width, h = scene.camera.height;
-  const int cv_type = scene.photometric.bit_depth == 8 ? CV_8U : CV_16U;
-  cv::Mat image(h, w, cv_type);
+  const int channels = radiance.channels();
+  const bool eight_bit = scene.photometric.bit_depth == 8;
+  cv::Mat image(h, w, CV_MAKETYPE(eight_bit ? CV_8U : CV_16U, channels));
   std::atomic<size_t> saturated{0};
   ParallelFor(h, threads, [&](size_t b, size_t e) {
     size_t local = 0;
@@ -321,13 +350,19 @@ cv::Mat ExposeFrame(const Scene& scene, const PhotometricChain& chain, const cv:
       std::mt19937_64 rng(RowSeed(scene.seed, frame, y));
       const double* in = radiance.ptr<double>(static_cast<int>(y));
       for (int x = 0; x < w; ++x) {
-        const uint16_t v = chain.Value(in[x], exposure_s, x, static_cast<double>(y), rng);
-        local += v >= chain.max_value();
-        if (cv_type == CV_8U) {
-          image.ptr<uint8_t>(static_cast<int>(y))[x] = static_cast<uint8_t>(v);
-        } else {
-          image.ptr<uint16_t>(static_cast<int>(y))[x] = v;
+        bool saturated_pixel = false;
+        for (int c = 0; c < channels; ++c) {
+          const uint16_t v =
+              chain.Value(in[x * channels + c], exposure_s, x, static_cast<double>(y), rng);
+          saturated_pixel |= v >= chain.max_value();
+          const int k = x * channels + (channels - 1 - c);  // R, G, B -> B, G, R
+          if (eight_bit) {
+            image.ptr<uint8_t>(static_cast<int>(y))[k] = static_cast<uint8_t>(v);
+          } else {
+            image.ptr<uint16_t>(static_cast<int>(y))[k] = v;
+          }
         }
+        local += saturated_pixel;
       }
     }
     saturated += local;
@@ -366,35 +401,41 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
                   {"frames", session_frames}};
   if (!dark_frames.empty()) session["dark_frames"] = dark_frames;
   WriteJsonAtomically(out_dir / "session.json", session);
-  WriteJsonAtomically(out_dir / "truth.json",
-                      {{"format", "gonio-synth-truth"},
-                       {"version", 1},
-                       {"scene_type", "board"},
-                       {"material", material.ToJson()},
-                       {"light", LightTruthJson(scene.light)},
-                       {"white_albedo", scene.board.white_albedo},
-                       {"ambient_irradiance", scene.light.ambient_irradiance},
-                       {"black_albedo", scene.board.black_albedo},
-                       {"board",
-                        {{"file", "board.json"},
-                         {"sample_height", scene.board.sample_height},
-                         {"sample_region", scene.board.sample_region},
-                         {"white_region", scene.board.white_region}}},
-                       {"camera",
-                        {{"file", "camera.cameramodel"},
-                         {"lens_model", scene.camera.lens_model},
-                         {"intrinsics", scene.camera.intrinsics},
-                         {"width", scene.camera.width},
-                         {"height", scene.camera.height}}},
-                       {"frames", truth_frames},
-                       {"photometric", chain.ToJson()},
-                       {"render",
-                        {{"supersampling", scene.supersampling},
-                         {"seed", scene.seed},
-                         {"pixel_filter",
-                          "box over the pixel square; radiance per surface at the "
-                          "footprint centre"}}},
-                       {"scene", SceneToJson(scene)}});
+  json photometric = chain.ToJson();
+  photometric["channels"] = scene.Channels();
+  json truth = {{"format", "gonio-synth-truth"},
+                {"version", 1},
+                {"scene_type", "board"},
+                {"material", material.ToJson()},
+                {"light", LightTruthJson(scene.light)},
+                {"white_albedo", scene.board.white_albedo},
+                {"ambient_irradiance", scene.light.ambient_irradiance},
+                {"black_albedo", scene.board.black_albedo},
+                {"board",
+                 {{"file", "board.json"},
+                  {"sample_height", scene.board.sample_height},
+                  {"sample_region", scene.board.sample_region},
+                  {"white_region", scene.board.white_region}}},
+                {"camera",
+                 {{"file", "camera.cameramodel"},
+                  {"lens_model", scene.camera.lens_model},
+                  {"intrinsics", scene.camera.intrinsics},
+                  {"width", scene.camera.width},
+                  {"height", scene.camera.height}}},
+                {"frames", truth_frames},
+                {"photometric", photometric},
+                {"render",
+                 {{"supersampling", scene.supersampling},
+                  {"seed", scene.seed},
+                  {"pixel_filter",
+                   "box over the pixel square; radiance per surface at the "
+                   "footprint centre"}}},
+                {"scene", SceneToJson(scene)}};
+  if (scene.texture.enabled()) {
+    truth["texture"] =
+        WriteTextureTruth(scene, scene.board.sample_region, scene.texture.truth_texel, out_dir);
+  }
+  WriteJsonAtomically(out_dir / "truth.json", truth);
 }
 
 // Frames with the lens capped: no light reaches the sensor, so the chain gives the black level
@@ -403,7 +444,8 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
 json WriteDarkFrames(const Scene& scene, const PhotometricChain& chain, const fs::path& out_dir,
                      int threads) {
   json names = json::array();
-  const cv::Mat no_light = cv::Mat::zeros(scene.camera.height, scene.camera.width, CV_64F);
+  const cv::Mat no_light =
+      cv::Mat::zeros(scene.camera.height, scene.camera.width, CV_64FC(scene.Channels()));
   for (int k = 0; k < scene.views.dark_frames; ++k) {
     size_t saturated = 0;
     const cv::Mat dark = ExposeFrame(scene, chain, no_light, scene.views.exposures_s.front(),

@@ -100,11 +100,31 @@ void ReadValue(const json& j, std::vector<Rigid3d>* out) {
   }
 }
 
+void ReadValue(const json& j, std::vector<TextureMaterial>* out) {
+  if (!j.is_array()) throw ValueError{"expected [{\"albedo\": [r, g, b], \"roughness\": x}, ...]"};
+  out->clear();
+  for (const auto& m : j) {
+    if (!m.is_object() || !m.contains("albedo") || m.size() > 2 ||
+        (m.size() == 2 && !m.contains("roughness"))) {
+      throw ValueError{"expected {\"albedo\": [r, g, b], \"roughness\": x}"};
+    }
+    TextureMaterial t;
+    ReadValue(m["albedo"], &t.albedo);
+    if (m.contains("roughness")) ReadValue(m["roughness"], &t.roughness);
+    out->push_back(t);
+  }
+}
+
 template <typename T>
 json WriteValue(const T& v) {
   return v;
 }
 json WriteValue(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+json WriteValue(const std::vector<TextureMaterial>& materials) {
+  json out = json::array();
+  for (const auto& m : materials) out.push_back({{"albedo", m.albedo}, {"roughness", m.roughness}});
+  return out;
+}
 json WriteValue(const std::vector<Rigid3d>& poses) {
   json out = json::array();
   for (const auto& pose : poses) out.push_back(ToJson(pose));
@@ -400,6 +420,54 @@ void AddViewsAndSfsFields(std::vector<Field>* f) {
            Must([](double v, const Scene&) { return v > 0; }, "must be > 0"));
 }
 
+// The registry range of the textured model's roughness (its second parameter; [0, 0] for a
+// one-parameter model such as lambert), or an error: a textured sample needs a model whose
+// first parameter is a per-channel albedo and that has at most one more.
+std::string TextureModelRange(const Scene& s, double* lo, double* hi) {
+  const ModelInfo* info = nullptr;
+  try {
+    info = &FindModel(s.material.model);
+  } catch (const InputError&) {
+    return "";  // material.model reports it
+  }
+  if (info->params.empty() || !info->params[0].per_channel || info->params.size() > 2) {
+    return "model " + s.material.model +
+           " cannot be textured (needs a per-channel albedo and at most a roughness)";
+  }
+  *lo = info->params.size() > 1 ? info->params[1].min : 0.0;
+  *hi = info->params.size() > 1 ? info->params[1].max : 0.0;
+  return "";
+}
+
+void AddTextureFields(std::vector<Field>* f) {
+  using T = TextureSpec;
+  auto positive = Must([](double v, const Scene&) { return v > 0; }, "must be > 0");
+  Section<T>("texture", &Scene::texture, BoardScene, f)
+      .Add("type", &T::type, OneOf({"none", "procedural"}))
+      .Add("seed", &T::seed)
+      .Add("materials", &T::materials,
+           [](const std::vector<TextureMaterial>&, const Scene& s) {
+             if (!s.texture.enabled()) return std::string();
+             double lo = 0, hi = 0;
+             const std::string problem = TextureModelRange(s, &lo, &hi);
+             if (!problem.empty()) return problem;
+             try {
+               CheckTextureSpec(s.texture, lo, hi);
+             } catch (const InputError& e) {
+               return std::string(e.what()).substr(std::string("texture.").size());
+             }
+             return std::string();
+           })
+      .Add("cell_size", &T::cell_size, positive)
+      .Add("albedo_variation", &T::albedo_variation)
+      .Add("albedo_wavelength", &T::albedo_wavelength, positive)
+      .Add("slope_deg", &T::slope_deg)
+      .Add("height_wavelength", &T::height_wavelength, positive)
+      .Add("roughness_variation", &T::roughness_variation)
+      .Add("roughness_wavelength", &T::roughness_wavelength, positive)
+      .Add("truth_texel", &T::truth_texel, positive);
+}
+
 const std::vector<Field>& SceneFields() {
   static const std::vector<Field> fields = [] {
     std::vector<Field> f;
@@ -407,6 +475,7 @@ const std::vector<Field>& SceneFields() {
     AddPhotometricAndLightFields(&f);
     AddBoardFields(&f);
     AddViewsAndSfsFields(&f);
+    AddTextureFields(&f);
     return f;
   }();
   return fields;
@@ -440,6 +509,9 @@ void CheckSceneConsistency(const Scene& s) {
             "light: sfs scenes need a point light in the camera frame");
     return;
   }
+  Require(
+      !s.texture.enabled() || s.light.ambient_irradiance == 0,
+      "texture: a textured sample is rendered without ambient light (light.ambient_irradiance 0)");
   for (const auto& pose : s.CamFromBoardPoses()) {
     Require(pose.R.allFinite() && pose.t.allFinite() &&
                 (pose.R * pose.R.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-6,

@@ -19,6 +19,7 @@
 
 #include "common/camera_model.h"
 #include "common/geometry.h"
+#include "data_synth/texture.h"
 
 namespace gonio::synth {
 
@@ -130,7 +131,11 @@ struct Scene {
   PhotometricSpec photometric;
   ViewsSpec views;
   SfsSpec sfs;
+  // Board scenes: a textured sample (texture.h; docs/maps.md). Its frames are RGB.
+  TextureSpec texture;
 
+  // Colour channels of the rendered frames: 3 for a textured sample, else 1.
+  int Channels() const { return texture.enabled() ? 3 : 1; }
   // InputError naming the scene part and the problem.
   void Check() const;
   // The camera poses of a board scene (expands "orbit").
@@ -150,7 +155,7 @@ struct PresetOptions {
 };
 
 // "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps", "flash",
-// "flash-8bit", "raised-sample", "ambient".
+// "flash-8bit", "raised-sample", "ambient", "textured", "textured-3mat", "textured-flash".
 Scene PresetScene(const std::string& name, const PresetOptions& options = {});
 const std::vector<std::string>& PresetNames();
 

@@ -5,11 +5,11 @@
 #include <cmath>
 #include <cstdio>
 
-#include <tiffio.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/error.h"
+#include "common/float_tiff.h"
 #include "common/image_io.h"
 #include "common/io.h"
 #include "common/math.h"
@@ -180,31 +180,6 @@ double Shade(const Shape& shape, const Material& material, const LightSpec& ligh
   // The first hit faces the camera; only rounding can put it past the horizon.
   a.theta_r = std::min(a.theta_r, kHalfPi);
   return material.Brdf(a) * e;
-}
-
-// Uncompressed float32 TIFF, `channels` samples per pixel interleaved in the Mat's order.
-// Written with libtiff because OpenCV 4.6 stores 3-channel float TIFFs as lossy SGILOG.
-void WriteFloatTiff(const fs::path& path, const cv::Mat& m) {
-  WriteAtomically(path, [&](const fs::path& tmp) {
-    TIFF* tif = TIFFOpen(tmp.c_str(), "w");
-    if (!tif) return false;
-    const int channels = m.channels();
-    TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, static_cast<uint32_t>(m.cols));
-    TIFFSetField(tif, TIFFTAG_IMAGELENGTH, static_cast<uint32_t>(m.rows));
-    TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, static_cast<uint16_t>(channels));
-    TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, static_cast<uint16_t>(32));
-    TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, static_cast<uint16_t>(SAMPLEFORMAT_IEEEFP));
-    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, static_cast<uint16_t>(PLANARCONFIG_CONTIG));
-    TIFFSetField(tif, TIFFTAG_PHOTOMETRIC,
-                 static_cast<uint16_t>(channels == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK));
-    TIFFSetField(tif, TIFFTAG_COMPRESSION, static_cast<uint16_t>(COMPRESSION_NONE));
-    bool ok = true;
-    for (int y = 0; y < m.rows && ok; ++y) {
-      ok = TIFFWriteScanline(tif, const_cast<uchar*>(m.ptr(y)), static_cast<uint32_t>(y)) == 1;
-    }
-    TIFFClose(tif);
-    return ok;
-  });
 }
 
 // Unit-z rays through the pixel-square corners and the depth of their first hit (<= 0: miss).

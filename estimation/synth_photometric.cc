@@ -16,21 +16,26 @@ PhotometricCalibration PhotometricFromSynthTruth(const nlohmann::json& truth, in
   const int bits = p.at("bit_depth").get<int>();
   const double black = p.at("black_level").get<double>();
   const double maxv = p.at("max_value").get<double>();
+  // Colour renders (a textured sample) have three channels with the same chain.
+  const int channels = p.value("channels", 1);
+  if (channels != 1 && channels != 3)
+    throw InputError("truth.json: photometric.channels is not 1 or 3");
   PhotometricCalibration cal = PhotometricCalibration::Linear(
-      bits, 1, black, BlackLevelSource::kOption);  // given by truth.json
+      bits, channels, black, BlackLevelSource::kOption);  // given by truth.json
   const std::string type = p.at("response").at("type").get<std::string>();
   const double gamma = type == "gamma" ? p.at("response").at("gamma").get<double>() : 1.0;
   if (type != "gamma" && type != "linear" && type != "srgb") {
     throw InputError("demo: truth response '" + type + "' is not gamma, srgb or linear");
   }
-  auto& table = cal.response.inverse_response[0];
-  for (size_t z = 0; z < table.size(); ++z) {
-    const double u = std::clamp((z - black) / (maxv - black), 0.0, 1.0);
-    // The inverse of data_synth's sRGB curve (IEC 61966-2-1), as truth.json spells it.
-    const double srgb = u <= 0.04045 ? u / 12.92 : std::pow((u + 0.055) / 1.055, 2.4);
-    table[z] = type == "srgb" ? srgb : std::pow(u, gamma);
+  for (auto& table : cal.response.inverse_response) {
+    for (size_t z = 0; z < table.size(); ++z) {
+      const double u = std::clamp((z - black) / (maxv - black), 0.0, 1.0);
+      // The inverse of data_synth's sRGB curve (IEC 61966-2-1), as truth.json spells it.
+      const double srgb = u <= 0.04045 ? u / 12.92 : std::pow((u + 0.055) / 1.055, 2.4);
+      table[z] = type == "srgb" ? srgb : std::pow(u, gamma);
+    }
   }
-  cal.response.saturation_level = {maxv};
+  cal.response.saturation_level.assign(channels, maxv);
   const auto& v = p.at("vignetting");
   const auto c = v.at("coefficients").get<std::vector<double>>();
   if (c.size() != 3) throw InputError("demo: truth vignetting needs 3 coefficients");

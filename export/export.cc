@@ -181,4 +181,89 @@ std::string ExportResult::Report() const {
   return fmt::format("{}: {} values tabulated\n", FormatName(format), n_values);
 }
 
+std::string MitsubaTexturedText(const std::vector<std::string>& header,
+                                const std::vector<std::string>& t, double side_m) {
+  std::vector<std::string> h = header;
+  h.push_back(fmt::format(
+      "apply to a square of side {:.6g} m with uv over [0, 1]: the height texture is in metres, "
+      "so the bump needs no scale; textures are linear PFM",
+      side_m));
+  return XmlComment(h) + "<bsdf type=\"bumpmap\" id=\"gonio\">\n" +
+         "  <texture type=\"bitmap\">\n    <string name=\"filename\" value=\"" + t[2] +
+         "\"/>\n  </texture>\n" + "  <bsdf type=\"roughdiffuse\">\n" +
+         "    <texture type=\"bitmap\" name=\"reflectance\">\n" +
+         "      <string name=\"filename\" value=\"" + t[0] + "\"/>\n    </texture>\n" +
+         "    <texture type=\"bitmap\" name=\"alpha\">\n" +
+         "      <string name=\"filename\" value=\"" + t[1] + "\"/>\n    </texture>\n" +
+         "    <boolean name=\"useFastApprox\" value=\"false\"/>\n  </bsdf>\n</bsdf>\n";
+}
+
+std::string BlenderTexturedText(const std::vector<std::string>& header,
+                                const std::vector<std::string>& t) {
+  return HashComment(header) +
+         "# Run in Blender's Python console or: blender -P this.py (textures beside this file)\n"
+         "import os\n\nimport bpy\n\n"
+         "here = os.path.dirname(os.path.abspath(__file__))\n"
+         "mat = bpy.data.materials.new(\"gonio_maps\")\nmat.use_nodes = True\n"
+         "nodes = mat.node_tree.nodes\nlinks = mat.node_tree.links\n"
+         "for node in list(nodes):\n    nodes.remove(node)\n\n\n"
+         "def image(name, colour):\n"
+         "    node = nodes.new(\"ShaderNodeTexImage\")\n"
+         "    node.image = bpy.data.images.load(os.path.join(here, name))\n"
+         "    node.interpolation = \"Cubic\"\n"
+         "    # Float textures hold linear values; data (roughness, normals) is not colour.\n"
+         "    names = [\"Linear Rec.709\", \"Linear\"] if colour else [\"Non-Color\"]\n"
+         "    for n in names:\n"
+         "        try:\n"
+         "            node.image.colorspace_settings.name = n\n"
+         "            break\n"
+         "        except TypeError:\n"
+         "            pass\n"
+         "    return node\n\n\n"
+         "base = image(\"" +
+         t[0] + "\", True)\n" + "rough = image(\"" + t[1] + "\", False)\n" + "normal = image(\"" +
+         t[2] + "\", False)\n" +
+         "nmap = nodes.new(\"ShaderNodeNormalMap\")\nnmap.space = \"TANGENT\"\n"
+         "bsdf = nodes.new(\"ShaderNodeBsdfDiffuse\")\n"
+         "out = nodes.new(\"ShaderNodeOutputMaterial\")\n"
+         "links.new(base.outputs[\"Color\"], bsdf.inputs[\"Color\"])\n"
+         "links.new(rough.outputs[\"Color\"], bsdf.inputs[\"Roughness\"])\n"
+         "links.new(normal.outputs[\"Color\"], nmap.inputs[\"Color\"])\n"
+         "links.new(nmap.outputs[\"Normal\"], bsdf.inputs[\"Normal\"])\n"
+         "links.new(bsdf.outputs[\"BSDF\"], out.inputs[\"Surface\"])\n";
+}
+
+std::string MaterialxTexturedText(const std::vector<std::string>& header,
+                                  const std::vector<std::string>& t) {
+  return "<?xml version=\"1.0\"?>\n" + XmlComment(header) +
+         "<materialx version=\"1.39\">\n"
+         "  <image name=\"gonio_basecolor\" type=\"color3\">\n"
+         "    <input name=\"file\" type=\"filename\" value=\"" +
+         t[0] +
+         "\" colorspace=\"lin_rec709\" />\n  </image>\n"
+         "  <image name=\"gonio_roughness\" type=\"float\">\n"
+         "    <input name=\"file\" type=\"filename\" value=\"" +
+         t[1] +
+         "\" />\n  </image>\n"
+         "  <image name=\"gonio_normal_texture\" type=\"vector3\">\n"
+         "    <input name=\"file\" type=\"filename\" value=\"" +
+         t[2] +
+         "\" />\n  </image>\n"
+         "  <normalmap name=\"gonio_normal\" type=\"vector3\">\n"
+         "    <input name=\"in\" type=\"vector3\" nodename=\"gonio_normal_texture\" />\n"
+         "  </normalmap>\n"
+         "  <oren_nayar_diffuse_bsdf name=\"gonio_diffuse\" type=\"BSDF\">\n"
+         "    <input name=\"color\" type=\"color3\" nodename=\"gonio_basecolor\" />\n"
+         "    <input name=\"roughness\" type=\"float\" nodename=\"gonio_roughness\" />\n"
+         "    <input name=\"normal\" type=\"vector3\" nodename=\"gonio_normal\" />\n"
+         "    <input name=\"energy_compensation\" type=\"boolean\" value=\"true\" />\n"
+         "  </oren_nayar_diffuse_bsdf>\n"
+         "  <surface name=\"gonio_surface\" type=\"surfaceshader\">\n"
+         "    <input name=\"bsdf\" type=\"BSDF\" nodename=\"gonio_diffuse\" />\n"
+         "  </surface>\n"
+         "  <surfacematerial name=\"gonio_material\" type=\"material\">\n"
+         "    <input name=\"surfaceshader\" type=\"surfaceshader\" nodename=\"gonio_surface\" />\n"
+         "  </surfacematerial>\n</materialx>\n";
+}
+
 }  // namespace gonio

@@ -56,6 +56,32 @@ std::optional<RendererFunction> RendererFunctionOf(ExportFormat f);
 size_t WriteMerlBinary(const FittedMaterial& material, const std::filesystem::path& out);
 std::string AstmTable(const FittedMaterial& material, const AstmGrid& grid, size_t* n_values);
 
+// `gonio export --maps DIR`: the maps of `gonio maps` as image textures wired to the renderer's
+// rough-diffuse BSDF (mitsuba: roughdiffuse under a bumpmap, PFM textures; blender: Diffuse
+// BSDF with Image Texture and Normal Map nodes; materialx: oren_nayar_diffuse_bsdf with image
+// and normalmap nodes; float TIFF textures), written beside `out` as OUTSTEM_*.
+struct TextureExportResult {
+  ExportFormat format = ExportFormat::kMitsuba;
+  int width = 0, height = 0;
+  std::vector<std::string> files;  // the textures, beside the output file
+  bool exact = false;              // the renderer evaluates the maps' own function
+  double worst_rel_rms = 0;        // of the per-texel conversion table's renderer fits
+  std::string Report() const;
+};
+// InputError for pbrt3 or a table format, a maps model without a renderer conversion, or
+// relative maps (no white reference) without allow_relative.
+TextureExportResult ExportMaps(const std::filesystem::path& maps_dir, const ExportOptions& options,
+                               const std::filesystem::path& out, bool allow_relative);
+
+// The texts of the textured exports (textures: reflectance / basecolor, alpha / roughness,
+// height (mitsuba) / normal, in that order; side_m: the maps' side, for mitsuba's bump scale).
+std::string MitsubaTexturedText(const std::vector<std::string>& header,
+                                const std::vector<std::string>& textures, double side_m);
+std::string BlenderTexturedText(const std::vector<std::string>& header,
+                                const std::vector<std::string>& textures);
+std::string MaterialxTexturedText(const std::vector<std::string>& header,
+                                  const std::vector<std::string>& textures);
+
 // The comment lines every export starts with: tool, source fit, material, conversion.
 std::vector<std::string> ExportHeader(const FittedMaterial& material,
                                       const std::optional<RendererFit>& renderer);

@@ -197,13 +197,15 @@ void RunOptions::Check() const {
   fit.Check();
   checks.Check();
   if (calibration_error.draws != 0) calibration_error.Check();
+  if (maps) maps->Check();
   if (frame_cache_mb > (size_t{1} << 22)) throw InputError("--frame-cache-mb: at most 4 TiB");
 }
 
 nlohmann::json RunTimings::ToJson() const {
   return {{"detect_s", detect_s}, {"calibrate_s", calibrate_s},
           {"locate_s", locate_s}, {"extract_s", extract_s},
-          {"fit_s", fit_s},       {"report_s", report_s}};
+          {"fit_s", fit_s},       {"report_s", report_s},
+          {"maps_s", maps_s}};
 }
 
 RunResult Run(const RunInputs& in, const RunOptions& o) {
@@ -273,6 +275,16 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     r.warnings.push_back(w);
     spdlog::warn("{}", w.message);
   }
+  if (o.maps) {
+    spdlog::info("[4/4] per-texel maps of the sample (docs/maps.md)");
+    const MapsSessionInputs maps_in{in.session, in.board, r.camera, in.photometric, in.assumptions};
+    MapsOptions mo = *o.maps;
+    mo.light_frame = o.fit.light_frame;
+    mo.white_albedo = o.fit.white_albedo;
+    mo.threads = mo.sampling.threads = o.fit.threads;
+    r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit);
+    r.timings.maps_s = clock.Lap();
+  }
   std::stable_sort(r.warnings.begin(), r.warnings.end(),
                    [](const RunWarning& a, const RunWarning& b) { return a.cause < b.cause; });
   return r;
@@ -303,6 +315,7 @@ std::string RunResult::Report() const {
   }
   s += ObservedAnglesOf(fit.final_fit, observations).Report();
   s += plan_coverage_report;
+  if (maps) s += maps->Report();
   s += fmt::format(
       "timing: detect {:.1f} s, calibrate {:.1f} s, locate {:.1f} s, extract {:.1f} s, fit "
       "{:.1f} s, report {:.1f} s ({} frames decoded, {} board detections)\n",

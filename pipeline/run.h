@@ -26,6 +26,7 @@
 #include "estimation/calibration_error.h"
 #include "estimation/extract.h"
 #include "estimation/joint_fit.h"
+#include "estimation/maps/maps.h"
 #include "estimation/observations.h"
 #include "pipeline/checks.h"
 
@@ -74,12 +75,16 @@ struct RunOptions {
   // When photometric.json reports its accuracy, the calibration's error is propagated into
   // the reported uncertainty by this many refits (estimation/calibration_error.h); 0: off.
   CalibrationPropagationOptions calibration_error;
+  // `gonio run --maps`: the per-texel maps of the sample after the fit, from the same poses and
+  // the fit's lamp (estimation/maps/maps.h); light frame, white albedo and threads from `fit`.
+  std::optional<MapsOptions> maps;
   RunOptions() { extract.patch = 4; }
   void Check() const;  // InputError naming the option
 };
 
 struct RunTimings {
   double detect_s = 0, calibrate_s = 0, locate_s = 0, extract_s = 0, fit_s = 0, report_s = 0;
+  double maps_s = 0;
   nlohmann::json ToJson() const;
 };
 
@@ -107,6 +112,7 @@ struct RunResult {
   // report lines and fit.json "plan_coverage"; empty and null without a plan.
   std::string plan_coverage_report;
   nlohmann::json plan_coverage;
+  std::optional<MapsResult> maps;  // RunOptions::maps: written into OUT/maps
 
   std::string Report() const;     // warnings first, then the fit's report and timings
   nlohmann::json ToJson() const;  // fit.json (docs/formats.md)

@@ -117,6 +117,10 @@ void WriteRunOutputs(const RunResult& r, const RunInputs& in, const fs::path& ou
   j["session"] = in.session.dir.string();
   j["camera_source"] = in.camera_source;
   j["photometric_source"] = in.photometric_source;
+  if (r.maps) {
+    WriteMapsOutputs(*r.maps, tmp / "maps");
+    j["maps"] = "maps/maps.json";
+  }
   WriteJsonAtomically(tmp / "fit.json", j);
   folder.Commit();
 }

@@ -1,0 +1,289 @@
+#include "estimation/maps/clusters.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+
+#include <Eigen/Cholesky>
+
+#include "common/error.h"
+#include "common/math.h"
+
+namespace gonio {
+namespace {
+
+struct Mixture {
+  std::vector<double> weight;
+  std::vector<Eigen::VectorXd> mean;
+  std::vector<Eigen::MatrixXd> cov;
+  double log_likelihood = -INFINITY;
+};
+
+// log N(x; mean, cov) for every row and component, from the Cholesky factors.
+Eigen::MatrixXd LogDensities(const Eigen::MatrixXd& X, const Mixture& m) {
+  const int d = static_cast<int>(X.cols()), k = static_cast<int>(m.mean.size());
+  Eigen::MatrixXd out(X.rows(), k);
+  for (int c = 0; c < k; ++c) {
+    const Eigen::LLT<Eigen::MatrixXd> llt(m.cov[c]);
+    const Eigen::MatrixXd L = llt.matrixL();
+    const double log_det = 2 * L.diagonal().array().log().sum();
+    const Eigen::MatrixXd centred = (X.rowwise() - m.mean[c].transpose()).transpose();
+    const Eigen::MatrixXd y = L.triangularView<Eigen::Lower>().solve(centred);
+    out.col(c) = (-0.5 * (y.colwise().squaredNorm().array() + log_det + d * std::log(2 * kPi)))
+                     .matrix()
+                     .transpose();
+  }
+  return out;
+}
+
+// Responsibilities (rows sum to 1) and the total log-likelihood.
+double EStep(const Eigen::MatrixXd& X, const Mixture& m, Eigen::MatrixXd* resp) {
+  Eigen::MatrixXd logp = LogDensities(X, m);
+  for (size_t c = 0; c < m.weight.size(); ++c) logp.col(c).array() += std::log(m.weight[c]);
+  double ll = 0;
+  resp->resize(X.rows(), m.weight.size());
+  for (int i = 0; i < X.rows(); ++i) {
+    const double mx = logp.row(i).maxCoeff();
+    const double s = (logp.row(i).array() - mx).exp().sum();
+    ll += mx + std::log(s);
+    resp->row(i) = (logp.row(i).array() - mx - std::log(s)).exp();
+  }
+  return ll;
+}
+
+void MStep(const Eigen::MatrixXd& X, const Eigen::MatrixXd& resp, Mixture* m) {
+  const int d = static_cast<int>(X.cols());
+  for (int c = 0; c < resp.cols(); ++c) {
+    const double nk = std::max(resp.col(c).sum(), 1e-9);
+    m->weight[c] = nk / X.rows();
+    m->mean[c] = (X.transpose() * resp.col(c)) / nk;
+    const Eigen::MatrixXd centred = X.rowwise() - m->mean[c].transpose();
+    m->cov[c] = (centred.transpose() * resp.col(c).asDiagonal() * centred) / nk +
+                1e-4 * Eigen::MatrixXd::Identity(d, d);  // features are standardised
+  }
+}
+
+// k-means++ seeds, a few Lloyd steps, then EM.
+Mixture FitMixture(const Eigen::MatrixXd& X, int k, const ClusterOptions& o) {
+  std::mt19937_64 rng(o.seed + 977 * k);
+  const int n = static_cast<int>(X.rows()), d = static_cast<int>(X.cols());
+  std::vector<Eigen::VectorXd> centre = {X.row(std::uniform_int_distribution<int>(0, n - 1)(rng))};
+  std::vector<double> d2(n);
+  while (static_cast<int>(centre.size()) < k) {
+    for (int i = 0; i < n; ++i) {
+      d2[i] = INFINITY;
+      for (const auto& c : centre)
+        d2[i] = std::min(d2[i], (X.row(i).transpose() - c).squaredNorm());
+    }
+    std::discrete_distribution<int> pick(d2.begin(), d2.end());
+    centre.push_back(X.row(pick(rng)));
+  }
+  Eigen::MatrixXd resp = Eigen::MatrixXd::Zero(n, k);
+  for (int it = 0; it < 10; ++it) {
+    resp.setZero();
+    for (int i = 0; i < n; ++i) {
+      int best = 0;
+      for (int c = 1; c < k; ++c) {
+        if ((X.row(i).transpose() - centre[c]).squaredNorm() <
+            (X.row(i).transpose() - centre[best]).squaredNorm()) {
+          best = c;
+        }
+      }
+      resp(i, best) = 1;
+    }
+    for (int c = 0; c < k; ++c) {
+      const double nk = resp.col(c).sum();
+      if (nk > 0) centre[c] = X.transpose() * resp.col(c) / nk;
+    }
+  }
+  Mixture m;
+  m.weight.assign(k, 1.0 / k);
+  m.mean.assign(k, Eigen::VectorXd::Zero(d));
+  m.cov.assign(k, Eigen::MatrixXd::Identity(d, d));
+  MStep(X, resp, &m);
+  for (int it = 0; it < o.em_iterations; ++it) {
+    const double ll = EStep(X, m, &resp);
+    MStep(X, resp, &m);
+    const bool done = std::abs(ll - m.log_likelihood) < 1e-6 * std::abs(ll);
+    m.log_likelihood = ll;
+    if (done) break;
+  }
+  m.log_likelihood = EStep(X, m, &resp);
+  return m;
+}
+
+}  // namespace
+
+std::vector<int> ClusterResult::Assign(const Eigen::MatrixXd& features) const {
+  std::vector<int> out(features.rows(), 0);
+  if (mix_weight.empty() || features.rows() == 0) return out;
+  const Eigen::MatrixXd Z = (features.rowwise() - mu).array().rowwise() / sd.array();
+  Mixture m;
+  m.weight = mix_weight;
+  m.mean = mix_mean;
+  m.cov = mix_cov;
+  Eigen::MatrixXd resp;
+  EStep(Z, m, &resp);
+  for (int i = 0; i < Z.rows(); ++i) {
+    Eigen::Index c;
+    resp.row(i).maxCoeff(&c);
+    out[i] = component_cluster[c];
+  }
+  return out;
+}
+
+void ClusterOptions::Check() const {
+  if (max_k < 1 || max_k > 12) throw InputError("--max-clusters: must be in [1, 12]");
+  if (!(min_weight >= 0 && min_weight < 0.5))
+    throw InputError("maps: min cluster weight in [0, 0.5)");
+  if (max_samples < 100) throw InputError("maps: cluster subsample must be >= 100");
+}
+
+ClusterResult ClusterByBic(const Eigen::MatrixXd& features, const ClusterOptions& o) {
+  o.Check();
+  const int n = static_cast<int>(features.rows()), d = static_cast<int>(features.cols());
+  ClusterResult result;
+  result.label.assign(n, 0);
+  if (n < 10 * (d + d * (d + 1) / 2)) {
+    result.component_cluster = {0};
+    result.weight = {1.0};
+    result.mean = {n > 0 ? Eigen::VectorXd(features.colwise().mean().transpose())
+                         : Eigen::VectorXd::Zero(d)};
+    return result;
+  }
+  // Standardised features, an even subsample for EM.
+  const Eigen::RowVectorXd mu = features.colwise().mean();
+  Eigen::RowVectorXd sd = ((features.rowwise() - mu).array().square().colwise().sum() / n).sqrt();
+  for (int j = 0; j < d; ++j) sd(j) = sd(j) > 0 ? sd(j) : 1.0;
+  const Eigen::MatrixXd Z = (features.rowwise() - mu).array().rowwise() / sd.array();
+  const int stride = std::max(1, static_cast<int>((n + o.max_samples - 1) / o.max_samples));
+  Eigen::MatrixXd S((n + stride - 1) / stride, d);
+  for (int i = 0, j = 0; i < n; i += stride, ++j) S.row(j) = Z.row(i);
+  const double p_per = d + d * (d + 1) / 2.0;
+  double best_bic = INFINITY;
+  Mixture best;
+  for (int k = 1; k <= o.max_k; ++k) {
+    const Mixture m = FitMixture(S, k, o);
+    const double p = k * p_per + (k - 1);
+    const double bic = -2 * m.log_likelihood + p * std::log(static_cast<double>(S.rows()));
+    const bool small = *std::min_element(m.weight.begin(), m.weight.end()) < o.min_weight;
+    result.bic.push_back(small ? std::numeric_limits<double>::quiet_NaN() : bic);
+    if (!small && bic < best_bic) {
+      best_bic = bic;
+      best = m;
+    }
+  }
+  // Label every texel; clusters ordered by weight (largest first).
+  const int k = static_cast<int>(best.weight.size());
+  std::vector<int> order(k);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return best.weight[a] > best.weight[b]; });
+  std::vector<int> rank(k);
+  for (int i = 0; i < k; ++i) rank[order[i]] = i;
+  result.mu = mu;
+  result.sd = sd;
+  result.mix_weight = best.weight;
+  result.mix_mean = best.mean;
+  result.mix_cov = best.cov;
+  result.component_cluster = rank;
+  result.label = result.Assign(features);
+  result.k = result.mixture_k = k;
+  result.weight.assign(k, 0.0);
+  result.mean.assign(k, Eigen::VectorXd::Zero(d));
+  for (int i = 0; i < n; ++i) {
+    result.weight[result.label[i]] += 1.0 / n;
+    result.mean[result.label[i]] += features.row(i).transpose();
+  }
+  for (int c = 0; c < k; ++c) {
+    if (result.weight[c] > 0) result.mean[c] /= result.weight[c] * n;
+  }
+  return result;
+}
+
+void MergeContinuousClusters(const Eigen::MatrixXd& features,
+                             const std::vector<size_t>& texel_of_row, int width, int height,
+                             double jump_ratio, ClusterResult* c) {
+  const int n = static_cast<int>(features.rows()), d = static_cast<int>(features.cols());
+  if (c->k < 2 || n == 0) return;
+  const Eigen::RowVectorXd mu = features.colwise().mean();
+  Eigen::RowVectorXd sd = ((features.rowwise() - mu).array().square().colwise().sum() / n).sqrt();
+  for (int j = 0; j < d; ++j) sd(j) = sd(j) > 0 ? sd(j) : 1.0;
+  std::vector<int> row_of(static_cast<size_t>(width) * height, -1);
+  for (int i = 0; i < n; ++i) row_of[texel_of_row[i]] = i;
+  auto median = [](std::vector<double>& v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  for (;;) {
+    const int k = c->k;
+    // Neighbour distances inside each cluster (pooled) and across each pair's boundary.
+    std::vector<double> inside;
+    std::vector<std::vector<std::vector<double>>> across(k, std::vector<std::vector<double>>(k));
+    for (int i = 0; i < n; ++i) {
+      const size_t t = texel_of_row[i];
+      const int x = static_cast<int>(t % width), y = static_cast<int>(t / width);
+      for (const auto& [nx, ny] : {std::pair<int, int>{x + 1, y}, {x, y + 1}}) {
+        if (nx >= width || ny >= height) continue;
+        const int j = row_of[static_cast<size_t>(ny) * width + nx];
+        if (j < 0) continue;
+        const double dist =
+            ((features.row(i) - features.row(j)).array() / sd.array()).matrix().norm();
+        const int a = c->label[i], b = c->label[j];
+        if (a == b) {
+          inside.push_back(dist);
+        } else {
+          across[std::min(a, b)][std::max(a, b)].push_back(dist);
+        }
+      }
+    }
+    const double within = std::max(median(inside), 1e-12);
+    int best_a = -1, best_b = -1;
+    double best_ratio = jump_ratio;
+    for (int a = 0; a < k; ++a) {
+      for (int b = a + 1; b < k; ++b) {
+        // A boundary of a few texel pairs says nothing: at least 10.
+        if (across[a][b].size() < 10) continue;
+        const double ratio = median(across[a][b]) / within;
+        if (ratio < best_ratio) {
+          best_ratio = ratio;
+          best_a = a;
+          best_b = b;
+        }
+      }
+    }
+    if (best_a < 0) return;
+    // Merge b into a; relabel so labels stay 0..k-2, ordered by weight.
+    std::vector<double> weight(k, 0.0);
+    std::vector<Eigen::VectorXd> sum(k, Eigen::VectorXd::Zero(d));
+    for (int i = 0; i < n; ++i) {
+      if (c->label[i] == best_b) c->label[i] = best_a;
+    }
+    for (int i = 0; i < n; ++i) {
+      weight[c->label[i]] += 1.0 / n;
+      sum[c->label[i]] += features.row(i).transpose();
+    }
+    std::vector<int> order;
+    for (int a = 0; a < k; ++a) {
+      if (weight[a] > 0) order.push_back(a);
+    }
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return weight[a] > weight[b]; });
+    std::vector<int> rank(k, -1);
+    for (size_t i = 0; i < order.size(); ++i) rank[order[i]] = static_cast<int>(i);
+    for (int i = 0; i < n; ++i) c->label[i] = rank[c->label[i]];
+    for (int& cl : c->component_cluster) cl = rank[cl == best_b ? best_a : cl];
+    c->k = static_cast<int>(order.size());
+    c->weight.clear();
+    c->mean.clear();
+    for (int a : order) {
+      c->weight.push_back(weight[a]);
+      c->mean.push_back(sum[a] / (weight[a] * n));
+    }
+    c->merged += 1;
+  }
+}
+
+}  // namespace gonio

@@ -1,0 +1,531 @@
+#include "estimation/maps/maps.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/detect.h"
+#include "common/error.h"
+#include "common/log.h"
+#include "estimation/extract.h"
+#include "estimation/maps/height.h"
+#include "estimation/maps/registration.h"
+#include "estimation/option_words.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio {
+namespace {
+
+constexpr OptionWord<RoughnessChoice> kRoughnessWords[] = {{RoughnessChoice::kAuto, "auto"},
+                                                           {RoughnessChoice::kSample, "sample"},
+                                                           {RoughnessChoice::kClusters, "clusters"},
+                                                           {RoughnessChoice::kTexel, "texel"}};
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+MapsCandidate CandidateOf(const TexelFit& f) {
+  MapsCandidate c;
+  c.mode = f.mode;
+  c.clusters = f.mode == RoughnessMode::kClusters ? f.clusters : 1;
+  c.chi2 = f.chi2;
+  c.bic = f.bic;
+  c.parameters = f.parameters;
+  c.residuals = f.residuals;
+  c.cluster_roughness = f.cluster_r;
+  c.cluster_roughness_sd = f.cluster_r_sd;
+  c.seconds = f.seconds;
+  return c;
+}
+
+// The intensity that makes the white reference's predicted radiance match on average (least
+// squares), at the lamp's position: the start of the intensity's fit.
+double WhiteIntensity(const TexelData& data, const MapsLamp& lamp) {
+  double num = 0, den = 0;
+  for (const WhiteSample& w : data.white) {
+    const Eigen::Vector3d to_lamp = lamp.InBoard(data, w.view) - w.p_in_board;
+    const double ci = -to_lamp.z() / to_lamp.norm();
+    if (ci <= 0) continue;
+    const double g = *lamp.white_albedo / M_PI * ci / to_lamp.squaredNorm();
+    for (int c = 0; c < data.channels; ++c) {
+      num += g * w.radiance[c];
+      den += g * g;
+    }
+  }
+  return den > 0 && num > 0 ? num / den : lamp.intensity;
+}
+
+// Features for the clusters: the first channel parameter of each channel (the albedo, or the
+// diffuse albedo) and, when fitted per texel, the roughness.
+Eigen::MatrixXd ClusterFeatures(const TexelFit& f, std::vector<size_t>* texels) {
+  texels->clear();
+  for (size_t t = 0; t < f.fitted.size(); ++t) {
+    if (f.fitted[t]) texels->push_back(t);
+  }
+  const bool rough = f.mode == RoughnessMode::kTexel;
+  const int d = f.channels + (rough ? 1 : 0);
+  Eigen::MatrixXd X(texels->size(), d);
+  for (size_t i = 0; i < texels->size(); ++i) {
+    const size_t t = (*texels)[i];
+    for (int c = 0; c < f.channels; ++c) X(i, c) = f.w[(t * f.channels + c) * f.m];
+    if (rough) X(i, f.channels) = f.r[t];
+  }
+  return X;
+}
+
+// Per-view residuals of the selected maps.
+std::vector<ViewFit> ViewResiduals(const TexelData& data, const TexelFit& fit) {
+  std::vector<ViewFit> out;
+  const int C = data.channels;
+  for (size_t v = 0; v < data.views.size(); ++v) {
+    const ViewSamples& vs = data.samples[v];
+    if (vs.valid.empty()) continue;
+    const std::vector<float> pred = PredictView(data, fit, v);
+    ViewFit vf;
+    vf.name = data.views[v].name;
+    vf.view = static_cast<int>(v);
+    double z2 = 0, d2 = 0, m2 = 0;
+    size_t n = 0;
+    for (size_t t = 0; t < data.grid.size(); ++t) {
+      if (!vs.valid[t] || !fit.fitted[t]) continue;
+      ++vf.texels;
+      for (int c = 0; c < C; ++c) {
+        const size_t i = t * C + c;
+        const double var = fit.noise.Variance(c, vs.var_read[i], vs.var_shot[i], vs.radiance[i]);
+        const double r = pred[i] - vs.radiance[i];
+        if (var > 0) z2 += r * r / var, ++n;
+        d2 += r * r;
+        m2 += static_cast<double>(vs.radiance[i]) * vs.radiance[i];
+      }
+    }
+    vf.rms_z = n ? std::sqrt(z2 / n) : 0.0;
+    vf.relative_rms = m2 > 0 ? std::sqrt(d2 / m2) : 0.0;
+    out.push_back(vf);
+  }
+  return out;
+}
+
+HeldOutView PredictHeldOut(const TexelData& data, const TexelFit& fit, int view,
+                           const ViewSamples& measured) {
+  HeldOutView h;
+  h.view = view;
+  h.name = data.views[view].name;
+  h.prediction = PredictView(data, fit, view);
+  h.measured_valid = measured.valid;
+  double d2 = 0, m2 = 0;
+  const int C = data.channels;
+  for (size_t t = 0; t < data.grid.size(); ++t) {
+    if (!measured.valid[t] || !fit.fitted[t]) continue;
+    ++h.texels;
+    for (int c = 0; c < C; ++c) {
+      const double r = h.prediction[t * C + c] - measured.radiance[t * C + c];
+      d2 += r * r;
+      m2 += static_cast<double>(measured.radiance[t * C + c]) * measured.radiance[t * C + c];
+    }
+  }
+  h.relative_rmse = m2 > 0 ? std::sqrt(d2 / m2) : 0.0;
+  return h;
+}
+
+// The hypotheses the roughness option asks for, fitted with one noise model, and the choice.
+void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& o,
+                   TexelSolveOptions so, MapsResult* r) {
+  const TexelData& data = *data_in;
+  const MapsModelInfo info = InfoOf(so.model);
+  NoiseModel noise;  // a 1% relative start until the residuals say what the noise is
+  spdlog::info("maps: one roughness for the sample, noise model from its residuals");
+  TexelFit first = FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, noise, nullptr, so);
+  r->registration.assign(data.views.size(), ViewRegistration());
+  for (int round = 0; round < o.registration_rounds; ++round) {
+    spdlog::info("maps: registering the views against the maps (round {})", round + 1);
+    const std::vector<ViewRegistration> step = RegisterViews(first, so, data_in);
+    for (size_t v = 0; v < step.size(); ++v) {
+      r->registration[v].shift += step[v].shift;
+      r->registration[v].linear += step[v].linear;
+      r->registration[v].rms_m = std::hypot(r->registration[v].rms_m, step[v].rms_m);
+    }
+    first = FitTexels(data, RoughnessMode::kSample, {}, 0, first.lamp, noise, &first, so);
+  }
+  noise = EstimateNoise(data, first, o.relative_noise_floor, so);
+  // The lamp is placed once, with the simplest hypothesis; the others keep it.
+  MapsLamp fitted_lamp = first.lamp;
+  fitted_lamp.refine_position = false;
+  const bool want_texel = info.has_roughness && o.roughness != RoughnessChoice::kSample;
+  const bool want_clusters = o.roughness == RoughnessChoice::kAuto ||
+                             o.roughness == RoughnessChoice::kClusters || !info.has_roughness;
+  std::vector<TexelFit> fits;
+  const TexelFit* features = &first;
+  TexelFit texel;
+  if (want_texel) {
+    spdlog::info("maps: one roughness per texel");
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, fitted_lamp, noise, &first, so);
+    // The most flexible hypothesis leaves the least model error in its residuals: the noise
+    // model every hypothesis is compared with is measured on it.
+    noise = EstimateNoise(data, texel, o.relative_noise_floor, so);
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, texel.lamp, noise, &texel, so);
+    features = &texel;
+  }
+  std::vector<size_t> texels;
+  const Eigen::MatrixXd X = ClusterFeatures(*features, &texels);
+  r->clusters = ClusterByBic(X, o.clusters);
+  MergeContinuousClusters(X, texels, data.grid.width, data.grid.height, o.clusters.jump_ratio,
+                          &r->clusters);
+  std::vector<int> label(data.grid.size(), 0);
+  for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = r->clusters.label[i];
+  if (o.roughness == RoughnessChoice::kAuto || o.roughness == RoughnessChoice::kSample) {
+    spdlog::info("maps: one roughness for the sample (final noise model)");
+    fits.push_back(FitTexels(data, RoughnessMode::kSample, {}, 0, fitted_lamp, noise,
+                             want_texel ? &texel : &first, so));
+  }
+  if (want_clusters && info.has_roughness && r->clusters.k > 1) {
+    spdlog::info("maps: one roughness per material cluster ({} clusters)", r->clusters.k);
+    fits.push_back(FitTexels(data, RoughnessMode::kClusters, label, r->clusters.k, fitted_lamp,
+                             noise, want_texel ? &texel : &first, so));
+  }
+  if (want_texel && o.roughness != RoughnessChoice::kClusters) fits.push_back(texel);
+  if (fits.empty()) fits.push_back(texel);  // clusters asked, one cluster found
+  size_t best = 0;
+  for (size_t i = 0; i < fits.size(); ++i) {
+    r->candidates.push_back(CandidateOf(fits[i]));
+    if (fits[i].bic < fits[best].bic) best = i;
+  }
+  r->fit = fits[best];
+  r->fit.cluster = label;
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (!r->fit.fitted[t]) r->fit.cluster[t] = -1;
+  }
+  r->selection_reason =
+      o.roughness == RoughnessChoice::kAuto
+          ? fmt::format("roughness {}: lowest BIC of {} hypotheses", ToString(r->fit.mode),
+                        fits.size())
+          : fmt::format("roughness {}: as asked (--roughness)", ToString(r->fit.mode));
+}
+
+// The texels the hypotheses are searched on (docs/maps.md "Speed"): square blocks of
+// kBlock x kBlock texels on an even lattice over the grid, about `target` texels of the mask in
+// all. Blocks keep each texel's neighbours, which the registration's gradients and the
+// clusters' edge test need.
+std::vector<uint8_t> SearchMask(const TexelData& d, size_t target) {
+  constexpr int kBlock = 32;
+  const size_t masked = d.masked_texels();
+  const int w = d.grid.width, h = d.grid.height;
+  const double share = std::min(1.0, static_cast<double>(target) / std::max<size_t>(masked, 1));
+  // Blocks per axis: block area / spacing^2 = share.
+  const int spacing = std::max(kBlock, static_cast<int>(std::lround(kBlock / std::sqrt(share))));
+  std::vector<uint8_t> mask(d.grid.size(), 0);
+  const int x0 = (w % spacing) / 2, y0 = (h % spacing) / 2;
+  for (int by = y0; by < h; by += spacing) {
+    for (int bx = x0; bx < w; bx += spacing) {
+      for (int y = by; y < std::min(h, by + kBlock); ++y) {
+        for (int x = bx; x < std::min(w, bx + kBlock); ++x) {
+          const size_t t = static_cast<size_t>(y) * w + x;
+          mask[t] = d.mask[t];
+        }
+      }
+    }
+  }
+  return mask;
+}
+
+// A start for FitTexels with only the shared roughness values set (no texel fitted).
+TexelFit RoughnessSeed(const TexelData& d, const std::vector<double>& roughness) {
+  TexelFit seed;
+  seed.fitted.assign(d.grid.size(), 0);
+  seed.cluster_r = roughness;
+  return seed;
+}
+
+// The chosen hypothesis on every texel of `data`, with the search's lamp, noise model, shared
+// roughness values and mixture (its clusters assigned to every texel from a per-texel fit).
+void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptions& so,
+              MapsResult* r) {
+  const TexelFit search = r->fit;
+  const MapsModelInfo info = InfoOf(search.model);
+  spdlog::info("maps: the chosen maps on all {} texels", data.masked_texels());
+  double mean_r = 0;
+  for (double v : search.cluster_r) mean_r += v / search.cluster_r.size();
+  TexelFit texel;
+  std::vector<int> label(data.grid.size(), 0);
+  if (info.has_roughness && (search.mode != RoughnessMode::kSample || r->clusters.k > 1)) {
+    const TexelFit seed = RoughnessSeed(data, {mean_r});
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp, search.noise, &seed, so);
+    std::vector<size_t> texels;
+    const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(texel, &texels));
+    for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
+  }
+  switch (search.mode) {
+    case RoughnessMode::kTexel:
+      r->fit = texel;
+      break;
+    case RoughnessMode::kClusters: {
+      TexelFit seed = texel;
+      seed.cluster_r = search.cluster_r;
+      r->fit = FitTexels(data, RoughnessMode::kClusters, label, r->clusters.k, search.lamp,
+                         search.noise, &seed, so);
+      break;
+    }
+    case RoughnessMode::kSample: {
+      TexelFit seed = texel.fitted.empty() ? RoughnessSeed(data, search.cluster_r) : texel;
+      seed.cluster_r = search.cluster_r;
+      r->fit = FitTexels(data, RoughnessMode::kSample, {}, 0, search.lamp, search.noise, &seed, so);
+      break;
+    }
+  }
+  if (texel.fitted.empty() && r->clusters.k > 1) {  // no roughness: the albedo alone
+    std::vector<size_t> texels;
+    const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(r->fit, &texels));
+    for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
+  }
+  r->fit.cluster = label;
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (!r->fit.fitted[t]) r->fit.cluster[t] = -1;
+  }
+}
+
+}  // namespace
+
+Eigen::Vector2d DisplacementAt(const ViewRegistration& g, const TexelGrid& grid,
+                               const Eigen::Vector3d& p) {
+  const Eigen::Vector2d centre =
+      grid.origin + 0.5 * grid.texel * Eigen::Vector2d(grid.width - 1, grid.height - 1);
+  return g.shift + g.linear * (p.head<2>() - centre);
+}
+
+RoughnessChoice ParseRoughnessChoice(const std::string& word, const std::string& option) {
+  return ParseOptionWord(kRoughnessWords, word, option);
+}
+
+void MapsOptions::Check() const {
+  sampling.Check();
+  solve.Check();
+  clusters.Check();
+  if (lamp && (!lamp->allFinite() || lamp->norm() > kMaxLightDistance)) {
+    throw InputError("--lamp: not a finite position within 1000 m");
+  }
+  if (white_albedo && !(*white_albedo > 0 && *white_albedo <= 1)) {
+    throw InputError("--white-albedo: not an albedo in (0, 1]");
+  }
+  if (!(relative_noise_floor >= 0 && relative_noise_floor < 1)) {
+    throw InputError("--noise-floor: not a fraction in [0, 1)");
+  }
+  if (hold_out && *hold_out < 0) throw InputError("--hold-out: must be a view index >= 0");
+  if (registration_rounds < 0 || registration_rounds > 5) {
+    throw InputError("--registration-rounds: must be in [0, 5]");
+  }
+  if (search_texels < 1000) throw InputError("maps: the search needs at least 1000 texels");
+}
+
+MapsResult SolveMaps(TexelData data, const MapsLamp& lamp_start, const MapsOptions& o,
+                     const Resampler& resample) {
+  o.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  MapsResult r;
+  ViewSamples held;
+  if (o.hold_out) {
+    if (*o.hold_out >= static_cast<int>(data.views.size())) {
+      throw InputError(fmt::format("--hold-out: view {} does not exist ({} views)", *o.hold_out,
+                                   data.views.size()));
+    }
+    std::swap(held, data.samples[*o.hold_out]);
+    if (held.valid.empty()) throw InputError("--hold-out: that view has no samples");
+  }
+  MapsLamp lamp = lamp_start;
+  if (lamp.white_albedo) {
+    if (data.white.empty()) {
+      r.warnings.push_back(
+          "no white-reference sample: the intensity is not fixed, the albedo is relative");
+      lamp.white_albedo.reset();
+    } else {
+      lamp.intensity = WhiteIntensity(data, lamp);
+    }
+  }
+  TexelSolveOptions so = o.solve;
+  so.threads = o.threads;
+  so.model = o.ResolvedModel(lamp.absolute());
+  // A large grid: the search on blocks of it, then the chosen maps on all of it from the frames
+  // sampled again where the registration says each texel is seen.
+  const bool split = resample && data.masked_texels() > 3 * o.search_texels / 2;
+  const std::vector<uint8_t> full_mask = data.mask;
+  if (split) data.mask = SearchMask(data, o.search_texels);
+  FitHypotheses(&data, lamp, o, so, &r);
+  if (split) {
+    spdlog::info("maps: sampling the frames again with the registration");
+    data = resample(r.registration);
+    if (o.hold_out) std::swap(held, data.samples[*o.hold_out]);
+    FinalFit(data, o, so, &r);
+  }
+  r.height = IntegrateSlopes(r.fit.p, r.fit.q, r.fit.fitted, data.grid.width, data.grid.height,
+                             data.grid.texel);
+  r.views = ViewResiduals(data, r.fit);
+  for (auto& v : r.views) v.registration_rms_m = r.registration[v.view].rms_m;
+  if (o.hold_out) r.held_out = PredictHeldOut(data, r.fit, *o.hold_out, held);
+  if (!r.fit.lamp.absolute()) {
+    r.assumptions.push_back(
+        "no white reference of known albedo: the albedo maps are albedo x lamp intensity "
+        "(relative)");
+  }
+  r.data = std::move(data);
+  r.solve_s = Seconds(t0);
+  return r;
+}
+
+MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::string& camera_path,
+                                        const std::string& photometric_path, bool assume_linear) {
+  MapsSessionInputs in;
+  in.session = ReadSession(session_dir);
+  if (in.session.board.empty()) {
+    throw InputError(session_dir.string() + "/session.json: names no board file");
+  }
+  in.board = Board::Read(in.session.BoardPath());
+  if (camera_path.empty()) throw InputError("--camera: give the camera model (.cameramodel)");
+  in.camera = CameraModel::Read(camera_path);
+  const fs::path default_photometric = in.session.dir / "photometric.json";
+  if (!photometric_path.empty() || (!assume_linear && fs::exists(default_photometric))) {
+    const fs::path p = photometric_path.empty() ? default_photometric : fs::path(photometric_path);
+    in.photometric = PhotometricCalibration::Read(p);
+    if (in.session.bit_depth > 0 && in.photometric.response.bit_depth != in.session.bit_depth) {
+      throw InputError(fmt::format("{}: calibrated for {} bits, {} says {} bits", p.string(),
+                                   in.photometric.response.bit_depth,
+                                   (in.session.dir / "session.json").string(),
+                                   in.session.bit_depth));
+    }
+  } else if (assume_linear) {
+    if (in.session.frames.empty()) throw InputError(session_dir.string() + ": no frames");
+    const cv::Mat first = cv::imread(in.session.FramePath(0).string(), cv::IMREAD_UNCHANGED);
+    if (first.empty()) throw InputError(in.session.FramePath(0).string() + ": cannot be read");
+    const int bits =
+        in.session.bit_depth > 0 ? in.session.bit_depth : (first.depth() == CV_8U ? 8 : 16);
+    in.photometric =
+        PhotometricCalibration::Linear(bits, first.channels(), 0.0, BlackLevelSource::kAssumed);
+    in.assumptions.push_back(fmt::format(
+        "a linear camera ({} bits, black level 0, no vignetting): --assume-linear", bits));
+  } else {
+    throw InputError(
+        "no photometric calibration: give --photometric photometric.json (gonio photometric "
+        "response / vignette), put one in the session, or --assume-linear");
+  }
+  return in;
+}
+
+MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
+                           const SessionPoses* poses_in, const JointFitResult* uniform_in) {
+  o.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  const Session& session = in.session;
+  std::vector<cv::Mat> frames(session.frames.size());
+  Progress progress("maps: reading frames", frames.size());
+  for (size_t i = 0; i < frames.size(); ++i) {
+    frames[i] = cv::imread(session.FramePath(i).string(), cv::IMREAD_UNCHANGED);
+    if (frames[i].empty()) throw InputError(session.FramePath(i).string() + ": cannot be read");
+    progress.Step();
+  }
+  progress.Done();
+  SessionPoses located;
+  if (!poses_in) {
+    std::vector<BoardObservation> detections;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      detections.push_back(DetectBoard(GreyForDetection(frames[i], session.bit_depth), in.board,
+                                       PoseOptions().detector, session.frames[i].file));
+    }
+    located = LocateObservations(in.camera, in.board, detections, PoseOptions());
+  }
+  const SessionPoses& poses = poses_in ? *poses_in : located;
+  if (poses.frames.empty()) throw InputError(session.dir.string() + ": the board is in no frame");
+  std::vector<TexelSampler::Pose> sampler_poses;
+  std::vector<size_t> frame_of;
+  for (const auto& f : poses.frames) {
+    for (size_t i = 0; i < session.frames.size(); ++i) {
+      if (session.frames[i].file != f.file) continue;
+      sampler_poses.push_back(
+          {f.file, f.pose.cam_from_board, session.frames[i].exposure_s, session.frames[i].gain});
+      frame_of.push_back(i);
+    }
+  }
+  const double read_s = Seconds(t0);
+  MapsLamp lamp;
+  lamp.frame =
+      o.light_frame == LightFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
+  lamp.white_albedo = o.white_albedo;
+  std::optional<JointFitResult> uniform;
+  const auto t_fit = std::chrono::steady_clock::now();
+  if (o.lamp) {
+    lamp.position = *o.lamp;
+  } else if (uniform_in) {
+    uniform = *uniform_in;
+  } else {
+    // The lamp from a uniform fit of the same frames (estimation/joint_fit.h), 4x4 patches.
+    ExtractOptions eo;
+    eo.patch = 4;
+    eo.threads = o.threads;
+    ObservationExtractor extractor(session.frames, in.camera, in.board, in.photometric, eo);
+    for (size_t k = 0; k < sampler_poses.size(); ++k) {
+      extractor.AddFrame(frame_of[k], frames[frame_of[k]], sampler_poses[k].cam_from_board,
+                         session.FramePath(frame_of[k]).string());
+    }
+    ObservationSet obs = extractor.Finish(session.dir.string());
+    JointFitOptions jo;
+    jo.light_frame = o.light_frame;
+    jo.white_albedo = o.white_albedo;
+    jo.threads = o.threads;
+    // A deterministic subsample, as the joint fit's final fit takes (30000 observations).
+    const size_t stride = std::max<size_t>(1, obs.observations.size() / 30000);
+    std::vector<Observation> kept;
+    for (size_t i = 0; i < obs.observations.size(); i += stride)
+      kept.push_back(obs.observations[i]);
+    obs.observations = std::move(kept);
+    const MapsModel maps_model = o.ResolvedModel(o.white_albedo.has_value());
+    const std::string model =
+        maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
+    spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
+                 obs.observations.size());
+    uniform = FitJoint(model, obs, InitialLight(obs, jo), jo);
+  }
+  if (uniform) {
+    lamp.position = uniform->light_position;
+    lamp.intensity = uniform->intensity;
+    lamp.refine_position = true;
+  }
+  const double fit_s = Seconds(t_fit);
+  const auto t_sample = std::chrono::steady_clock::now();
+  // The frames stay decoded until the maps are fitted: a large grid samples them again with
+  // each view's registration (SolveMaps).
+  auto sample = [&](const std::vector<ViewRegistration>* registration) {
+    TexelSampler sampler(in.camera, in.board, in.photometric, sampler_poses, o.sampling);
+    for (size_t k = 0; k < sampler_poses.size(); ++k) {
+      const std::function<Eigen::Vector2d(const Eigen::Vector3d&)> displacement =
+          [&, k](const Eigen::Vector3d& p) {
+            return DisplacementAt((*registration)[k], sampler.grid(), p);
+          };
+      sampler.AddFrame(k, frames[frame_of[k]], session.FramePath(frame_of[k]).string(),
+                       registration ? &displacement : nullptr);
+    }
+    return sampler.Finish(session.dir.string());
+  };
+  TexelData data = sample(nullptr);
+  spdlog::info("maps: {} x {} texels of {:.3f} mm, {} views", data.grid.width, data.grid.height,
+               1e3 * data.grid.texel, data.views.size());
+  const double sample_s = read_s + Seconds(t_sample);
+  MapsResult r = SolveMaps(std::move(data), lamp, o,
+                           [&](const std::vector<ViewRegistration>& g) { return sample(&g); });
+  r.sample_s = sample_s;
+  r.uniform_fit_s = fit_s;
+  r.uniform_fit = uniform;
+  r.input = session.dir.string();
+  r.lamp_source = o.lamp ? "--lamp (held fixed)"
+                         : fmt::format("uniform {} fit{}, refined with the maps",
+                                       uniform ? uniform->material.model : "",
+                                       uniform_in ? " of gonio run" : "");
+  for (const auto& a : in.assumptions) r.assumptions.insert(r.assumptions.begin(), a);
+  for (const auto& s : poses.skipped) {
+    r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
+  }
+  return r;
+}
+
+}  // namespace gonio

@@ -1,0 +1,109 @@
+// The per-texel reflectance models of `gonio maps` (docs/maps.md "Models"), written as bases so
+// that the per-channel parameters enter in closed form: for channel c with parameters
+// w_c1..w_cm,
+//
+//   f_r,c = sum_k B_k(angles, r) w_ck + Q_k(angles, r) w_ck^2
+//
+// with r the roughness (shared or per texel). The registry models lambert, oren-nayar-
+// qualitative (eq. 30 of Oren & Nayar 1994, linear in the albedo) and oren-nayar (eq. 27-29: the
+// interreflection term of eq. 28 carries rho^2) have m = 1; their basis is read off the
+// registry's own Evaluate at two albedos (f(rho) = a rho + b rho^2: b = 2 (f(1) - 2 f(1/2)),
+// a = f(1) - b), so the maps shade with exactly the fitted model. diffuse-ggx (m = 2: a
+// Lambertian albedo and a specular albedo under one GGX lobe, alpha = r) is the
+// microfacet baseline of phone-flash capture systems (docs/maps.md "Comparison").
+#pragma once
+
+#include <cmath>
+#include <string>
+
+#include "common/math.h"
+#include "reflectance/angles.h"
+#include "reflectance/lambert.h"
+#include "reflectance/oren_nayar.h"
+
+namespace gonio {
+
+enum class MapsModel { kLambert, kOrenNayarQualitative, kOrenNayar, kDiffuseGgx };
+
+// "lambert", "oren-nayar-qualitative", "oren-nayar", "diffuse-ggx"; InputError naming
+// `option` (and the supported names) otherwise.
+MapsModel ParseMapsModel(const std::string& word, const std::string& option);
+std::string ToString(MapsModel model);
+
+struct MapsModelInfo {
+  int channel_params = 1;  // m
+  bool has_roughness = false;
+  double roughness_lo = 0, roughness_hi = 0, roughness_start = 0;
+  std::string roughness_name, roughness_unit;  // "sigma", "rad"; "alpha", "1"
+  std::string channel_param_names[2];          // "albedo"; "diffuse", "specular"
+};
+MapsModelInfo InfoOf(MapsModel model);
+
+// A registry model whose value is a quadratic in its first (albedo) parameter.
+template <typename M>
+struct RegistryBasis {
+  static constexpr int kChannelParams = 1;
+  template <typename T>
+  static void Eval(const Angles<T>& a, const T& r, T* B, T* Q) {
+    if constexpr (M::kNumParams == 1) {
+      const T one[1] = {T(1)};
+      B[0] = M::Evaluate(one, a);
+      Q[0] = T(0);
+    } else {
+      const T one[2] = {T(1), r};
+      const T half[2] = {T(0.5), r};
+      const T f1 = M::Evaluate(one, a);
+      const T fh = M::Evaluate(half, a);
+      Q[0] = T(2) * (f1 - T(2) * fh);
+      B[0] = f1 - Q[0];
+    }
+  }
+};
+
+// kd / pi + ks D(h) G(l, v) / (4 cos theta_i cos theta_r): the GGX (Trowbridge-Reitz)
+// distribution with alpha = r and the separable Smith masking of the same distribution; the
+// Fresnel factor is left in ks (one constant per channel), as a specular albedo.
+struct DiffuseGgxBasis {
+  static constexpr int kChannelParams = 2;
+  template <typename T>
+  static void Eval(const Angles<T>& a, const T& alpha, T* B, T* Q) {
+    using std::cos;
+    using std::sin;
+    using std::sqrt;
+    const T ci = cos(a.theta_i), si = sin(a.theta_i);
+    const T co = cos(a.theta_r), so = sin(a.theta_r);
+    // l = (si, 0, ci), v = (so cos phi, so sin phi, co): phi = 0 is backscatter.
+    const T hx = si + so * cos(a.phi), hy = so * sin(a.phi), hz = ci + co;
+    const T h2 = hx * hx + hy * hy + hz * hz;
+    const T a2 = alpha * alpha;
+    const T c2 = hz * hz / h2;  // cos^2 theta_h
+    const T den = c2 * (a2 - T(1)) + T(1);
+    const T D = a2 / (T(kPi) * den * den);
+    const T ti2 = si * si / (ci * ci), to2 = so * so / (co * co);
+    const T G = T(4) / ((T(1) + sqrt(T(1) + a2 * ti2)) * (T(1) + sqrt(T(1) + a2 * to2)));
+    B[0] = T(kInvPi);
+    B[1] = D * G / (T(4) * ci * co);
+    Q[0] = Q[1] = T(0);
+  }
+};
+
+// Calls f(Basis{}) for the model.
+template <typename F>
+void VisitMapsModel(MapsModel model, F&& f) {
+  switch (model) {
+    case MapsModel::kLambert:
+      f(RegistryBasis<Lambert>{});
+      return;
+    case MapsModel::kOrenNayarQualitative:
+      f(RegistryBasis<OrenNayarQualitative>{});
+      return;
+    case MapsModel::kOrenNayar:
+      f(RegistryBasis<OrenNayar>{});
+      return;
+    case MapsModel::kDiffuseGgx:
+      f(DiffuseGgxBasis{});
+      return;
+  }
+}
+
+}  // namespace gonio
