@@ -10,8 +10,8 @@
 #include "apps/commands.h"
 #include "common/error.h"
 #include "common/log.h"
-#include "estimation/sfs.h"
-#include "estimation/sfs_io.h"
+#include "estimation/sfs/sfs.h"
+#include "estimation/sfs/sfs_io.h"
 
 namespace fs = std::filesystem;
 

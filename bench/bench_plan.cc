@@ -10,15 +10,15 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bench/bench_internal.h"
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/session.h"
 #include "common/stats.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/tag_board.h"
-#include "estimation/extract.h"
-#include "estimation/joint_fit.h"
-#include "estimation/synth_photometric.h"
+#include "estimation/extract/extract.h"
+#include "estimation/joint/joint_fit.h"
 
 namespace fs = std::filesystem;
 

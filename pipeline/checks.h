@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "calib/response.h"
-#include "estimation/joint_fit.h"
+#include "calib/photometry/response.h"
+#include "estimation/joint/joint_fit.h"
 
 namespace gonio {
 

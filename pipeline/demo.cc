@@ -3,12 +3,12 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
-#include "estimation/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

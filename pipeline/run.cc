@@ -10,7 +10,7 @@
 #include <spdlog/spdlog.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/detect.h"
+#include "calib/geometry/detect.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
@@ -149,7 +149,7 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
   return fit;
 }
 
-// The calibration's own error into the reported uncertainty (estimation/calibration_error.h),
+// The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
 // when photometric.json says how accurate it is: the response's band biases (their RMS) and the
 // rest of relative_accuracy for the vignetting.
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,

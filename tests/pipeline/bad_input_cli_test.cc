@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/photometric.h"
+#include "calib/photometry/photometric.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"

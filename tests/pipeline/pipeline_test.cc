@@ -6,12 +6,12 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
-#include "estimation/synth_photometric.h"
 #include "pipeline/run.h"
 #include "tests/pipeline/pipeline_test_util.h"
 #include "tests/test_util.h"

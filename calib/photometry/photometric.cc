@@ -1,0 +1,180 @@
+#include "calib/photometry/photometric.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/error.h"
+#include "common/io.h"
+
+namespace gonio {
+
+PhotometricCalibration PhotometricCalibration::Linear(int bit_depth, int channels,
+                                                      double black_level, BlackLevelSource source) {
+  PhotometricCalibration p;
+  ResponseResult& r = p.response;
+  r.black_level_source = source;
+  r.bit_depth = bit_depth;
+  r.channels = channels;
+  const int n = 1 << bit_depth;
+  r.black_level.assign(channels, black_level);
+  r.saturation_level.assign(channels, n - 1.0);
+  r.inverse_response.assign(channels, std::vector<double>(n));
+  for (int c = 0; c < channels; ++c) {
+    for (int z = 0; z < n; ++z) {
+      r.inverse_response[c][z] = std::max(0.0, (z - black_level) / (n - 1.0 - black_level));
+    }
+  }
+  return p;
+}
+
+void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, double gain,
+                                        cv::Mat* radiance, cv::Mat* variance,
+                                        cv::Mat* valid) const {
+  const int channels = raw.channels();
+  if (channels != response.channels) {
+    throw InputError("image has " + std::to_string(channels) +
+                     " channels, the photometric calibration " + std::to_string(response.channels));
+  }
+  if (!vignette.empty() && vignette.size() != raw.size()) {
+    throw InputError("image size differs from the vignetting map's");
+  }
+  if (!(exposure_s > 0) || !(gain > 0)) throw InputError("exposure and gain must be > 0");
+  const double max_value = (1 << response.bit_depth) - 1.0;
+  cv::Mat values;
+  raw.convertTo(values, CV_MAKETYPE(CV_64F, channels));
+  *radiance = cv::Mat(raw.size(), CV_MAKETYPE(CV_32F, channels));
+  *variance = cv::Mat(raw.size(), CV_MAKETYPE(CV_32F, channels));
+  *valid = cv::Mat(raw.size(), CV_8U, cv::Scalar(1));
+  for (int y = 0; y < raw.rows; ++y) {
+    const double* in = values.ptr<double>(y);
+    float* out = radiance->ptr<float>(y);
+    float* var = variance->ptr<float>(y);
+    uint8_t* ok = valid->ptr<uint8_t>(y);
+    for (int x = 0; x < raw.cols; ++x) {
+      const double v = vignette.empty() ? 1.0 : vignette.at<float>(y, x);
+      const double scale = 1.0 / (exposure_s * gain * v);
+      for (int c = 0; c < channels; ++c) {
+        const double z = in[x * channels + c];
+        if (z >= std::min(max_value, response.saturation_level[c]) ||
+            z <= response.black_level[c] + 0.5) {
+          ok[x] = 0;
+        }
+        const double slope = response.Slope(c, z);
+        double var_z = 1.0 / 12.0 + read_noise_dn * read_noise_dn;
+        if (electrons_per_dn)
+          var_z += std::max(0.0, z - response.black_level[c]) / *electrons_per_dn;
+        out[x * channels + c] = static_cast<float>(response.Linearize(c, z) * scale);
+        var[x * channels + c] = static_cast<float>(slope * slope * var_z * scale * scale);
+      }
+    }
+  }
+}
+
+double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
+                                                double vignette_rms_relative) {
+  return std::min(
+      std::sqrt(std::pow(ResponseAccuracy(response), 2) + std::pow(SmoothingError(response), 2) +
+                vignette_rms_relative * vignette_rms_relative),
+      0.99);
+}
+
+double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) {
+  double sum = 0;
+  int n = 0;
+  for (double b : response.consistency.band_bias) {
+    if (std::isfinite(b)) sum += b * b, ++n;
+  }
+  return n > 0 ? std::min(std::sqrt(sum / n), 0.99) : ResponseAccuracy(response);
+}
+
+double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
+  const double s = response.smoothing_sensitivity;
+  return std::isfinite(s) ? std::min(s, 0.99) : 0.0;
+}
+
+double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) {
+  const PairConsistency& c = response.consistency;
+  if (std::isfinite(c.worst_band_bias)) return std::min(std::abs(c.worst_band_bias), 0.99);
+  if (std::isfinite(c.median_pair)) return std::min(std::abs(c.median_pair), 0.99);
+  return 0;
+}
+
+PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path& path) {
+  const nlohmann::json j = ReadJsonFile(path);
+  PhotometricCalibration p;
+  if (!j.contains("response")) throw InputError(path.string() + ": missing key 'response'");
+  p.response = ResponseResult::FromJson(j["response"], path.string());
+  // The noise terms enter a variance and a division (docs/formats.md): a wrong type or sign
+  // is bad input, never a NaN later.
+  if (j.contains("read_noise_dn")) {
+    const auto& v = j["read_noise_dn"];
+    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(path.string() + ": 'read_noise_dn' must be a number >= 0");
+    }
+    p.read_noise_dn = v.get<double>();
+  }
+  if (j.contains("electrons_per_dn") && !j["electrons_per_dn"].is_null()) {
+    const auto& v = j["electrons_per_dn"];
+    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(path.string() + ": 'electrons_per_dn' must be a number > 0 or null");
+    }
+    p.electrons_per_dn = v.get<double>();
+  }
+  if (j.contains("relative_accuracy") && !j["relative_accuracy"].is_null()) {
+    const auto& v = j["relative_accuracy"];
+    if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() < 1)) {
+      throw InputError(path.string() + ": 'relative_accuracy' must be a number in [0, 1) or null");
+    }
+    p.relative_accuracy = v.get<double>();
+  }
+  if (j.contains("vignette") && !j["vignette"].is_null()) {
+    if (!j["vignette"].is_string()) {
+      throw InputError(path.string() + ": 'vignette' must be a file name or null");
+    }
+    const auto file = path.parent_path() / j["vignette"].get<std::string>();
+    p.vignette = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (p.vignette.empty() || p.vignette.type() != CV_32F) {
+      throw InputError(file.string() + ": not a 32-bit float single-channel TIFF");
+    }
+    // V(x) divides the radiance: zeros, negatives, NaN or Inf would give Inf/NaN radiance.
+    double lo = 0, hi = 0;
+    if (!cv::checkRange(p.vignette)) {
+      throw InputError(file.string() + ": the vignetting map holds NaN or Inf");
+    }
+    cv::minMaxLoc(p.vignette, &lo, &hi);
+    if (!(lo > 0)) {
+      throw InputError(file.string() + ": the vignetting map holds values <= 0 (min " +
+                       std::to_string(lo) + "); V(x) must be positive everywhere");
+    }
+  }
+  if (!(p.read_noise_dn >= 0) || !std::isfinite(p.read_noise_dn)) {
+    throw InputError(path.string() + ": read_noise_dn must be a finite number >= 0");
+  }
+  if (p.electrons_per_dn && !(*p.electrons_per_dn > 0 && std::isfinite(*p.electrons_per_dn))) {
+    throw InputError(path.string() + ": electrons_per_dn must be a finite number > 0");
+  }
+  return p;
+}
+
+void PhotometricCalibration::Write(const std::filesystem::path& path) const {
+  nlohmann::json j;
+  j["response"] = response.ToJson();
+  j["read_noise_dn"] = read_noise_dn;
+  j["electrons_per_dn"] = electrons_per_dn ? nlohmann::json(*electrons_per_dn) : nlohmann::json();
+  j["relative_accuracy"] =
+      relative_accuracy ? nlohmann::json(*relative_accuracy) : nlohmann::json();
+  if (!vignette.empty()) {
+    const std::string name = path.stem().string() + "_vignette.tiff";
+    WriteAtomically(path.parent_path() / name, [&](const std::filesystem::path& tmp) {
+      return cv::imwrite(tmp.string(), vignette);
+    });
+    j["vignette"] = name;
+  } else {
+    j["vignette"] = nullptr;
+  }
+  WriteJsonAtomically(path, j);
+}
+
+}  // namespace gonio

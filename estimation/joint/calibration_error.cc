@@ -1,0 +1,202 @@
+#include "estimation/joint/calibration_error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "common/error.h"
+#include "common/stats.h"
+#include "estimation/joint/joint_fit_problem.h"
+#include "reflectance/registry.h"
+
+namespace gonio {
+namespace {
+
+// v centred and scaled to an RMS of 1; empty when v does not vary (the mode is a pure scale,
+// which the lamp intensity absorbs).
+std::vector<double> Normalised(std::vector<double> v) {
+  double mean = 0;
+  for (double x : v) mean += x;
+  mean /= std::max<size_t>(v.size(), 1);
+  double ss = 0;
+  for (double& x : v) {
+    x -= mean;
+    ss += x * x;
+  }
+  const double rms = std::sqrt(ss / std::max<size_t>(v.size(), 1));
+  if (!(rms > 1e-12)) return {};
+  for (double& x : v) x /= rms;
+  return v;
+}
+
+struct ErrorModes {
+  std::vector<std::vector<double>> response, vignette;  // [mode][observation in `use`]
+};
+
+// The modes of calibration_error.h at the observations in `use`.
+ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
+                   const CalibrationErrorModel& e) {
+  std::vector<double> log_l;
+  for (size_t i : use) {
+    const auto& r = data.observations[i].radiance;
+    double sum = 0;
+    for (double x : r) sum += x;
+    log_l.push_back(std::log2(std::max(sum / std::max<size_t>(r.size(), 1), 1e-300)));
+  }
+  const double median = Median(log_l);
+  std::vector<double> u, u2, r2, r4, tx, ty;
+  for (size_t k = 0; k < use.size(); ++k) {
+    const Observation& o = data.observations[use[k]];
+    u.push_back(log_l[k] - median);
+    u2.push_back(u.back() * u.back());
+    const double dx = (o.px - e.principal_point.x()) / e.radius_px;
+    const double dy = (o.py - e.principal_point.y()) / e.radius_px;
+    const double rr = dx * dx + dy * dy;
+    r2.push_back(rr);
+    r4.push_back(rr * rr);
+    tx.push_back(dx);
+    ty.push_back(dy);
+  }
+  ErrorModes m;
+  for (auto* v : {&u, &u2}) {
+    auto n = Normalised(*v);
+    if (!n.empty()) m.response.push_back(std::move(n));
+  }
+  for (auto* v : {&r2, &r4, &tx, &ty}) {
+    auto n = Normalised(*v);
+    if (!n.empty()) m.vignette.push_back(std::move(n));
+  }
+  return m;
+}
+
+// The observations in `use`, every radiance (and its variance) multiplied by one draw of the
+// calibration error field.
+ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_t>& use,
+                             const ErrorModes& modes, const CalibrationErrorModel& e,
+                             std::mt19937_64* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<double> log_field(use.size(), 0.0);
+  // Response modes are in octaves of radiance: a slope error a per octave is a ratio error of
+  // 2^a - 1 ~ a ln 2 per octave, so ln-amplitude = ratio error (to first order).
+  const auto add = [&](const std::vector<std::vector<double>>& ms, double sd) {
+    for (const auto& m : ms) {
+      const double a = sd * normal(*rng);
+      for (size_t k = 0; k < use.size(); ++k) log_field[k] += a * m[k];
+    }
+  };
+  add(modes.response, e.response_ratio_error);
+  add(modes.vignette, e.vignette_rms / std::sqrt(std::max<size_t>(modes.vignette.size(), 1)));
+  ObservationSet out;
+  out.channels = data.channels;
+  out.frame_files = data.frame_files;
+  out.observations.reserve(use.size());
+  for (size_t k = 0; k < use.size(); ++k) {
+    Observation o = data.observations[use[k]];
+    const double f = std::exp(log_field[k]);
+    for (double& x : o.radiance) x *= f;
+    for (double& v : o.variance) v *= f * f;
+    out.observations.push_back(std::move(o));
+  }
+  return out;
+}
+
+// The refits' spread; 0 (nothing added) with fewer than two refits.
+double StdDev(const std::vector<double>& v) { return v.size() < 2 ? 0.0 : SampleStddev(v); }
+
+}  // namespace
+
+void CalibrationErrorModel::Check() const {
+  if (!(response_ratio_error >= 0 && response_ratio_error < 1)) {
+    throw InputError("calibration error: response_ratio_error must be in [0, 1)");
+  }
+  if (!(vignette_rms >= 0 && vignette_rms < 1)) {
+    throw InputError("calibration error: vignette_rms must be in [0, 1)");
+  }
+  if (!(radius_px > 0) || !principal_point.allFinite()) {
+    throw InputError("calibration error: the principal point and radius must be finite, > 0");
+  }
+}
+
+void CalibrationPropagationOptions::Check() const {
+  if (draws < 2 || draws > 1000) throw InputError("calibration draws must be in [2, 1000]");
+  if (max_observations < 10) throw InputError("calibration max_observations must be >= 10");
+}
+
+CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
+                                                 const JointFitResult& fit,
+                                                 const JointFitOptions& fit_options,
+                                                 const CalibrationErrorModel& error,
+                                                 const CalibrationPropagationOptions& options) {
+  error.Check();
+  options.Check();
+  const std::vector<size_t> use = joint_fit_internal::Subsample(data, options.max_observations);
+  const ErrorModes modes = ModesAt(data, use, error);
+  std::vector<size_t> all(use.size());
+  for (size_t k = 0; k < all.size(); ++k) all[k] = k;
+  std::mt19937_64 rng(options.seed);
+  const size_t np = fit.material.params.size();
+  std::vector<std::vector<double>> params(np);
+  std::vector<double> lx, ly, lz, intensity;
+  for (int d = 0; d < options.draws; ++d) {
+    const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, &rng);
+    const JointFitResult r = joint_fit_internal::FitCandidate(
+        fit.material.model, perturbed, all, fit.light_position, fit_options, false);
+    if (!r.material.converged || r.material.params.size() != np) continue;
+    for (size_t i = 0; i < np; ++i) params[i].push_back(r.material.params[i]);
+    lx.push_back(r.light_position.x());
+    ly.push_back(r.light_position.y());
+    lz.push_back(r.light_position.z());
+    intensity.push_back(r.intensity);
+  }
+  CalibrationPropagation p;
+  p.draws = static_cast<int>(lx.size());
+  if (2 * p.draws < options.draws) {
+    throw NumericalError(fmt::format(
+        "calibration error propagation: only {} of {} refits converged", p.draws, options.draws));
+  }
+  p.param_names = fit.material.param_names;
+  for (size_t i = 0; i < np; ++i) p.param_stddev.push_back(StdDev(params[i]));
+  p.light_stddev = Eigen::Vector3d(StdDev(lx), StdDev(ly), StdDev(lz));
+  p.intensity_stddev = StdDev(intensity);
+  spdlog::debug("calibration error propagated over {} refits", p.draws);
+  return p;
+}
+
+void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* fit) {
+  auto& sd = fit->material.stddev;
+  for (size_t i = 0; i < std::min(sd.size(), p.param_stddev.size()); ++i) {
+    if (sd[i]) sd[i] = std::hypot(*sd[i], p.param_stddev[i]);
+  }
+  if (fit->light_stddev) {
+    for (int k = 0; k < 3; ++k) {
+      (*fit->light_stddev)[k] = std::hypot((*fit->light_stddev)[k], p.light_stddev[k]);
+    }
+  }
+  if (fit->intensity_stddev) {
+    fit->intensity_stddev = std::hypot(*fit->intensity_stddev, p.intensity_stddev);
+  }
+}
+
+std::string CalibrationPropagation::Report() const {
+  std::string s = fmt::format("calibration error propagated ({} refits):", draws);
+  for (size_t i = 0; i < param_names.size(); ++i) {
+    s += fmt::format(" {} +-{:.3g}", param_names[i], param_stddev[i]);
+  }
+  s += fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n", light_stddev.x(),
+                   light_stddev.y(), light_stddev.z(), intensity_stddev);
+  return s;
+}
+
+nlohmann::json CalibrationPropagation::ToJson() const {
+  nlohmann::json params = nlohmann::json::object();
+  for (size_t i = 0; i < param_names.size(); ++i) params[param_names[i]] = param_stddev[i];
+  return {{"draws", draws},
+          {"param_stddev", params},
+          {"light_stddev", {light_stddev.x(), light_stddev.y(), light_stddev.z()}},
+          {"intensity_stddev", intensity_stddev}};
+}
+
+}  // namespace gonio
