@@ -5,7 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/commands.h"
-#include "calib/board_print.h"
+#include "calib/geometry/board_print.h"
 #include "common/error.h"
 
 namespace gonio::cli {

@@ -65,9 +65,10 @@ void RunEvalBatch(const ModelInfo& info, const std::vector<double>& params, cons
   std::ostringstream out;
   for (const auto& h : table.header()) out << CsvField(h) << ',';
   out << "brdf,reason\n";
+  const CheckedModel model(info.name);
   for (size_t k = 0; k < n; ++k) {
     double v = 0.0;
-    const std::string reason = EvaluateChecked(info.name, params, {ti[k], tr[k], ph[k]}, &v);
+    const std::string reason = model(params, {ti[k], tr[k], ph[k]}, &v);
     for (size_t c = 0; c < table.header().size(); ++c) out << CsvField(table.Cell(k, c)) << ',';
     if (reason.empty()) {
       char buf[64];
@@ -121,6 +122,7 @@ void RunPlot(const PlotArgs& args) {
   spec.xlabel = "theta_r (deg), negative = source side (phi = 0)";
   spec.ylabel = "pi * f_r";
   nlohmann::json table = nlohmann::json::array();
+  const CheckedModel model(info.name);
   for (double ti_deg : args.theta_i_deg) {
     if (ti_deg < 0 || ti_deg > 90) throw InputError("--theta-i values must be in [0, 90] deg");
     PlotSeries s;
@@ -128,7 +130,7 @@ void RunPlot(const PlotArgs& args) {
     for (int k = -89; k <= 89; ++k) {
       double v = 0.0;
       const Angles<double> a{DegToRad(ti_deg), DegToRad(std::abs(k)), k < 0 ? 0.0 : kPi};
-      if (!EvaluateChecked(info.name, params, a, &v).empty()) continue;
+      if (!model(params, a, &v).empty()) continue;
       s.x.push_back(k);
       s.y.push_back(v * kPi);
       table.push_back({{"theta_i_deg", ti_deg}, {"theta_r_signed_deg", k}, {"brdf", v}});

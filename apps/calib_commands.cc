@@ -11,9 +11,9 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
-#include "calib/calibrate.h"
-#include "calib/detect.h"
-#include "calib/locate.h"
+#include "calib/geometry/calibrate.h"
+#include "calib/geometry/detect.h"
+#include "calib/geometry/locate.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
@@ -138,12 +138,19 @@ struct CalibrateArgs {
   std::vector<std::string> images;
   std::string corners, board, out, report_json;
   std::vector<int> imagersize;
+  std::string lens_model = "LENSMODEL_OPENCV8";
   CalibrationOptions options;
   AprilTagOptions detector;
 };
 
 void RunCalibrate(const CalibrateArgs& a) {
-  a.options.Check();
+  CalibrationOptions options = options;
+  try {
+    options.lens_model = ParseLensModel(a.lens_model);
+  } catch (const InputError& e) {
+    throw InputError(std::string("--lens-model: ") + e.what());
+  }
+  options.Check();
   a.detector.Check();
   if (a.images.empty() == a.corners.empty()) {
     throw InputError("calibrate: give exactly one of --images GLOB and --corners corners.vnl");
@@ -190,7 +197,7 @@ void RunCalibrate(const CalibrateArgs& a) {
       height = grey.rows;
     }
   }
-  const CalibrationResult result = Calibrate(board, views, width, height, a.options);
+  const CalibrationResult result = Calibrate(board, views, width, height, options);
   if (result.solver == "mrcal") {
     WriteTextAtomically(a.out, CameraModel::CalibrationRmsLine(result.rms_px) + result.model_text);
   } else {
@@ -266,8 +273,7 @@ void AddCalibCommands(CLI::App& app) {
   cal->add_option("--corners", cal_args->corners, "mrcal corners.vnl instead of images");
   cal->add_option("--imagersize", cal_args->imagersize, "W H (with --corners)")->expected(2);
   cal->add_option("--board", cal_args->board, "board file")->required();
-  cal->add_option("--lens-model", cal_args->options.lens_model,
-                  "LENSMODEL_PINHOLE, LENSMODEL_OPENCV4/5/8")
+  cal->add_option("--lens-model", cal_args->lens_model, "LENSMODEL_PINHOLE, LENSMODEL_OPENCV4/5/8")
       ->capture_default_str();
   cal->add_option("--solver", cal_args->options.solver, "mrcal (of record) or opencv")
       ->capture_default_str();

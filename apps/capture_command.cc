@@ -13,7 +13,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
-#include "calib/photometric.h"
+#include "calib/photometry/photometric.h"
 #include "capture/bracket.h"
 #include "capture/file_sources.h"
 #include "capture/libcamera_source.h"

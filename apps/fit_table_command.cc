@@ -11,9 +11,9 @@
 #include "common/csv.h"
 #include "common/error.h"
 #include "common/io.h"
-#include "estimation/brdf_table.h"
-#include "estimation/fit_plots.h"
-#include "estimation/model_selection.h"
+#include "estimation/fit/brdf_table.h"
+#include "estimation/fit/fit_plots.h"
+#include "estimation/fit/model_selection.h"
 
 namespace gonio::cli {
 namespace {

@@ -10,8 +10,8 @@
 #include "common/image_io.h"
 #include "common/io.h"
 #include "common/log.h"
-#include "estimation/sfs.h"
-#include "estimation/sfs_io.h"
+#include "estimation/sfs/sfs.h"
+#include "estimation/sfs/sfs_io.h"
 
 namespace fs = std::filesystem;
 

@@ -12,7 +12,7 @@
 #include "data_synth/rectified_views.h"
 #include "data_synth/scene.h"
 #include "data_synth/sfs_renderer.h"
-#include "estimation/synth_photometric.h"
+#include "calib/photometry/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

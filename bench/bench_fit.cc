@@ -11,7 +11,7 @@
 #include "common/log.h"
 #include "common/math.h"
 #include "common/stats.h"
-#include "estimation/brdf_fit.h"
+#include "estimation/fit/brdf_fit.h"
 #include "reflectance/registry.h"
 
 namespace gonio::bench {

@@ -8,7 +8,7 @@
 
 #include "bench/bench_lib.h"
 #include "common/math.h"
-#include "estimation/joint_fit.h"
+#include "estimation/joint/joint_fit.h"
 #include "reflectance/registry.h"
 
 namespace gonio::bench {

@@ -19,7 +19,7 @@
 #include "data_synth/rectified_views.h"
 #include "data_synth/scene.h"
 #include "estimation/maps/maps.h"
-#include "estimation/synth_photometric.h"
+#include "calib/photometry/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

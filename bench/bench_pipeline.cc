@@ -11,11 +11,11 @@
 
 #include "bench/bench_internal.h"
 #include "bench/bench_plan.h"
+#include "calib/photometry/synth_photometric.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
-#include "estimation/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

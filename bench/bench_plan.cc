@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "bench/bench_internal.h"
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/io.h"
@@ -16,9 +17,8 @@
 #include "common/stats.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/tag_board.h"
-#include "estimation/extract.h"
-#include "estimation/joint_fit.h"
-#include "estimation/synth_photometric.h"
+#include "estimation/extract/extract.h"
+#include "estimation/joint/joint_fit.h"
 
 namespace fs = std::filesystem;
 

@@ -15,7 +15,7 @@
 #include "bench/bench_lib.h"
 #include "common/geometry.h"
 #include "data_synth/scene.h"
-#include "estimation/design.h"
+#include "estimation/joint/design.h"
 #include "pipeline/plan.h"
 
 namespace gonio::bench {

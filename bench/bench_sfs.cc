@@ -1,4 +1,4 @@
-// gonio bench --sfs: time against normal error of shape from shading (estimation/sfs.h) over a
+// gonio bench --sfs: time against normal error of shape from shading (estimation/sfs/sfs.h) over a
 // small set of solver configurations, and its robustness to image noise and to a wrong
 // roughness in the material prior: how gracefully it degrades, as a curve (docs/bench.md).
 #include <algorithm>
@@ -21,8 +21,8 @@
 #include "common/plot.h"
 #include "data_synth/scene.h"
 #include "data_synth/sfs_renderer.h"
-#include "estimation/sfs.h"
-#include "estimation/sfs_io.h"
+#include "estimation/sfs/sfs.h"
+#include "estimation/sfs/sfs_io.h"
 #include "reflectance/registry.h"
 
 namespace fs = std::filesystem;

@@ -1,5 +1,5 @@
 // `gonio bench`, tabulation section: the smooth tables of the expensive numerical models
-// (estimation/tabulated_models.h) against their direct integrals: cost per evaluation (value
+// (estimation/joint/tabulated_models.h) against their direct integrals: cost per evaluation (value
 // and Jet), tabulation error against the documented accuracy, table build time and memory,
 // and the joint fit's time with and without the tables (docs/bench.md).
 #include "bench/bench_tabulation.h"
@@ -16,8 +16,8 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "estimation/joint_fit.h"
-#include "estimation/tabulated_models.h"
+#include "estimation/joint/joint_fit.h"
+#include "estimation/joint/tabulated_models.h"
 #include "reflectance/registry.h"
 
 namespace gonio::bench {

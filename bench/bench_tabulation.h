@@ -1,5 +1,5 @@
 // `gonio bench`, tabulation section (bench/bench_tabulation.cc): the smooth tables of
-// van-ginneken and oren-nayar-vcavity (estimation/tabulated_models.h) against their direct
+// van-ginneken and oren-nayar-vcavity (estimation/joint/tabulated_models.h) against their direct
 // integrals (docs/bench.md).
 #pragma once
 
@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/bench_lib.h"
-#include "estimation/observations.h"
+#include "estimation/extract/observations.h"
 
 namespace gonio::bench {
 

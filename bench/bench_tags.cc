@@ -14,8 +14,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bench/bench_internal.h"
-#include "calib/board.h"
-#include "calib/detect.h"
+#include "calib/geometry/board.h"
+#include "calib/geometry/detect.h"
 #include "common/camera_model.h"
 #include "common/error.h"
 #include "common/geometry.h"

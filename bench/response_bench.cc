@@ -15,7 +15,7 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
-#include "calib/response.h"
+#include "calib/photometry/response.h"
 #include "common/error.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"

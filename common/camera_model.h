@@ -18,8 +18,16 @@
 
 namespace gonio {
 
+// The lens models gonio projects with. The mrcal names (LENSMODEL_OPENCV8, ...) are the words
+// of the files and the command line; they are resolved once where they enter, so projection
+// (inside Ceres residuals) branches on the enum.
+enum class LensModel { kPinhole, kOpenCV4, kOpenCV5, kOpenCV8 };
+// InputError "lens model 'X' is not supported (...)" for any other name.
+LensModel ParseLensModel(const std::string& mrcal_name);
+const char* LensModelName(LensModel model);  // the mrcal name
+
 struct CameraModel {
-  std::string lens_model = "LENSMODEL_PINHOLE";
+  LensModel lens_model = LensModel::kPinhole;
   std::vector<double> intrinsics = {1000, 1000, 639.5, 479.5};
   int width = 1280, height = 960;
   // mrcal's extrinsics: the camera's pose relative to the reference frame (identity for a
@@ -27,7 +35,7 @@ struct CameraModel {
   Rigid3d cam_from_ref;
   // The RMS reprojection error its calibration reported, px, when known: gonio writes it as a
   // comment line ("# gonio: calibration RMS reprojection error 0.21 px") that mrcal ignores,
-  // and a session whose reprojection error is far above it is refused (calib/locate.h).
+  // and a session whose reprojection error is far above it is refused (calib/geometry/locate.h).
   std::optional<double> calibration_rms_px;
 
   bool IntrinsicsFinite() const {
@@ -37,13 +45,12 @@ struct CameraModel {
     return true;
   }
 
-  // Number of intrinsics a lens model takes; InputError for unsupported models.
-  static int NumIntrinsics(const std::string& lens_model);
+  // Number of intrinsics a lens model takes.
+  static int NumIntrinsics(LensModel lens_model);
 
   // Pinhole + OpenCV distortion of a point in the camera frame (z > 0).
   template <typename T>
-  static void Project(const std::string& lens_model, const T* intrinsics, const T* p_in_cam,
-                      T* pixel);
+  static void Project(LensModel lens_model, const T* intrinsics, const T* p_in_cam, T* pixel);
   template <typename T>
   void Project(const T* p_in_cam, T* pixel) const;
 
@@ -62,10 +69,10 @@ struct CameraModel {
 };
 
 template <typename T>
-void CameraModel::Project(const std::string& lens_model, const T* k, const T* p, T* pixel) {
+void CameraModel::Project(LensModel lens_model, const T* k, const T* p, T* pixel) {
   const T x = p[0] / p[2], y = p[1] / p[2];
   T xd = x, yd = y;
-  if (lens_model != "LENSMODEL_PINHOLE") {
+  if (lens_model != LensModel::kPinhole) {
     const int n = NumIntrinsics(lens_model) - 4;
     const T* d = k + 4;
     const T r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;

@@ -79,7 +79,8 @@ bool InRect(const Eigen::Vector2d& p, const std::array<double, 4>& r) {
 
 class BoardShader {
  public:
-  BoardShader(const Scene& scene, const Material& material) : scene_(scene), material_(material) {
+  BoardShader(const Scene& scene, const Material& material)
+      : scene_(scene), material_(material), point_light_(scene.light.type == "point") {
     // rho_dh(theta_r) tabulated once: the ambient term of the sample (scene.h LightSpec).
     if (scene.light.ambient_irradiance > 0) {
       for (int k = 0; k <= kAlbedoSteps; ++k) {
@@ -111,7 +112,7 @@ class BoardShader {
     const Eigen::Vector3d n(0, 0, -1);  // outward normal of the board's printed side
     Eigen::Vector3d l;
     double e = 0;
-    if (scene_.light.type == "point") {
+    if (point_light_) {
       e = PointIrradiance(p, n, g.light_in_board, scene_.light.intensity, &l);
     } else {
       l = g.to_light_in_board;
@@ -150,6 +151,8 @@ class BoardShader {
 
   const Scene& scene_;
   const Material& material_;
+  // The light's type resolved once (Radiance runs per sub-pixel sample).
+  const bool point_light_;
   std::vector<double> rho_dh_;
   std::optional<TexturedShader> textured_;
   bool point_light_ = scene_.light.type == "point";
@@ -418,7 +421,7 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
                   {"white_region", scene.board.white_region}}},
                 {"camera",
                  {{"file", "camera.cameramodel"},
-                  {"lens_model", scene.camera.lens_model},
+                  {"lens_model", LensModelName(scene.camera.lens_model)},
                   {"intrinsics", scene.camera.intrinsics},
                   {"width", scene.camera.width},
                   {"height", scene.camera.height}}},

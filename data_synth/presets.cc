@@ -18,7 +18,7 @@ namespace {
 // and forward scatter (phi ~ pi) alike.
 Scene PresetBase() {
   Scene s;
-  s.camera.lens_model = "LENSMODEL_OPENCV8";
+  s.camera.lens_model = LensModel::kOpenCV8;
   s.camera.intrinsics = {1100, 1100, 639.5, 479.5, -0.12, 0.05, 0.0005, -0.0003, -0.01, 0, 0, 0};
   s.camera.width = 1280;
   s.camera.height = 960;
@@ -81,7 +81,7 @@ Scene SfsPreset(const std::string& name, const PresetOptions& options) {
   s.type = "sfs";
   s.supersampling = 4;
   s.material = {"oren-nayar", {{"sigma", DegToRad(30.0)}, {"albedo", 0.8}}};
-  s.camera.lens_model = "LENSMODEL_PINHOLE";
+  s.camera.lens_model = LensModel::kPinhole;
   s.camera.intrinsics = {800, 800, 319.5, 239.5};
   s.camera.width = 640;
   s.camera.height = 480;
@@ -208,7 +208,13 @@ const std::vector<std::string>& PresetNames() {
   return names;
 }
 
+void PresetOptions::Check() const {
+  if (!(std::abs(sfs_light_offaxis_deg) <= 90))
+    throw InputError("--sfs-light-offaxis-deg: must be a number in [-90, 90]");
+}
+
 Scene PresetScene(const std::string& name, const PresetOptions& options) {
+  options.Check();
   for (const auto& [preset, make] : Presets()) {
     if (preset == name) return make(name, options);
   }

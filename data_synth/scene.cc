@@ -83,6 +83,14 @@ void ReadValue(const json& j, T* out) {
     if (!std::isfinite(*out)) throw ValueError{"not a finite number"};
   }
 }
+void ReadValue(const json& j, LensModel* out) {
+  const std::string name = j.get<std::string>();  // json::exception on a wrong type
+  try {
+    *out = ParseLensModel(name);
+  } catch (const InputError& e) {
+    throw ValueError{e.what()};
+  }
+}
 void ReadValue(const json& j, Eigen::Vector3d* out) {
   const auto v = j.get<std::vector<double>>();
   if (v.size() != 3) throw ValueError{"expected [x, y, z]"};
@@ -125,6 +133,7 @@ json WriteValue(const std::vector<TextureMaterial>& materials) {
   for (const auto& m : materials) out.push_back({{"albedo", m.albedo}, {"roughness", m.roughness}});
   return out;
 }
+json WriteValue(LensModel m) { return LensModelName(m); }
 json WriteValue(const std::vector<Rigid3d>& poses) {
   json out = json::array();
   for (const auto& pose : poses) out.push_back(ToJson(pose));
@@ -249,7 +258,8 @@ std::string IdsCheck(const std::vector<int>&, const Scene& s) {
 std::string IntrinsicsCheck(const std::vector<double>& v, const Scene& s) {
   const int n = CameraModel::NumIntrinsics(s.camera.lens_model);
   if (static_cast<int>(v.size()) != n) {
-    return s.camera.lens_model + " takes " + std::to_string(n) + " values";
+    return std::string(LensModelName(s.camera.lens_model)) + " takes " + std::to_string(n) +
+           " values";
   }
   return v[0] > 0 && v[1] > 0 ? "" : "focal lengths must be > 0";
 }
@@ -271,11 +281,7 @@ void AddTopAndCameraFields(std::vector<Field>* f) {
   auto size_ok = Must([](int v, const Scene&) { return v >= 16 && v <= 20000; },
                       "image size must be in [16, 20000] pixels");
   Section<CameraModel>("camera", &Scene::camera, nullptr, f)
-      .Add("lens_model", &CameraModel::lens_model,
-           [](const std::string& m, const Scene&) {
-             CameraModel::NumIntrinsics(m);  // InputError naming an unknown model
-             return std::string();
-           })
+      .Add("lens_model", &CameraModel::lens_model)  // ReadValue names an unknown model
       .Add("intrinsics", &CameraModel::intrinsics, IntrinsicsCheck)
       .Add("width", &CameraModel::width, size_ok)
       .Add("height", &CameraModel::height, size_ok);
@@ -619,7 +625,6 @@ Scene SceneFromJson(const json& j, const std::string& what) {
     const json* holder = f.part.empty() ? &j : j.contains(f.part) ? &j[f.part] : nullptr;
     if (holder && holder->contains(f.key)) ReadField(f, (*holder)[f.key], what, &s);
   }
-  CameraModel::NumIntrinsics(s.camera.lens_model);  // InputError for unknown models
   return s;
 }
 

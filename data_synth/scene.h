@@ -152,6 +152,7 @@ struct PresetOptions {
   // sfs presets: the light turned this far off the camera axis about the object (0 =
   // collocated with the camera).
   double sfs_light_offaxis_deg = 0.0;
+  void Check() const;  // InputError naming the field
 };
 
 // "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps", "flash",

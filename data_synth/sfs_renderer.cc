@@ -28,8 +28,18 @@ using json = nlohmann::json;
 // rays are marched in depth z over [z_near, z_far].
 class Shape {
  public:
-  Shape(const SfsSpec& spec) : spec_(spec), centre_in_cam_(0, 0, spec.distance), s_(spec.size) {
-    if (spec.shape == "bumps") {
+  // The shape resolved once from its scene word: F, Normal and Trace run per ray step.
+  enum class Kind { kSphere, kVase, kBumps };
+  static Kind KindOf(const std::string& word) {
+    if (word == "sphere") return Kind::kSphere;
+    if (word == "vase") return Kind::kVase;
+    if (word == "bumps") return Kind::kBumps;
+    throw InputError("sfs.shape: '" + word + "' is not one of sphere, vase, bumps");
+  }
+
+  Shape(const SfsSpec& spec)
+      : spec_(spec), kind_(KindOf(spec.shape)), centre_in_cam_(0, 0, spec.distance), s_(spec.size) {
+    if (kind_ == Kind::kBumps) {
       // Gaussian bumps (and one dent) on a square patch facing the camera; heights and widths
       // relative to the patch half-width.
       bumps_ = {{0.0, 0.0, 0.35, 0.30},
@@ -43,12 +53,12 @@ class Shape {
       z_near_ = centre_in_cam_.z() - 1.05 * s_;
       z_far_ = centre_in_cam_.z() + 1.05 * s_;
     }
-    half_height_ = spec.shape == "vase" ? 1.7 * s_ : s_;
+    half_height_ = kind_ == Kind::kVase ? 1.7 * s_ : s_;
   }
 
   double F(const Eigen::Vector3d& p) const {
-    if (spec_.shape == "sphere") return (p - centre_in_cam_).norm() - s_;
-    if (spec_.shape == "vase") {
+    if (kind_ == Kind::kSphere) return (p - centre_in_cam_).norm() - s_;
+    if (kind_ == Kind::kVase) {
       const double s = (p.y() - centre_in_cam_.y()) / half_height_;
       const double rho2 =
           p.x() * p.x() + (p.z() - centre_in_cam_.z()) * (p.z() - centre_in_cam_.z());
@@ -60,8 +70,8 @@ class Shape {
 
   // Outward unit normal at a surface point.
   Eigen::Vector3d Normal(const Eigen::Vector3d& p) const {
-    if (spec_.shape == "sphere") return (p - centre_in_cam_).normalized();
-    if (spec_.shape == "vase") {
+    if (kind_ == Kind::kSphere) return (p - centre_in_cam_).normalized();
+    if (kind_ == Kind::kVase) {
       const double s = (p.y() - centre_in_cam_.y()) / half_height_, h = 1e-6;
       const double dr2_ds = (VaseR2(s + h) - VaseR2(s - h)) / (2 * h);
       return Eigen::Vector3d(2 * p.x(), -dr2_ds / half_height_, 2 * (p.z() - centre_in_cam_.z()))
@@ -74,7 +84,7 @@ class Shape {
 
   // Depth z of the first surface point along the ray (x, y, 1) z, or a negative value.
   double Trace(const Eigen::Vector3d& ray) const {
-    if (spec_.shape == "bumps") {
+    if (kind_ == Kind::kBumps) {
       // The ray's x and y are linear in z: skip rays that pass beside the patch.
       const Eigen::Vector3d a = ray * z_near_, b = ray * z_far_;
       if (std::min(a.x(), b.x()) > s_ || std::max(a.x(), b.x()) < -s_ ||
@@ -84,7 +94,7 @@ class Shape {
     }
     // Steps of ~0.5 mm (sphere, vase) and ~0.6 mm (bumps, whose narrowest feature is a
     // 15 mm wide Gaussian): no surface crossing is skipped, bisection does the rest.
-    const int steps = spec_.shape == "bumps" ? 100 : 400;
+    const int steps = kind_ == Kind::kBumps ? 100 : 400;
     const double dz = (z_far_ - z_near_) / steps;
     double z0 = z_near_, f0 = F(ray * z0);
     for (int k = 1; k <= steps; ++k) {
@@ -96,7 +106,7 @@ class Shape {
           (F(ray * m) > 0 ? a : b) = m;
         }
         const double z = 0.5 * (a + b);
-        if (spec_.shape == "bumps") {
+        if (kind_ == Kind::kBumps) {
           const Eigen::Vector3d p = ray * z;
           if (std::abs(p.x()) > s_ || std::abs(p.y()) > s_) return -1;
         }
@@ -111,10 +121,10 @@ class Shape {
   json ToJson() const {
     json j = {{"shape", spec_.shape},
               {"centre_in_camera", {centre_in_cam_.x(), centre_in_cam_.y(), centre_in_cam_.z()}}};
-    if (spec_.shape == "sphere") {
+    if (kind_ == Kind::kSphere) {
       j["radius"] = s_;
       j["definition"] = "|p - centre| = radius";
-    } else if (spec_.shape == "vase") {
+    } else if (kind_ == Kind::kVase) {
       j["max_radius"] = s_;
       j["half_height"] = half_height_;
       j["definition"] =
@@ -161,6 +171,7 @@ class Shape {
   }
 
   SfsSpec spec_;
+  Kind kind_;
   Eigen::Vector3d centre_in_cam_;
   double s_;
   double half_height_ = 0;
@@ -318,7 +329,7 @@ json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_j
       {"light", light},
       {"camera",
        {{"file", "camera.cameramodel"},
-        {"lens_model", camera.lens_model},
+        {"lens_model", LensModelName(camera.lens_model)},
         {"intrinsics", camera.intrinsics},
         {"width", camera.width},
         {"height", camera.height}}},

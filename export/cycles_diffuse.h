@@ -1,8 +1,8 @@
 // The renderers' diffuse functions that are not registry models, with the registry model
 // interface (albedo = colour, roughness) so the exporter's fit can run them as ceres::Jet.
 //
-// Blender Cycles' Diffuse BSDF as its kernel evaluates it (kernel/closure/bsdf_oren_nayar.h with
-// the closure colour as weight, svm_closure.h): Fujii's single-scatter lobe plus a
+// Blender Cycles' Diffuse BSDF as its kernel evaluates it, with the closure colour as weight
+// (docs/models/oren-nayar-fujii.md, "Blender Cycles"): Fujii's single-scatter lobe plus a
 // multiple-scattering term from the OpenPBR construction, whose colour factor Cycles applies
 // on top of the rho^2 already inside it:
 //   f_r = c/pi A (1 + sigma s/t) + c E_ms (1 - E(theta_i)) (1 - E(theta_r)),

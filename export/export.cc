@@ -9,12 +9,12 @@
 #include "common/io.h"
 #include "common/math.h"
 #include "common/provenance.h"
-#include "estimation/option_words.h"
+#include "common/option_words.h"
 
 namespace gonio {
 namespace {
 
-// One word table for both directions (estimation/option_words.h).
+// One word table for both directions (common/option_words.h).
 constexpr OptionWord<ExportFormat> kFormatWords[] = {
     {ExportFormat::kMitsuba, "mitsuba"}, {ExportFormat::kPbrt3, "pbrt3"},
     {ExportFormat::kBlender, "blender"}, {ExportFormat::kMaterialx, "materialx"},

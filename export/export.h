@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "estimation/fit_file.h"
+#include "estimation/fit/fit_file.h"
 #include "export/renderer_fit.h"
 
 namespace gonio {

@@ -163,10 +163,11 @@ RendererFit FitRenderer(RendererFunction function, const FittedMaterial& materia
   fit.max_theta_deg = domain.max_theta_deg;
   Channels source;
   std::array<double, 3> mean{};
+  const CheckedModel model(material.model);
   for (int c = 0; c < 3; ++c) {
     for (const auto& a : angles) {
       double v = 0;
-      const std::string why = EvaluateChecked(material.model, material.channel_params[c], a, &v);
+      const std::string why = model(material.channel_params[c], a, &v);
       if (!why.empty()) throw NumericalError(material.model + ": " + why);
       source[c].push_back(v);
       mean[c] += v / angles.size();

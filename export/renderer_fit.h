@@ -7,7 +7,7 @@
 #include <array>
 #include <string>
 
-#include "estimation/fit_file.h"
+#include "estimation/fit/fit_file.h"
 #include "reflectance/angles.h"
 
 namespace gonio {

@@ -9,7 +9,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "estimation/brdf_table.h"
+#include "estimation/fit/brdf_table.h"
 #include "export/export.h"
 #include "reflectance/registry.h"
 
@@ -63,14 +63,14 @@ std::string AstmTable(const FittedMaterial& material, const AstmGrid& grid, size
   s << "theta_i,phi_i,theta_s,phi_s,brdf" << (material.per_channel ? ",brdf_r,brdf_g,brdf_b" : "")
     << "\n";
   *n_values = 0;
+  const CheckedModel model(material.model);
   for (double ti : grid.theta_i_deg) {
     for (double ts : grid.theta_s_deg) {
       for (double ps : grid.phi_s_deg) {
         const Angles<double> a{DegToRad(ti), DegToRad(ts), AstmAzimuthToGonio(DegToRad(ps))};
         double v[3];
         for (int c = 0; c < 3; ++c) {
-          const std::string why =
-              EvaluateChecked(material.model, material.channel_params[c], a, &v[c]);
+          const std::string why = model(material.channel_params[c], a, &v[c]);
           if (!why.empty()) {
             throw NumericalError(fmt::format("astm: {} at theta_i {} theta_s {} phi_s {} deg: {}",
                                              material.model, ti, ts, ps, why));

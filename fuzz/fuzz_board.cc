@@ -1,6 +1,6 @@
-// board.json (calib/board.h, Board::Read): an accepted board has finite corner positions and
-// survives its own ToJson -> FromJson round trip unchanged.
-#include "calib/board.h"
+// board.json (calib/geometry/board.h, Board::Read): an accepted board has finite corner positions
+// and survives its own ToJson -> FromJson round trip unchanged.
+#include "calib/geometry/board.h"
 #include "fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

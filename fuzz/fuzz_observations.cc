@@ -1,7 +1,7 @@
-// observations.csv (estimation/observations.h, ReadObservations): an accepted set holds only
+// observations.csv (estimation/extract/observations.h, ReadObservations): an accepted set holds only
 // finite numbers, radiance and variance per channel, non-negative variances, and survives
 // WriteObservations -> ReadObservations unchanged (assumptions included).
-#include "estimation/observations.h"
+#include "estimation/extract/observations.h"
 #include "fuzz/fuzz_util.h"
 
 namespace {

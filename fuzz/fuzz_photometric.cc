@@ -1,10 +1,10 @@
-// photometric.json (calib/photometric.h, PhotometricCalibration::Read): an accepted
+// photometric.json (calib/photometry/photometric.h, PhotometricCalibration::Read): an accepted
 // calibration has a finite, non-negative read noise, a positive electrons-per-DN when given,
 // and a vignetting map (when there is one) of finite positive values.
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/photometric.h"
+#include "calib/photometry/photometric.h"
 #include "fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {

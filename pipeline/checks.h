@@ -7,8 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/response.h"
-#include "estimation/joint_fit.h"
+#include "calib/photometry/response.h"
+#include "estimation/joint/joint_fit.h"
 #include "pipeline/residual_structure.h"
 
 namespace gonio {

@@ -9,19 +9,19 @@
 #include <spdlog/spdlog.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/calibrate.h"
-#include "calib/detect.h"
-#include "calib/locate.h"
-#include "calib/photometric.h"
-#include "calib/response.h"
-#include "calib/vignette.h"
+#include "calib/geometry/calibrate.h"
+#include "calib/geometry/detect.h"
+#include "calib/geometry/locate.h"
+#include "calib/photometry/photometric.h"
+#include "calib/photometry/response.h"
+#include "calib/photometry/synth_photometric.h"
+#include "calib/photometry/vignette.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "common/session.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
-#include "estimation/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

@@ -11,8 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "estimation/joint_fit.h"
-#include "estimation/observations.h"
+#include "estimation/extract/observations.h"
+#include "estimation/joint/joint_fit.h"
 
 namespace gonio {
 

@@ -15,7 +15,7 @@
 #include "common/math.h"
 #include "common/parallel.h"
 #include "data_synth/photometric.h"
-#include "estimation/option_words.h"
+#include "common/option_words.h"
 
 namespace gonio {
 namespace {

@@ -7,7 +7,7 @@
 //                patches, subsampled and weighted), their radiance under the hypothesised
 //                material and lamp, their noise from data_synth's sensor model; patches that
 //                would saturate at the planned exposure are dropped, as the extraction drops
-//                them. Their information for the joint fit comes from estimation/design.h.
+//                them. Their information for the joint fit comes from estimation/joint/design.h.
 //   selection    N distinct poses minimising the predicted scatter covariance (D: its log
 //                determinant, A: its trace, both range-scaled): greedy, then exchanges
 //                (Fedorov) until no swap helps.
@@ -22,12 +22,12 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "calib/board.h"
+#include "calib/geometry/board.h"
 #include "common/camera_model.h"
 #include "common/geometry.h"
 #include "data_synth/scene.h"
-#include "estimation/design.h"
-#include "estimation/joint_fit.h"
+#include "estimation/joint/design.h"
+#include "estimation/joint/joint_fit.h"
 #include "pipeline/run.h"
 
 namespace gonio {

@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "calib/board.h"
-#include "estimation/joint_fit.h"
-#include "estimation/observations.h"
+#include "calib/geometry/board.h"
+#include "estimation/extract/observations.h"
+#include "estimation/joint/joint_fit.h"
 #include "pipeline/checks.h"
 
 namespace gonio {

@@ -10,7 +10,7 @@
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
-#include "calib/detect.h"
+#include "calib/geometry/detect.h"
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/io.h"
@@ -154,7 +154,7 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
   return fit;
 }
 
-// The calibration's own error into the reported uncertainty (estimation/calibration_error.h),
+// The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
 // when photometric.json says how accurate it is: the response's error model (whole curves over
 // the pixel value) and the rest of relative_accuracy for the vignetting.
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
@@ -214,7 +214,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   r.assumptions = in.assumptions;
   Stopwatch clock;
   FrameCache cache(in.session, FrameExpectationOf(in), o.frame_cache_mb);
-  // Counted where images are decoded and boards detected (common/image_io.h, calib/detect.h),
+  // Counted where images are decoded and boards detected (common/image_io.h, calib/geometry/detect.h),
   // not by this function, so the counts say what the chain did.
   const size_t decodes_before = ImageDecodeCount(), detections_before = BoardDetectionCount();
 

@@ -17,17 +17,17 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/board.h"
-#include "calib/calibrate.h"
-#include "calib/locate.h"
-#include "calib/photometric.h"
+#include "calib/geometry/board.h"
+#include "calib/geometry/calibrate.h"
+#include "calib/geometry/locate.h"
+#include "calib/photometry/photometric.h"
 #include "common/camera_model.h"
 #include "common/session.h"
-#include "estimation/calibration_error.h"
-#include "estimation/extract.h"
-#include "estimation/joint_fit.h"
+#include "estimation/extract/extract.h"
+#include "estimation/extract/observations.h"
+#include "estimation/joint/calibration_error.h"
+#include "estimation/joint/joint_fit.h"
 #include "estimation/maps/maps.h"
-#include "estimation/observations.h"
 #include "pipeline/checks.h"
 
 namespace gonio {
@@ -73,7 +73,7 @@ struct RunOptions {
   bool noise_floor_from_calibration = true;
   static constexpr double kMinNoiseFloor = 0.002;
   // When photometric.json reports its accuracy, the calibration's error is propagated into
-  // the reported uncertainty by this many refits (estimation/calibration_error.h); 0: off.
+  // the reported uncertainty by this many refits (estimation/joint/calibration_error.h); 0: off.
   CalibrationPropagationOptions calibration_error;
   // `gonio run --maps`: the per-texel maps of the sample after the fit, from the same poses and
   // the fit's lamp (estimation/maps/maps.h); light frame, white albedo and threads from `fit`.

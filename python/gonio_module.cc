@@ -16,8 +16,8 @@
 #include "common/error.h"
 #include "common/math.h"
 #include "common/parallel.h"
-#include "estimation/brdf_table.h"
-#include "estimation/model_selection.h"
+#include "estimation/fit/brdf_table.h"
+#include "estimation/fit/model_selection.h"
 #include "export/export.h"
 #include "reflectance/registry.h"
 

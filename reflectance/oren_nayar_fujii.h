@@ -1,8 +1,8 @@
 // Fujii's "improved Oren-Nayar" (Y. Fujii, "A tiny improvement of Oren-Nayar reflectance
-// model", mimosa-pudica.net/improved-oren-nayar.html) as the renderers define it: Blender
-// Cycles' Diffuse BSDF (kernel/closure/bsdf_oren_nayar.h), MaterialX's
-// oren_nayar_diffuse_bsdf with energy_compensation (pbrlib mx_microfacet_diffuse.glsl) and the
-// OpenPBR Surface specification's diffuse lobe. Sources read: docs/models/oren-nayar-fujii.md.
+// model") as the renderers define it: Blender Cycles' Diffuse BSDF, MaterialX's
+// oren_nayar_diffuse_bsdf with energy_compensation and the OpenPBR Surface specification's
+// diffuse lobe. docs/models/oren-nayar-fujii.md gives each renderer's formula and where it
+// was read.
 //
 // With s = <l,v> - <n,l><n,v> = sin(theta_i) sin(theta_r) cos(phi) (phi = 0 backscatter,
 // docs/conventions.md) and s/t = s / max(cos theta_i, cos theta_r) when s > 0, s otherwise
@@ -21,7 +21,7 @@
 //   E_avg = A (1 + (2/3 - 28/(15 pi)) sigma),
 //   rho_ms = rho^2 E_avg / (1 - rho (1 - E_avg)).
 //   Cycles multiplies the same compensation term once more by the closure colour (rho^3 instead
-//   of rho^2); the exporter re-implements that separately (export/renderer_formulas.h).
+//   of rho^2); the exporter re-implements that separately (export/cycles_diffuse.h).
 //
 // | parameter | unit | range  | default | meaning                                     |
 // |-----------|------|--------|---------|---------------------------------------------|

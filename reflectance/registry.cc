@@ -90,8 +90,12 @@ void CheckParams(const ModelInfo& info, const std::vector<double>& params) {
   }
 }
 
-std::string EvaluateChecked(const std::string& model, const std::vector<double>& params,
-                            const Angles<double>& a, double* value) {
+namespace {
+
+// EvaluateChecked for one model type: angles in the closed hemisphere, the model's own domain
+// (Invalid), a finite result.
+template <typename M>
+std::string EvaluateCheckedAs(const double* params, const Angles<double>& a, double* value) {
   *value = 0.0;
   if (!std::isfinite(a.theta_i) || !std::isfinite(a.theta_r) || !std::isfinite(a.phi)) {
     return "non-finite angle";
@@ -100,24 +104,24 @@ std::string EvaluateChecked(const std::string& model, const std::vector<double>&
   const double kHorizon = kHalfPi + 1e-12;
   if (a.theta_i < 0 || a.theta_i > kHorizon) return "theta_i outside [0, 90] deg";
   if (a.theta_r < 0 || a.theta_r > kHorizon) return "theta_r outside [0, 90] deg";
-  std::string reason;
-  bool found = VisitModel(model, [&](auto tag) {
-    using M = typename decltype(tag)::type;
-    if constexpr (HasInvalid<M>::value) {
-      if (const char* why = M::Invalid(params.data(), a)) {
-        reason = why;
-        return;
-      }
-    }
-    const double v = M::Evaluate(params.data(), a);
-    if (!std::isfinite(v)) {
-      reason = "model gave a non-finite value";
-    } else {
-      *value = v;
-    }
-  });
-  if (!found) FindModel(model);  // throws the unknown-model error
-  return reason;
+  if constexpr (HasInvalid<M>::value) {
+    if (const char* why = M::Invalid(params, a)) return why;
+  }
+  const double v = M::Evaluate(params, a);
+  if (!std::isfinite(v)) return "model gave a non-finite value";
+  *value = v;
+  return "";
+}
+
+}  // namespace
+
+CheckedModel::CheckedModel(const std::string& name) : info_(&FindModel(name)) {
+  VisitModel(name, [&](auto tag) { evaluate_ = &EvaluateCheckedAs<typename decltype(tag)::type>; });
+}
+
+std::string EvaluateChecked(const std::string& model, const std::vector<double>& params,
+                            const Angles<double>& a, double* value) {
+  return CheckedModel(model)(params, a, value);
 }
 
 void EvaluateBatch(const std::string& model, const std::vector<double>& params,

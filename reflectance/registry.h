@@ -43,7 +43,9 @@ bool VisitModelImpl(const std::string& name, F&& f) {
     return false;
   } else {
     using M = std::tuple_element_t<I, AllModels>;
-    if (M::Info().name == name) {
+    // The name once per model: Info() builds the whole parameter table.
+    static const std::string kName = M::Info().name;
+    if (kName == name) {
       f(ModelTag<M>{});
       return true;
     }
@@ -84,6 +86,22 @@ void CheckParams(const ModelInfo& info, const std::vector<double>& params);
 // a valid, finite, non-negative-or-model-allowed BRDF.
 std::string EvaluateChecked(const std::string& model, const std::vector<double>& params,
                             const Angles<double>& a, double* value);
+
+// A model resolved once by name, for loops over many samples: the same checked evaluation as
+// EvaluateChecked without a name lookup per call.
+class CheckedModel {
+ public:
+  explicit CheckedModel(const std::string& name);  // InputError for an unknown model
+  std::string operator()(const std::vector<double>& params, const Angles<double>& a,
+                         double* value) const {
+    return evaluate_(params.data(), a, value);
+  }
+  const ModelInfo& info() const { return *info_; }
+
+ private:
+  const ModelInfo* info_;
+  std::string (*evaluate_)(const double* params, const Angles<double>& a, double* value);
+};
 
 // Batch evaluation over structure-of-arrays angles with `threads` threads (<= 0: all cores).
 // Out-of-domain entries are evaluated as the model's formula gives them; use EvaluateChecked

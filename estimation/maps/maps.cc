@@ -8,13 +8,13 @@
 #include <spdlog/spdlog.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/detect.h"
+#include "calib/geometry/detect.h"
 #include "common/error.h"
 #include "common/log.h"
-#include "estimation/extract.h"
+#include "estimation/extract/extract.h"
 #include "estimation/maps/height.h"
 #include "estimation/maps/registration.h"
-#include "estimation/option_words.h"
+#include "common/option_words.h"
 
 namespace fs = std::filesystem;
 
@@ -459,7 +459,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   } else if (uniform_in) {
     uniform = *uniform_in;
   } else {
-    // The lamp from a uniform fit of the same frames (estimation/joint_fit.h), 4x4 patches.
+    // The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
     ExtractOptions eo;
     eo.patch = 4;
     eo.threads = o.threads;

@@ -23,12 +23,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calib/board.h"
-#include "calib/locate.h"
-#include "calib/photometric.h"
+#include "calib/geometry/board.h"
+#include "calib/geometry/locate.h"
+#include "calib/photometry/photometric.h"
 #include "common/camera_model.h"
 #include "common/session.h"
-#include "estimation/joint_fit.h"
+#include "estimation/joint/joint_fit.h"
 #include "estimation/maps/clusters.h"
 #include "estimation/maps/registration.h"
 #include "estimation/maps/texel_data.h"

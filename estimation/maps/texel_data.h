@@ -15,8 +15,8 @@
 
 #include <Eigen/Core>
 
-#include "calib/board.h"
-#include "calib/photometric.h"
+#include "calib/geometry/board.h"
+#include "calib/photometry/photometric.h"
 #include "common/camera_model.h"
 #include "common/geometry.h"
 

@@ -1,7 +1,7 @@
 #include "estimation/maps/texel_model.h"
 
 #include "common/error.h"
-#include "estimation/option_words.h"
+#include "common/option_words.h"
 
 namespace gonio {
 namespace {

@@ -13,7 +13,7 @@
 #include "common/error.h"
 #include "common/math.h"
 #include "common/parallel.h"
-#include "estimation/sfs_costs.h"
+#include "estimation/sfs/sfs_costs.h"
 
 namespace gonio {
 namespace {

@@ -13,7 +13,7 @@
 #include "bench/bench_lib.h"
 #include "common/error.h"
 #include "common/math.h"
-#include "estimation/brdf_fit.h"
+#include "estimation/fit/brdf_fit.h"
 #include "reflectance/registry.h"
 
 namespace gonio::bench {

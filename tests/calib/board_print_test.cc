@@ -12,9 +12,9 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/board.h"
-#include "calib/board_print.h"
-#include "calib/detect.h"
+#include "calib/geometry/board.h"
+#include "calib/geometry/board_print.h"
+#include "calib/geometry/detect.h"
 #include "tests/test_util.h"
 
 namespace gonio {

@@ -1,4 +1,4 @@
-#include "calib/board.h"
+#include "calib/geometry/board.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Calibration: the real OpenCV chessboard photos against OpenCV's published calibration, and
 // synthetic views (known truth) against the solvers' reported uncertainty.
-#include "calib/calibrate.h"
+#include "calib/geometry/calibrate.h"
 
 #include <cstdio>
 
@@ -49,7 +49,7 @@ TEST(Calibrate, RealChessboardMrcalMatchesOpenCvReference) {
   GONIO_REQUIRE_TEST_DATA();
   const Board board = Chessboard();
   CalibrationOptions opt;
-  opt.lens_model = "LENSMODEL_OPENCV5";
+  opt.lens_model = LensModel::kOpenCV5;
   const CalibrationResult r = Calibrate(board, ChessViews(board), 640, 480, opt);
   ExpectNearOpenCvReference(r);
   // mrcal rejects outliers (OpenCV's published solve kept them all): its inlier RMS is lower.
@@ -65,7 +65,7 @@ TEST(Calibrate, RealChessboardOpenCvSolverReproducesReference) {
   const Board board = Chessboard();
   CalibrationOptions opt;
   opt.solver = "opencv";
-  opt.lens_model = "LENSMODEL_OPENCV5";
+  opt.lens_model = LensModel::kOpenCV5;
   opt.fix_aspect_ratio = true;  // as in left_intrinsics.yml (flags: 2)
   const CalibrationResult r = Calibrate(board, ChessViews(board), 640, 480, opt);
   ExpectNearOpenCvReference(r);
@@ -107,7 +107,7 @@ TEST(Calibrate, SyntheticMrcalProjectionWithinReportedUncertainty) {
   const CameraModel truth = testing::SyntheticCamera();
   const Board board = testing::TagGrid(0.03, 0.036, 8, 6);
   CalibrationOptions opt;
-  opt.lens_model = "LENSMODEL_OPENCV5";
+  opt.lens_model = LensModel::kOpenCV5;
   const CalibrationResult r =
       Calibrate(board, SyntheticViews(truth, board, 0.3), truth.width, truth.height, opt);
   std::printf("%s", r.Report().c_str());
@@ -167,7 +167,7 @@ TEST(Calibrate, SyntheticOpenCvIntrinsicsWithinReportedSigma) {
   const Board board = testing::TagGrid(0.03, 0.036, 8, 6);
   CalibrationOptions opt;
   opt.solver = "opencv";
-  opt.lens_model = "LENSMODEL_OPENCV5";
+  opt.lens_model = LensModel::kOpenCV5;
   const CalibrationResult r =
       Calibrate(board, SyntheticViews(truth, board, 0.3), truth.width, truth.height, opt);
   std::printf("%s", r.Report().c_str());

@@ -1,6 +1,6 @@
 // Detection: libapriltag's corner order and pixel convention measured on a rendered tag, the
 // real AprilTag photo, the real OpenCV chessboards, and the corners.vnl round trip.
-#include "calib/detect.h"
+#include "calib/geometry/detect.h"
 
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>

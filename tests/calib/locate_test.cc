@@ -1,12 +1,12 @@
 // Board pose: synthetic projected corners (known truth) and the real AprilTag photo.
-#include "calib/locate.h"
+#include "calib/geometry/locate.h"
 
 #include <algorithm>
 #include <cstdio>
 
 #include <gtest/gtest.h>
 
-#include "calib/calibrate.h"
+#include "calib/geometry/calibrate.h"
 #include "common/error.h"
 #include "common/math.h"
 #include "tests/calib/synth_views.h"
@@ -116,7 +116,7 @@ TEST(EstimateBoardPose, RealChessboardsWithTheirCalibration) {
   }
   CalibrationOptions opt;
   opt.solver = "opencv";
-  opt.lens_model = "LENSMODEL_OPENCV5";
+  opt.lens_model = LensModel::kOpenCV5;
   const CameraModel cam = Calibrate(board, views, 640, 480, opt).camera;
   double worst_rms = 0;
   std::vector<double> rms;
@@ -165,7 +165,7 @@ BoardPose PhotoPose(double pitch_in_tag_widths, const cv::Mat& img) {
   // The focal length is unknown: a pinhole from this single view (principal point at the
   // centre, cv::initCameraMatrix2D on the view's homography).
   CameraModel cam;
-  cam.lens_model = "LENSMODEL_PINHOLE";
+  cam.lens_model = LensModel::kPinhole;
   cam.width = img.cols;
   cam.height = img.rows;
   const double f = EstimateFocalFromViews(board, {obs}, img.cols, img.rows);

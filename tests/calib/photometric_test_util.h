@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/photometric.h"
-#include "calib/vignette.h"
+#include "calib/photometry/photometric.h"
+#include "calib/photometry/vignette.h"
 #include "common/io.h"
 #include "common/session.h"
 #include "data_synth/board_renderer.h"

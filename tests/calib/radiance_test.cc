@@ -1,5 +1,6 @@
-// Pixel values -> radiance (PhotometricCalibration::ToRadiance), HDR merge (calib/hdr.h), the
-// response on data_synth's exposure-sweep preset, and `gonio photometric apply|hdr`.
+// Pixel values -> radiance (PhotometricCalibration::ToRadiance), HDR merge
+// (calib/photometry/hdr.h), the response on data_synth's exposure-sweep preset, and `gonio
+// photometric apply|hdr`.
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -8,10 +9,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/board.h"
-#include "calib/hdr.h"
-#include "calib/photometric.h"
-#include "calib/response.h"
+#include "calib/geometry/board.h"
+#include "calib/photometry/hdr.h"
+#include "calib/photometry/photometric.h"
+#include "calib/photometry/response.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"

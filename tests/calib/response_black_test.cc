@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "calib/response.h"
+#include "calib/photometry/response.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/session.h"

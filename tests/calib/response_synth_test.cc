@@ -12,8 +12,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/photometric.h"
-#include "calib/response.h"
+#include "calib/photometry/photometric.h"
+#include "calib/photometry/response.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/session.h"

@@ -1,4 +1,4 @@
-#include "calib/response.h"
+#include "calib/photometry/response.h"
 
 #include <fstream>
 #include <functional>

@@ -7,8 +7,8 @@
 
 #include <Eigen/Geometry>
 
-#include "calib/board.h"
-#include "calib/detect.h"
+#include "calib/geometry/board.h"
+#include "calib/geometry/detect.h"
 #include "common/camera_model.h"
 
 namespace gonio::testing {
@@ -79,7 +79,7 @@ inline Board TagGrid(double tag_size = 0.03, double pitch = 0.036, int columns =
 
 inline CameraModel SyntheticCamera() {
   CameraModel cam;
-  cam.lens_model = "LENSMODEL_OPENCV5";
+  cam.lens_model = LensModel::kOpenCV5;
   cam.intrinsics = {1400, 1402, 645.3, 478.1, -0.12, 0.08, 0.0006, -0.0004, -0.02};
   cam.width = 1280;
   cam.height = 960;

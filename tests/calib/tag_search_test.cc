@@ -1,4 +1,4 @@
-// The full-resolution search after the decimated pass (calib/detect.h,
+// The full-resolution search after the decimated pass (calib/geometry/detect.h,
 // AprilTagOptions::full_resolution_search), judged by what is outside the code: AprilTag's own
 // test photos with the reference corners its test suite checks, and renders whose truth is
 // the board projected through the true camera and pose (truth.json).
@@ -15,8 +15,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/board.h"
-#include "calib/detect.h"
+#include "calib/geometry/board.h"
+#include "calib/geometry/detect.h"
 #include "common/camera_model.h"
 #include "common/geometry.h"
 #include "common/io.h"

@@ -1,5 +1,5 @@
-// The lamp test of the vignetting (calib/vignette_lamp.h) on rendered sessions: a lamp that
-// moves with the camera (the flash preset) is refused, a lamp fixed to the board (the default
+// The lamp test of the vignetting (calib/photometry/vignette_lamp.h) on rendered sessions: a lamp
+// that moves with the camera (the flash preset) is refused, a lamp fixed to the board (the default
 // preset) and a flat field are accepted with an exponent near 0, and poses that cannot tell
 // the two apart (the board slid within one plane) are reported as such, not passed as checked.
 #include <gtest/gtest.h>

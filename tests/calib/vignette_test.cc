@@ -1,11 +1,11 @@
-// Vignetting (calib/vignette.h) against data_synth's known radial vignetting, and the
+// Vignetting (calib/photometry/vignette.h) against data_synth's known radial vignetting, and the
 // `gonio photometric vignette` command.
-#include "calib/vignette.h"
+#include "calib/photometry/vignette.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/board.h"
+#include "calib/geometry/board.h"
 #include "common/camera_model.h"
 #include "common/error.h"
 #include "common/io.h"

@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/photometric.h"
+#include "calib/photometry/photometric.h"
 #include "capture/file_sources.h"
 #include "capture/raw_file.h"
 #include "common/error.h"

@@ -11,7 +11,7 @@ namespace {
 
 CameraModel Opencv8() {
   CameraModel m;
-  m.lens_model = "LENSMODEL_OPENCV8";
+  m.lens_model = LensModel::kOpenCV8;
   m.intrinsics = {1100, 1090, 640.2, 479.7, -0.2, 0.05, 0.001, -0.0005, 0.01, 0.02, -0.01, 0.005};
   return m;
 }
@@ -31,7 +31,7 @@ TEST(CameraModel, UnprojectInvertsProject) {
 TEST(CameraModel, MatchesOpenCvProjectPointsFormula) {
   // Hand-evaluated OpenCV model at one point (x=0.2, y=-0.1): r2 = 0.05.
   CameraModel m;
-  m.lens_model = "LENSMODEL_OPENCV4";
+  m.lens_model = LensModel::kOpenCV4;
   m.intrinsics = {500, 500, 320, 240, 0.1, 0.01, 0.001, 0.002};
   const Eigen::Vector2d px = m.Project(Eigen::Vector3d(0.4, -0.2, 2.0));
   const double x = 0.2, y = -0.1, r2 = 0.05;
@@ -87,10 +87,34 @@ TEST(CameraModel, ReadsWhatMrcalWrites) {
 }
 )");
   const CameraModel m = CameraModel::Read(dir.path() / "m.cameramodel");
-  EXPECT_EQ(m.lens_model, "LENSMODEL_OPENCV5");
+  EXPECT_EQ(m.lens_model, LensModel::kOpenCV5);
   ASSERT_EQ(m.intrinsics.size(), 9u);
   EXPECT_DOUBLE_EQ(m.intrinsics[8], 0.15);
   EXPECT_EQ(m.width, 640);
+}
+
+TEST(CameraModel, LensModelNamesRoundTripAndUnknownNamesAreInputErrors) {
+  for (LensModel m :
+       {LensModel::kPinhole, LensModel::kOpenCV4, LensModel::kOpenCV5, LensModel::kOpenCV8}) {
+    EXPECT_EQ(ParseLensModel(LensModelName(m)), m);
+  }
+  EXPECT_STREQ(LensModelName(LensModel::kOpenCV8), "LENSMODEL_OPENCV8");
+  try {
+    ParseLensModel("LENSMODEL_CAHVOR");
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("LENSMODEL_CAHVOR"), std::string::npos) << e.what();
+  }
+  testing::TempDir dir;
+  WriteTextAtomically(dir.path() / "c.cameramodel",
+                      "{'lensmodel': 'LENSMODEL_CAHVOR', 'intrinsics': [1, 1, 1, 1], "
+                      "'imagersize': [4, 4]}");
+  try {
+    CameraModel::Read(dir.path() / "c.cameramodel");
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("c.cameramodel"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -72,7 +72,7 @@ TEST_F(BoardRenderTest, TruthJsonHasTheDocumentedSchema) {
   }
   // The camera file agrees with truth.json.
   const CameraModel cam = CameraModel::Read(Session(false) / "camera.cameramodel");
-  EXPECT_EQ(cam.lens_model, "LENSMODEL_OPENCV8");
+  EXPECT_EQ(cam.lens_model, LensModel::kOpenCV8);
   EXPECT_NEAR(cam.intrinsics[0], 560, 1e-9);
   const json board = ReadJsonFile(Session(false) / "board.json");
   EXPECT_EQ(board.at("ids").size(), 20u);

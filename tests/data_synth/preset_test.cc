@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "common/error.h"
 #include "data_synth/scene.h"
 #include "tests/data_synth/synth_test_util.h"
 
@@ -35,6 +36,16 @@ double Linearize(const json& ph, double value) {
   const double black = ph.at("black_level"), max_value = ph.at("max_value");
   return std::pow(std::max(0.0, (value - black) / (max_value - black)),
                   ph.at("response").at("gamma").get<double>());
+}
+
+TEST(PresetOptions, LightOffAxisBeyondNinetyDegreesIsAnInputError) {
+  synth::PresetOptions options;
+  options.sfs_light_offaxis_deg = 120;
+  EXPECT_THROW(synth::PresetScene("sfs-sphere", options), InputError);
+  options.sfs_light_offaxis_deg = std::nan("");
+  EXPECT_THROW(synth::PresetScene("sfs-sphere", options), InputError);
+  options.sfs_light_offaxis_deg = 30;
+  EXPECT_NO_THROW(synth::PresetScene("sfs-sphere", options));
 }
 
 TEST(PresetTest, FlatFieldIsVignettingThroughTheResponse) {

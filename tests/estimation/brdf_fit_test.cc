@@ -1,4 +1,4 @@
-#include "estimation/brdf_fit.h"
+#include "estimation/fit/brdf_fit.h"
 
 #include <gtest/gtest.h>
 

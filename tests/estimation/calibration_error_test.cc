@@ -1,8 +1,8 @@
 // The calibration error's propagation into the joint fit's uncertainty
-// (estimation/calibration_error.h): a known, smooth calibration error applied to observations
+// (estimation/joint/calibration_error.h): a known, smooth calibration error applied to observations
 // synthesized from the geometry moves the fit beyond its statistical error bars; with the
 // calibration part added, the bars cover the truth.
-#include "estimation/calibration_error.h"
+#include "estimation/joint/calibration_error.h"
 
 #include <algorithm>
 #include <cmath>

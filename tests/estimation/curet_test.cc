@@ -7,8 +7,8 @@
 
 #include "common/csv.h"
 #include "common/math.h"
-#include "estimation/brdf_table.h"
-#include "estimation/model_selection.h"
+#include "estimation/fit/brdf_table.h"
+#include "estimation/fit/model_selection.h"
 #include "tests/test_util.h"
 
 namespace gonio {

@@ -1,6 +1,6 @@
 // The joint BRDF + lamp fit on observations synthesized straight from the geometry (no image
 // rendering): what counts as a residual, the per-channel parameters and the option words.
-#include "estimation/joint_fit.h"
+#include "estimation/joint/joint_fit.h"
 
 #include <cmath>
 #include <random>

@@ -1,4 +1,4 @@
-#include "estimation/model_selection.h"
+#include "estimation/fit/model_selection.h"
 
 #include <gtest/gtest.h>
 

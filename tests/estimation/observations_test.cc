@@ -1,6 +1,6 @@
 // observations.csv read back: a round trip, and bad rows refused with the file and line named
 // (the integer checks were found with the fuzz target, docs/testing.md).
-#include "estimation/observations.h"
+#include "estimation/extract/observations.h"
 
 #include <string>
 

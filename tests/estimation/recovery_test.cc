@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "estimation/model_selection.h"
+#include "estimation/fit/model_selection.h"
 #include "reflectance/registry.h"
 #include "tests/estimation/synthetic_table.h"
 

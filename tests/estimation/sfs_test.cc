@@ -12,8 +12,8 @@
 #include "common/io.h"
 #include "data_synth/scene.h"
 #include "data_synth/sfs_renderer.h"
-#include "estimation/sfs.h"
-#include "estimation/sfs_io.h"
+#include "estimation/sfs/sfs.h"
+#include "estimation/sfs/sfs_io.h"
 #include "tests/test_util.h"
 
 namespace gonio::testing {

@@ -8,7 +8,7 @@
 #include <fmt/format.h>
 
 #include "common/math.h"
-#include "estimation/observations.h"
+#include "estimation/extract/observations.h"
 #include "reflectance/angles.h"
 #include "reflectance/oren_nayar.h"
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "common/math.h"
-#include "estimation/brdf_fit.h"
+#include "estimation/fit/brdf_fit.h"
 #include "reflectance/registry.h"
 
 namespace gonio::testing {

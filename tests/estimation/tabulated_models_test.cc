@@ -1,7 +1,7 @@
-// The tabulated van-ginneken and oren-nayar-vcavity (estimation/tabulated_models.h) against
+// The tabulated van-ginneken and oren-nayar-vcavity (estimation/joint/tabulated_models.h) against
 // their direct integrals: values within the documented accuracy, reciprocity and directional
 // albedo as the direct models, Jet derivatives equal to finite differences of the table.
-#include "estimation/tabulated_models.h"
+#include "estimation/joint/tabulated_models.h"
 
 #include <algorithm>
 #include <array>
@@ -15,7 +15,7 @@
 #include "bench/bench_tabulation.h"
 #include "common/math.h"
 #include "common/parallel.h"
-#include "estimation/joint_fit.h"
+#include "estimation/joint/joint_fit.h"
 #include "reflectance/pitted.h"
 #include "tests/reflectance/jet_finite_util.h"
 #include "tests/reflectance/model_test_util.h"

@@ -1,9 +1,11 @@
-#include "estimation/uncertainty.h"
+#include "estimation/fit/uncertainty.h"
 
 #include <cmath>
 
 #include <gtest/gtest.h>
 #include <Eigen/LU>
+
+#include "common/error.h"
 
 namespace gonio {
 namespace {
@@ -42,6 +44,20 @@ TEST(Uncertainty, WideStddevRelativeToRangeIsUndetermined) {
   EXPECT_TRUE(u.undetermined[0]);
   const auto v = AnalyzeUncertainty(J, {1.0}, 1.0, {false}, {});
   EXPECT_FALSE(v.undetermined[0]);  // exempt (a free scale has no range)
+}
+
+TEST(Uncertainty, OptionsOutOfRangeAreInputErrors) {
+  const Eigen::MatrixXd j = Eigen::MatrixXd::Identity(3, 2);
+  UncertaintyOptions bad;
+  bad.rank_tolerance = 0;
+  EXPECT_THROW(AnalyzeUncertainty(j, {1, 1}, 1.0, {false, false}, bad), InputError);
+  bad = {};
+  bad.null_loading = 1.5;
+  EXPECT_THROW(bad.Check(), InputError);
+  bad = {};
+  bad.min_residual_variance = std::nan("");
+  EXPECT_THROW(bad.Check(), InputError);
+  EXPECT_NO_THROW(UncertaintyOptions{}.Check());
 }
 
 }  // namespace

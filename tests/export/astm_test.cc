@@ -12,8 +12,8 @@
 
 #include "common/csv.h"
 #include "common/math.h"
-#include "estimation/brdf_table.h"
-#include "estimation/fit_file.h"
+#include "estimation/fit/brdf_table.h"
+#include "estimation/fit/fit_file.h"
 #include "export/export.h"
 #include "reflectance/angles.h"
 #include "tests/test_util.h"

@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/photometric.h"
+#include "calib/photometry/photometric.h"
 #include "common/camera_model.h"
 #include "common/io.h"
 #include "common/math.h"

@@ -15,7 +15,7 @@
 #include "common/camera_model.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "estimation/synth_photometric.h"
+#include "calib/photometry/synth_photometric.h"
 #include "tests/test_util.h"
 
 namespace gonio {

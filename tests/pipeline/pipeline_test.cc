@@ -9,14 +9,14 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/detect.h"
+#include "calib/geometry/detect.h"
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
-#include "estimation/synth_photometric.h"
 #include "pipeline/run.h"
 #include "tests/pipeline/pipeline_test_util.h"
 #include "tests/test_util.h"
@@ -316,7 +316,7 @@ TEST(Pipeline, MaterialOutsideTheCandidatesIsNotAMeasurement) {
 // One pass over the data: every frame is decoded once and its board detected once, whether the
 // camera model is given or calibrated from the same detections; a cache budget of 0 decodes
 // the located frames a second time for extraction (so the counter does count). The counts are
-// those of the image reader and the detector themselves (common/image_io.h, calib/detect.h),
+// those of the image reader and the detector themselves (common/image_io.h, calib/geometry/detect.h),
 // read around each run: a second detection or decode anywhere in the chain shows.
 TEST(Pipeline, EachFrameIsDecodedAndDetectedOnce) {
   const synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});

@@ -5,10 +5,10 @@
 #include <map>
 #include <string>
 
+#include "calib/photometry/synth_photometric.h"
 #include "common/camera_model.h"
 #include "common/io.h"
 #include "data_synth/scene.h"
-#include "estimation/synth_photometric.h"
 
 namespace gonio {
 

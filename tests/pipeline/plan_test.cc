@@ -1,5 +1,5 @@
-// gonio plan (pipeline/plan.h, estimation/design.h): the predicted uncertainty of the joint fit
-// shows the known instabilities (one viewpoint, a far lamp), the planned poses beat the default
+// gonio plan (pipeline/plan.h, estimation/joint/design.h): the predicted uncertainty of the joint
+// fit shows the known instabilities (one viewpoint, a far lamp), the planned poses beat the default
 // orbit on the prediction, and the CLI refuses bad options with one line and exit 2. The
 // prediction against measured scatter on rendered sessions: PlanScatter.* (e2e, slow).
 #include <cmath>

@@ -1,0 +1,96 @@
+// Target detection: libapriltag for tag grids, OpenCV's chessboard finder + cornerSubPix for
+// chessboards, and mrcal's corners.vnl layout for interop.
+//
+// Pixel coordinates: the centre of the top-left pixel is (0, 0) (docs/conventions.md).
+// libapriltag 3.3 reports corners in the other convention (the top-left pixel spans
+// [0, 1] x [0, 1], its centre at (0.5, 0.5): see the "(p - 0.5) * decimate + 0.5" rescaling in
+// apriltag.c), which tests/calib/detect_test.cc confirms on a rendered tag; DetectAprilTags
+// subtracts 0.5 px so its output is in gonio's convention.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "calib/geometry/board.h"
+
+namespace gonio {
+
+struct AprilTagOptions {
+  std::string family = "tag36h11";
+  // libapriltag's apriltag_detector_t settings (same names and meaning).
+  double decimate = 2.0;  // quad_decimate: quads found on a decimated image, then refined
+  double sigma = 0.0;     // quad_sigma: Gaussian blur (px) before quad detection
+  bool refine_edges = true;
+  int threads = 1;
+  double decode_sharpening = 0.25;
+  int max_hamming = 1;  // bit errors corrected (0..2); more finds more false positives
+  // After the decimated pass (decimate > 1), a second pass at full resolution (decimation 1,
+  // libapriltag's edge refinement off, as AprilTag's own tests detect) where tags may be
+  // missing: with a board, around the places its layout puts the tags the first pass did not
+  // find; without a board (or with no board tag found), in the parts of the image whose
+  // contrast no found tag explains. Small and steeply foreshortened tags, lost on the
+  // decimated image, are found there (docs/calibration.md "Tag detection").
+  bool full_resolution_search = true;
+  void Check() const;  // InputError naming the option
+};
+
+struct TagDetection {
+  int id = -1;
+  std::array<Eigen::Vector2d, 4> corners;  // libapriltag's order (board.h), gonio pixels
+  double decision_margin = 0;
+  int hamming = 0;
+};
+
+// Reads an image as 8-bit grey (GreyForDetection of the decoded file); InputError naming the
+// file when it cannot be read.
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0);
+
+// The 8-bit grey image the detectors take, from a frame as decoded (cv::IMREAD_UNCHANGED:
+// grey or BGR(A), 8 or 16 bit). 16-bit frames are scaled by their own bright level (the
+// 99.5th percentile of the values), not by 1/256: a 12-bit camera's frames in 16-bit files, or
+// a short exposure of a sweep, would otherwise reach libapriltag with a few grey levels. The
+// gain is at most 64 over the stated range (bit_depth, 0: 16), so a black frame stays black.
+// Only geometry is read from this image; radiometry always uses the decoded values.
+cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth = 0);
+
+// Every tag of options.family in an 8-bit grey image, sorted by id: the decimated pass, then
+// (options.full_resolution_search) full resolution where the image has contrast no found tag
+// explains.
+std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options);
+
+// One image's view of a board: which board points were seen and where.
+struct BoardObservation {
+  std::string image;             // file name, for reports and corners.vnl
+  int width = 0, height = 0;     // image size in pixels
+  std::vector<int> point_index;  // into Board::Points()
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<int> tag_ids;          // AprilTag grids: the board's tags found
+  std::vector<int> foreign_tag_ids;  // tags found that the board does not have
+};
+
+// Detects the board in an image. Chessboards: all inner corners or none (empty observation).
+// AprilTag grids: the board's tags that were found (options.family is ignored: the board's
+// family is used); with options.full_resolution_search the board's tags the decimated pass
+// missed are searched at full resolution where a homography from the nearest found tags puts
+// them.
+BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
+                             const AprilTagOptions& options, const std::string& image_name);
+
+// DetectBoard calls in this process so far: tests compare it before and after a run to count
+// the detections of each frame (docs/pipeline.md).
+size_t BoardDetectionCount();
+
+// mrcal's corners.vnl ("# filename x y level"): per image, the board's mrcal grid row-major;
+// points not seen get "- - -" (mrcal skips them); an image with no board gets one
+// "filename - - -" row. Level 0 = full-resolution corner (weight 1).
+std::string ToCornersVnl(const Board& board, const std::vector<BoardObservation>& observations);
+// The inverse, for `gonio calibrate --corners`; InputError naming the file on a malformed
+// file or one that does not match the board's grid. Image sizes are left 0.
+std::vector<BoardObservation> ReadCornersVnl(const std::filesystem::path& path, const Board& board);
+
+}  // namespace gonio

@@ -1,0 +1,210 @@
+#include "calib/photometry/photometric.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "common/error.h"
+#include "common/image_io.h"
+#include "common/io.h"
+
+namespace gonio {
+
+PhotometricCalibration PhotometricCalibration::Linear(int bit_depth, int channels,
+                                                      double black_level, BlackLevelSource source) {
+  PhotometricCalibration p;
+  ResponseResult& r = p.response;
+  r.black_level_source = source;
+  r.bit_depth = bit_depth;
+  r.channels = channels;
+  const int n = 1 << bit_depth;
+  r.black_level.assign(channels, black_level);
+  r.saturation_level.assign(channels, n - 1.0);
+  r.inverse_response.assign(channels, std::vector<double>(n));
+  for (int c = 0; c < channels; ++c) {
+    for (int z = 0; z < n; ++z) {
+      r.inverse_response[c][z] = std::max(0.0, (z - black_level) / (n - 1.0 - black_level));
+    }
+  }
+  return p;
+}
+
+void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, double gain,
+                                        cv::Mat* radiance, cv::Mat* variance,
+                                        cv::Mat* valid) const {
+  const int channels = raw.channels();
+  if (channels != response.channels) {
+    throw InputError("image has " + std::to_string(channels) +
+                     " channels, the photometric calibration " + std::to_string(response.channels));
+  }
+  if (!vignette.empty() && vignette.size() != raw.size()) {
+    throw InputError(fmt::format("image is {}x{}, the vignetting map {} is {}x{}", raw.cols,
+                                 raw.rows, vignette_file.string(), vignette.cols, vignette.rows));
+  }
+  if (!(exposure_s > 0) || !(gain > 0)) throw InputError("exposure and gain must be > 0");
+  const double max_value = (1 << response.bit_depth) - 1.0;
+  // Below the lowest value the sweep supports the table is an extrapolation (a line to the black
+  // level, off by up to a factor 2 on the 12-bit sweeps): no radiance is read there (dark).
+  std::vector<double> dark_limit(channels);
+  for (int c = 0; c < channels; ++c) {
+    dark_limit[c] = std::nextafter(response.black_level[c] + 0.5, INFINITY);
+    if (!response.lowest_supported_value.empty()) {
+      dark_limit[c] = std::max(dark_limit[c], response.lowest_supported_value[c]);
+    }
+  }
+  cv::Mat values;
+  raw.convertTo(values, CV_MAKETYPE(CV_64F, channels));
+  *radiance = cv::Mat(raw.size(), CV_MAKETYPE(CV_32F, channels));
+  *variance = cv::Mat(raw.size(), CV_MAKETYPE(CV_32F, channels));
+  *valid = cv::Mat(raw.size(), CV_8U, cv::Scalar(1));
+  for (int y = 0; y < raw.rows; ++y) {
+    const double* in = values.ptr<double>(y);
+    float* out = radiance->ptr<float>(y);
+    float* var = variance->ptr<float>(y);
+    uint8_t* ok = valid->ptr<uint8_t>(y);
+    for (int x = 0; x < raw.cols; ++x) {
+      const double v = vignette.empty() ? 1.0 : vignette.at<float>(y, x);
+      const double scale = 1.0 / (exposure_s * gain * v);
+      for (int c = 0; c < channels; ++c) {
+        const double z = in[x * channels + c];
+        const bool dark = z < dark_limit[c];
+        if (dark || z >= std::min(max_value, response.saturation_level[c])) ok[x] = 0;
+        const double slope = response.Slope(c, z);
+        double var_z = 1.0 / 12.0 + read_noise_dn * read_noise_dn;
+        if (electrons_per_dn)
+          var_z += std::max(0.0, z - response.black_level[c]) / *electrons_per_dn;
+        // A dark value reads as no radiance, as it did at the black level itself.
+        out[x * channels + c] = dark ? 0.0f : static_cast<float>(response.Linearize(c, z) * scale);
+        var[x * channels + c] = static_cast<float>(slope * slope * var_z * scale * scale);
+      }
+    }
+  }
+}
+
+double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
+                                                double vignette_rms_relative) {
+  return std::min(std::hypot(ResponseError(response), vignette_rms_relative), 0.99);
+}
+
+double PhotometricCalibration::ResponseError(const ResponseResult& response) {
+  if (!response.error_model.empty()) return std::min(response.error_model.RmsSd(), 0.99);
+  return std::min(std::hypot(ResponseAccuracy(response), SmoothingError(response)), 0.99);
+}
+
+ResponseErrorModel PhotometricCalibration::ResponseErrorModelOf(const ResponseResult& response) {
+  if (!response.error_model.empty()) return response.error_model;
+  ResponseErrorModel m;
+  m.method = "stand-in from the self-check (response.json without an error model)";
+  const double sd = ResponseFieldRms(response);
+  if (!(sd > 0)) return m;
+  for (int c = 0; c < response.channels; ++c) {
+    const double lo = response.black_level[c] + 0.02 * ((1 << response.bit_depth) - 1);
+    const double hi = std::max(lo + 1, response.saturation_level[c] - 1);
+    ResponseErrorModel::Channel ch;
+    ch.value_edges = {lo, hi};
+    ch.sd = {sd};
+    ch.correlation_length = 0.5 * (hi - lo);
+    m.channels.push_back(ch);
+  }
+  return m;
+}
+
+double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) {
+  double sum = 0;
+  int n = 0;
+  for (double b : response.consistency.band_bias) {
+    if (std::isfinite(b)) sum += b * b, ++n;
+  }
+  return n > 0 ? std::min(std::sqrt(sum / n), 0.99) : ResponseAccuracy(response);
+}
+
+double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
+  const double s = response.smoothing_sensitivity;
+  return std::isfinite(s) ? std::min(s, 0.99) : 0.0;
+}
+
+double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) {
+  const PairConsistency& c = response.consistency;
+  if (std::isfinite(c.worst_band_bias)) return std::min(std::abs(c.worst_band_bias), 0.99);
+  if (std::isfinite(c.median_pair)) return std::min(std::abs(c.median_pair), 0.99);
+  return 0;
+}
+
+PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path& path) {
+  const nlohmann::json j = ReadJsonFile(path);
+  PhotometricCalibration p;
+  if (!j.contains("response")) throw InputError(path.string() + ": missing key 'response'");
+  p.response = ResponseResult::FromJson(j["response"], path.string());
+  // The noise terms enter a variance and a division (docs/formats.md): a wrong type or sign
+  // is bad input, never a NaN later.
+  if (j.contains("read_noise_dn")) {
+    const auto& v = j["read_noise_dn"];
+    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(path.string() + ": 'read_noise_dn' must be a number >= 0");
+    }
+    p.read_noise_dn = v.get<double>();
+  }
+  if (j.contains("electrons_per_dn") && !j["electrons_per_dn"].is_null()) {
+    const auto& v = j["electrons_per_dn"];
+    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(path.string() + ": 'electrons_per_dn' must be a number > 0 or null");
+    }
+    p.electrons_per_dn = v.get<double>();
+  }
+  if (j.contains("relative_accuracy") && !j["relative_accuracy"].is_null()) {
+    const auto& v = j["relative_accuracy"];
+    if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() < 1)) {
+      throw InputError(path.string() + ": 'relative_accuracy' must be a number in [0, 1) or null");
+    }
+    p.relative_accuracy = v.get<double>();
+  }
+  if (j.contains("vignette") && !j["vignette"].is_null()) {
+    if (!j["vignette"].is_string()) {
+      throw InputError(path.string() + ": 'vignette' must be a file name or null");
+    }
+    const auto file = path.parent_path() / j["vignette"].get<std::string>();
+    ImageExpectation expect;
+    expect.pixels = ImageExpectation::Pixels::kFloat;
+    expect.channels = 1;
+    expect.channels_of = "a vignetting map";
+    p.vignette = ReadImage(file, expect);
+    p.vignette_file = file;
+    // V(x) divides the radiance: zeros, negatives, NaN or Inf would give Inf/NaN radiance.
+    double lo = 0, hi = 0;
+    if (!cv::checkRange(p.vignette)) {
+      throw InputError(file.string() + ": the vignetting map holds NaN or Inf");
+    }
+    cv::minMaxLoc(p.vignette, &lo, &hi);
+    if (!(lo > 0)) {
+      throw InputError(file.string() + ": the vignetting map holds values <= 0 (min " +
+                       std::to_string(lo) + "); V(x) must be positive everywhere");
+    }
+  }
+  if (!(p.read_noise_dn >= 0) || !std::isfinite(p.read_noise_dn)) {
+    throw InputError(path.string() + ": read_noise_dn must be a finite number >= 0");
+  }
+  if (p.electrons_per_dn && !(*p.electrons_per_dn > 0 && std::isfinite(*p.electrons_per_dn))) {
+    throw InputError(path.string() + ": electrons_per_dn must be a finite number > 0");
+  }
+  return p;
+}
+
+void PhotometricCalibration::Write(const std::filesystem::path& path) const {
+  nlohmann::json j;
+  j["response"] = response.ToJson();
+  j["read_noise_dn"] = read_noise_dn;
+  j["electrons_per_dn"] = electrons_per_dn ? nlohmann::json(*electrons_per_dn) : nlohmann::json();
+  j["relative_accuracy"] =
+      relative_accuracy ? nlohmann::json(*relative_accuracy) : nlohmann::json();
+  if (!vignette.empty()) {
+    const std::string name = path.stem().string() + "_vignette.tiff";
+    WriteImage(path.parent_path() / name, vignette);
+    j["vignette"] = name;
+  } else {
+    j["vignette"] = nullptr;
+  }
+  WriteJsonAtomically(path, j);
+}
+
+}  // namespace gonio

@@ -1,0 +1,73 @@
+// A camera's photometric calibration applied to images: pixel value -> linear relative radiance.
+//
+// radiance = X(value) / (exposure_s * gain * V(pixel)), with X the inverse response (response.h,
+// black level included) and V the vignetting map (1 where there is none). Its variance comes
+// from the pixel noise propagated through dX/dvalue: var(value) = quantization (1/12) + read
+// noise^2 + shot noise (value - black) / gain_dn_per_e (when known).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "calib/photometry/response.h"
+
+namespace gonio {
+
+struct PhotometricCalibration {
+  ResponseResult response;
+  cv::Mat vignette;  // CV_32F, image size, V(pixel) (1 = no fall-off); empty: none
+  std::filesystem::path vignette_file;  // where Read found the map, for messages
+  double read_noise_dn = 0.5;
+  std::optional<double> electrons_per_dn;  // shot noise when known
+  // The calibration's own 1-sigma relative radiance error (response and vignetting combined,
+  // docs/formats.md), when the commands that made it measured one. The joint fit takes it as
+  // its relative noise floor (docs/pipeline.md); unknown for a calibration written by hand or
+  // by the renderer.
+  std::optional<double> relative_accuracy;
+
+  // The response's own relative accuracy where the sweep has values: its self-check's worst
+  // band bias (the ratio error of neighbouring exposures, free of pixel noise, anywhere in the
+  // returned range), else the median pair consistency when no band could be checked
+  // (docs/photometric.md). A smooth error over the radiance range: gonio run propagates it as
+  // the response's error modes (estimation/joint/calibration_error.h).
+  static double ResponseAccuracy(const ResponseResult& response);
+  // The RMS of the response's band biases (its self-check's signed error per eighth of the
+  // value range); without bands: ResponseAccuracy.
+  static double ResponseFieldRms(const ResponseResult& response);
+  // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
+  // not measured).
+  static double SmoothingError(const ResponseResult& response);
+  // The response's share of relative_accuracy: the RMS of its error model's band standard
+  // deviations (ResponseErrorModel); for a response.json without one (written before the error
+  // model), sqrt(ResponseAccuracy^2 + SmoothingError^2).
+  static double ResponseError(const ResponseResult& response);
+  // The response's error model; for a response.json without one, a stand-in: the band biases'
+  // RMS (ResponseFieldRms) over the whole checked range, correlated over half of it (a smooth
+  // tilt, as the self-check can see).
+  static ResponseErrorModel ResponseErrorModelOf(const ResponseResult& response);
+  // sqrt(ResponseError^2 + vignetting^2): the response's and the vignetting fit's RMS relative
+  // residual, as independent relative errors of a radiance.
+  static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);
+
+  // A linear camera with the given black level and no vignetting (bit_depth 8..16); `source`
+  // says where the black level came from (response.json black_level_source).
+  static PhotometricCalibration Linear(int bit_depth, int channels, double black_level,
+                                       BlackLevelSource source);
+
+  // radiance: CV_32FC(channels), variance: same, valid: CV_8U (0 where a channel is saturated
+  // or dark, where no radiance can be read: at/below the black level or below the lowest value
+  // the response's sweep supports, ResponseResult::lowest_supported_value; radiance 0 there).
+  void ToRadiance(const cv::Mat& raw, double exposure_s, double gain, cv::Mat* radiance,
+                  cv::Mat* variance, cv::Mat* valid) const;
+
+  // photometric.json: {"response": {...response.json...}, "vignette": FILE or null,
+  // "read_noise_dn", "electrons_per_dn"}; the vignette is a 32-bit float TIFF next to it.
+  static PhotometricCalibration Read(const std::filesystem::path& path);
+  void Write(const std::filesystem::path& path) const;
+};
+
+}  // namespace gonio

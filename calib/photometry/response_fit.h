@@ -1,0 +1,180 @@
+// Internals of the inverse-response fit shared by response.cc (the fit of one channel, the
+// table) and response_times.cc (screening of the listed exposure times); not a public API.
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "calib/photometry/response.h"
+
+namespace gonio {
+
+struct ChannelFit {
+  std::vector<double> h;       // knots
+  std::vector<double> ln_t;    // per frame
+  std::vector<double> ln_e;    // per sampled pixel (0 for a pixel never well exposed)
+  std::vector<double> counts;  // observations per knot (for the isotonic weights)
+  // Per frame: median over its pixels of h(Z) - ln t - ln E, with ln E from the pixel's other
+  // frames (leave one out), ln units; NaN for a frame without such pixels.
+  std::vector<double> frame_offset;
+  // Per frame: whether enough sampled pixels (a quarter) are well exposed in it to judge its time.
+  std::vector<bool> judgeable;
+  double rms = 0;
+};
+
+// One well-exposed observation of a sampled pixel: value Z in `frame`, h(Z) = (1 - a) h[k] +
+// a h[k + 1], with the hat weight w.
+struct KnotObservation {
+  int pixel, frame, k;
+  double a, w;
+};
+
+// The fit's least-squares problem (response_solve.cc): minimise
+//   sum_i huber(w_i (h(Z_i) - ln E_p - ln t_j)) + sum_k (smooth_weight[k] (h[k-1] - 2 h[k] +
+//   h[k+1]))^2
+// over the knots and times not held and every observed pixel's ln E.
+struct LinearFitSpec {
+  std::vector<bool> knot_fixed;       // per knot: held at its value in h
+  std::vector<bool> frame_fixed;      // per frame: ln t held (frames without observations are)
+  std::vector<double> smooth_weight;  // per knot (the first and last are unused)
+  double huber_scale = 0.05;          // ln units (kHuberScale)
+  int max_iterations = 100;
+  double tolerance = 1e-9;  // largest change of a knot or ln t between iterations, ln units
+};
+
+// Iteratively reweighted least squares with every pixel's ln E eliminated in closed form.
+// h, ln_e, ln_t: the start on entry (held values stay), the minimum on return. `weights`: each
+// observation's final weight w^2 rho'; `normal`: the reduced normal matrix over the free knots
+// and times (either may be null). NumericalError when the system has no finite solution.
+void SolveResponseFit(const std::vector<KnotObservation>& obs, const LinearFitSpec& spec,
+                      std::vector<double>* h, std::vector<double>* ln_e, std::vector<double>* ln_t,
+                      std::vector<double>* weights = nullptr, Eigen::MatrixXd* normal = nullptr);
+double HuberWeight(double residual, double scale);
+// The Huber loss's scale (ln units): misregistered edges and moving objects give a few
+// observations far off, which a square loss lets bend the curve.
+constexpr double kHuberScale = 0.05;
+
+struct Setup {
+  int bit_depth, max_value, num_knots;
+  double dark_limit, saturation_limit;
+  double min_range_fraction;
+  std::vector<int> usable;  // frame indices in the fit
+  // The channel's darkest values in the sweep (DarkestValue): the black level lies below; piled:
+  // 1 % of a frame's values sit on it, twice the next value's (a pipeline that clips there).
+  double darkest_value = INFINITY;
+  bool darkest_piled = false;
+};
+
+// Before the fit (response_setup.cc). InputError unless the frames share size and type, have
+// exposure times > 0 and differ in exposure.
+void CheckSweep(const std::vector<ExposureFrame>& frames);
+// The setup of the options at a resolved bit depth (dark limit above the lowest given black).
+Setup MakeSetup(const ResponseOptions& o, int bit_depth);
+// InputError when the brightest value of the sweep lies below `min_range_fraction` of the range.
+void CheckValueSpan(const std::vector<ExposureFrame>& frames, const Setup& s);
+// A channel's saturation limit: below the value the longest exposure piles clipped pixels on.
+double ChannelSaturation(const std::vector<cv::Mat>& planes, const Setup& s,
+                         const std::vector<double>& exposures_s);
+// planes[channel][frame] as CV_32F; InputError for a value beyond the bit depth.
+std::vector<std::vector<cv::Mat>> ChannelPlanes(const std::vector<ExposureFrame>& frames,
+                                                const Setup& s, int channels);
+// One report per frame; frames saturated or dark everywhere are left out, the others listed in
+// s->usable. InputError when fewer than two remain.
+void ScreenFrames(const std::vector<ExposureFrame>& frames, const std::vector<cv::Mat>& gray,
+                  Setup* s, ResponseResult* result);
+
+// Where value z falls between knots: h(z) = (1 - a) h[k] + a h[k + 1].
+struct KnotPair {
+  int k;
+  double a;
+};
+KnotPair KnotsOf(const Setup& s, double z);
+// Whether the frame's mask allows pixel p.
+bool Usable(const ExposureFrame& f, const cv::Point& p);
+// The fit's weight of a value: a hat, 0 at the dark limit and at saturation, 1 midway.
+double HatWeight(const Setup& s, double z);
+// The observations of the sampled pixels in the usable frames with hat weight >= 0.05.
+std::vector<KnotObservation> CollectObservations(const std::vector<cv::Mat>& planes,
+                                                 const std::vector<ExposureFrame>& frames,
+                                                 const Setup& s,
+                                                 const std::vector<cv::Point>& pixels);
+// The fit of given observations of `num_pixels` pixels (FitChannel on the frames' own values;
+// the error model's on simulated ones), started from `start` when given.
+ChannelFit FitKnotObservations(const std::vector<KnotObservation>& obs, size_t num_pixels,
+                               const std::vector<ExposureFrame>& frames,
+                               const std::vector<bool>& free_time, bool times_unknown,
+                               const Setup& s, const ResponseOptions& o,
+                               const ChannelFit* start = nullptr);
+
+// One channel's fit (response.cc). The listed times of usable frames with `free_time` false are
+// held exactly; with `times_unknown` every time floats and h is held at two knots instead.
+ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<ExposureFrame>& frames,
+                      const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
+                      const std::vector<cv::Point>& pixels, const ResponseOptions& o);
+
+// Fits every channel while releasing the frames whose listed time the others contradict
+// (response_times.cc): `s->usable` loses left-out frames, `free_time` marks released ones.
+std::vector<ChannelFit> FitWithTimeScreening(const std::vector<std::vector<cv::Mat>>& planes,
+                                             const std::vector<ExposureFrame>& frames,
+                                             const std::vector<Setup>& setups,
+                                             const std::vector<std::vector<cv::Point>>& pixels,
+                                             const ResponseOptions& o, Setup* s,
+                                             std::vector<bool>* free_time);
+
+// The released frames' final times (median over channels) and verdicts.
+void ReportFrames(const std::vector<ChannelFit>& fits, const std::vector<bool>& free_time,
+                  const std::vector<ExposureFrame>& frames, const Setup& s,
+                  const ResponseOptions& o, ResponseResult* result);
+
+// The black level from the shape of the monotone curve `h` (knots) near its dark end
+// (response_black.cc): the b whose log-log power law X = c (Z - b)^p over the lowest fifth of the
+// supported values [z_lo, z_hi] is straightest, and the range [lo, hi] of black levels the data
+// cannot tell from it (docs/photometric.md "Black level"). `counts`: observations per knot;
+// `rms`: the fit's residual (ln units).
+struct BlackLevelEstimate {
+  double value, lo, hi;
+};
+BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
+                                      const std::vector<double>& counts, double rms, const Setup& s,
+                                      double z_lo, double z_hi);
+
+// The 0.1 % quantile of one channel's values inside the masks, lowest over the frames: light
+// only adds to the black level, so it lies at or below (to within the noise). `piled`: whether
+// a frame whose quantile it is holds 1 % of its values on it, and twice as many as on the next.
+double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
+                    bool* piled = nullptr);
+
+// The stiffer prior SmoothingSensitivity refits with: 4x the smoothness (twice the curvature
+// penalty's scale), enough to straighten what only the prior holds up between data.
+constexpr double kSmoothingSensitivityFactor = 4.0;
+
+// Every channel refitted with the smoothness times kSmoothingSensitivityFactor, frames and times
+// as in `fits` (response_smoothing.cc).
+std::vector<ChannelFit> StifferFits(const std::vector<std::vector<cv::Mat>>& planes,
+                                    const std::vector<ExposureFrame>& frames,
+                                    const std::vector<bool>& free_time,
+                                    const std::vector<Setup>& setups,
+                                    const std::vector<std::vector<cv::Point>>& pixels,
+                                    const std::vector<ChannelFit>& fits, const ResponseOptions& o);
+
+// Relative change of the inverse response between `fits` and the `stiff` refits: per band of the
+// self-checked range (black + 2 % of the range to saturation, PairConsistency::kBands equal
+// parts) the median change, and the worst band (response_smoothing.cc); NaN with smoothness 0.
+double SmoothingSensitivity(const std::vector<Setup>& setups, const std::vector<ChannelFit>& fits,
+                            const std::vector<ChannelFit>& stiff, const ResponseResult& result,
+                            const ResponseOptions& o);
+
+// One channel's error model over the values [lo, hi] (response_error.cc): the sweep simulated
+// from the `stiff` refit's curve o.error_replicates times and refitted as `fit` was.
+ResponseErrorModel::Channel ChannelErrorModel(const std::vector<ExposureFrame>& frames,
+                                              const std::vector<bool>& free_time, const Setup& s,
+                                              const std::vector<cv::Point>& pixels,
+                                              const std::vector<cv::Mat>& planes,
+                                              const ChannelFit& fit, const ChannelFit& stiff,
+                                              double lo, double hi, const ResponseOptions& o,
+                                              int channel);
+
+}  // namespace gonio

@@ -1,0 +1,371 @@
+// Reading exposure sweeps and response.json, and what a ResponseResult says of itself
+// (calib/photometry/response.h); the calibration itself is response.cc.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "calib/photometry/response.h"
+#include "common/error.h"
+#include "common/image_io.h"
+#include "common/session.h"
+
+namespace gonio {
+namespace {
+
+// One image of a sweep (frame or dark frame) as stored, 8- or 16-bit; 4 channels lose their
+// alpha. InputError naming the file when it cannot be read.
+cv::Mat ReadSweepImage(const std::string& path) {
+  ImageExpectation expect;
+  expect.alpha = ImageExpectation::Alpha::kDrop;
+  return ReadImage(path, expect);
+}
+
+}  // namespace
+
+std::vector<ExposureFrame> LoadExposureSweep(const std::string& dir, const std::string& list_file) {
+  std::ifstream in(list_file);
+  if (!in) throw InputError(list_file + ": cannot be read");
+  std::vector<ExposureFrame> frames;
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto hash = line.find('#');
+    if (hash != std::string::npos) line = line.substr(0, hash);
+    std::istringstream ss(line);
+    ExposureFrame f;
+    if (!(ss >> f.file)) continue;
+    if (!(ss >> f.exposure_s) || !(f.exposure_s > 0) || !std::isfinite(f.exposure_s)) {
+      throw InputError(
+          fmt::format("{}: line {}: expected 'file exposure_seconds'", list_file, line_no));
+    }
+    const std::string path = dir + "/" + f.file;
+    f.image = ReadSweepImage(path);
+    if (!frames.empty() &&
+        (f.image.size() != frames[0].image.size() || f.image.type() != frames[0].image.type())) {
+      throw InputError(path + ": size or type differs from " + frames[0].file);
+    }
+    frames.push_back(std::move(f));
+  }
+  if (frames.size() < 2) {
+    throw InputError(list_file + ": an exposure sweep needs at least two frames");
+  }
+  return frames;
+}
+
+void AddDarkFrames(const std::string& dir, const std::vector<std::string>& files,
+                   ExposureSweep* sweep) {
+  for (const auto& file : files) {
+    const std::filesystem::path path = std::filesystem::path(dir) / file;  // absolute stays
+    ExposureFrame f;
+    f.file = file;
+    f.image = ReadSweepImage(path.string());
+    sweep->dark_frames.push_back(std::move(f));
+  }
+}
+
+ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_file) {
+  namespace fs = std::filesystem;
+  ExposureSweep sweep;
+  const fs::path session_file = fs::path(dir) / "session.json";
+  if (fs::exists(session_file)) {
+    const Session session = ReadSession(session_file);
+    sweep.bit_depth = session.bit_depth;
+    sweep.bit_depth_source = sweep.session_file = session_file.string();
+    if (session.black_level >= 0) sweep.black_level = session.black_level;
+    AddDarkFrames(dir, session.dark_frames, &sweep);
+    if (list_file.empty()) {
+      for (size_t i = 0; i < session.frames.size(); ++i) {
+        ExposureFrame f;
+        f.file = session.frames[i].file;
+        f.exposure_s = session.frames[i].exposure_s * session.frames[i].gain;
+        f.image = ReadSweepImage(session.FramePath(i).string());
+        sweep.frames.push_back(std::move(f));
+      }
+      if (sweep.frames.size() < 2) {
+        throw InputError(session_file.string() + ": an exposure sweep needs at least two frames");
+      }
+      return sweep;
+    }
+  }
+  sweep.frames = LoadExposureSweep(
+      dir, list_file.empty() ? (fs::path(dir) / "image_list.txt").string() : list_file);
+  return sweep;
+}
+
+void MaskColour(const cv::Scalar& bgr, std::vector<ExposureFrame>* frames) {
+  for (auto& f : *frames) {
+    if (f.image.channels() != 3) throw InputError(f.file + ": a colour mask needs RGB frames");
+    cv::Mat match;
+    cv::inRange(f.image, bgr, bgr, match);
+    if (f.mask.empty()) f.mask = cv::Mat(f.image.size(), CV_8U, cv::Scalar(255));
+    f.mask.setTo(0, match);
+  }
+}
+
+namespace {
+
+// Number of low bits that are zero in every value of every frame (16 when all are zero).
+int CommonTrailingZeroBits(const std::vector<ExposureFrame>& frames) {
+  unsigned all = 0;
+  for (const auto& f : frames) {
+    cv::Mat v = f.image.reshape(1);
+    for (int y = 0; y < v.rows; ++y) {
+      const uint16_t* row = v.ptr<uint16_t>(y);
+      for (int x = 0; x < v.cols; ++x) all |= row[x];
+    }
+  }
+  int zeros = 0;
+  while (zeros < 16 && !(all & (1u << zeros))) ++zeros;
+  return zeros;
+}
+
+double MaxValue(const std::vector<ExposureFrame>& frames, std::string* file) {
+  double top = 0;
+  for (const auto& f : frames) {
+    double m = 0;
+    cv::minMaxLoc(f.image.reshape(1), nullptr, &m);
+    if (m > top) {
+      top = m;
+      *file = f.file;
+    }
+  }
+  return top;
+}
+
+}  // namespace
+
+int ResolveBitDepth(int stated, const std::string& stated_by, std::vector<ExposureFrame>* frames,
+                    ValuePacking* packing) {
+  if (packing) *packing = ValuePacking::kNative;
+  const bool eight = frames->front().image.depth() == CV_8U;
+  if (eight) {
+    if (stated != 0 && stated != 8) {
+      throw InputError(fmt::format("{}: states {} bits, but {} holds 8-bit values", stated_by,
+                                   stated, frames->front().file));
+    }
+    return 8;
+  }
+  std::string top_file;
+  const double top = MaxValue(*frames, &top_file);
+  const int zeros = CommonTrailingZeroBits(*frames);
+  if (stated == 0 || stated == 16) {
+    // Frames whose values all have their low bits zero are N < 16 bits MSB-aligned.
+    if (zeros >= 2 && zeros < 16 && top > 0) {
+      throw InputError(fmt::format(
+          "{}: every value is a multiple of {}: {}-bit values MSB-aligned in 16 bits; gonio reads "
+          "LSB-aligned values, shift the frames right by {} bits and state bit_depth {}",
+          frames->front().file, 1 << zeros, 16 - zeros, zeros, 16 - zeros));
+    }
+    return 16;
+  }
+  const double max_value = std::ldexp(1.0, stated) - 1;
+  if (top <= max_value) {
+    if (packing) *packing = ValuePacking::kLsbAligned;
+    return stated;
+  }
+  if (zeros >= 16 - stated) {
+    throw InputError(fmt::format(
+        "{}: {}-bit values MSB-aligned in 16 bits (every value a multiple of {}); gonio reads "
+        "LSB-aligned values: shift the frames right by {} bits",
+        top_file, stated, 1 << (16 - stated), 16 - stated));
+  }
+  throw InputError(fmt::format("{}: value {} does not fit the {} bits {} states", top_file, top,
+                               stated, stated_by));
+}
+
+double ResponseResult::Linearize(int channel, double value) const {
+  const auto& t = inverse_response.at(channel);
+  const double z = std::clamp(value, 0.0, static_cast<double>(t.size() - 1));
+  const size_t k = std::min(static_cast<size_t>(z), t.size() - 2);
+  const double a = z - k;
+  return (1 - a) * t[k] + a * t[k + 1];
+}
+
+double ResponseResult::Slope(int channel, double value) const {
+  const auto& t = inverse_response.at(channel);
+  const size_t k =
+      std::min(static_cast<size_t>(std::clamp(value, 0.0, t.size() - 2.0)), t.size() - 2);
+  return t[k + 1] - t[k];
+}
+
+bool ResponseResult::BlackLevelUncertain() const {
+  const double max_value = std::ldexp(1.0, bit_depth) - 1;
+  for (const auto& r : black_level_range) {
+    if (r[1] - r[0] > 0.02 * max_value) return true;
+  }
+  return false;
+}
+
+std::string ResponseResult::Report() const {
+  std::ostringstream s;
+  s << fmt::format("inverse response: {} channel(s), {} bit, black level", channels, bit_depth);
+  for (double b : black_level) s << fmt::format(" {:.1f}", b);
+  s << fmt::format(" ({}); fit rms {:.4f} (ln units)\n", BlackLevelSourceName(black_level_source),
+                   rms_log_residual);
+  if (black_level_source == BlackLevelSource::kEstimated) {
+    s << "  black level estimated from the curve's shape; the data allow";
+    for (const auto& r : black_level_range) s << fmt::format(" {:.1f}..{:.1f}", r[0], r[1]);
+    s << (BlackLevelUncertain() ? ": shoot dark frames (docs/capture.md) or state it\n" : "\n");
+  }
+  s << fmt::format(
+      "pair consistency over values {:.0f}..{:.0f}: median pair {:.2f}%, worst pair {:.2f}%; "
+      "worst value-band bias {:.2f}%\n",
+      consistency.range_lo, consistency.range_hi, 100 * consistency.median_pair,
+      100 * consistency.worst_pair, 100 * consistency.worst_band_bias);
+  if (std::isfinite(smoothing_sensitivity)) {
+    s << fmt::format(
+        "smoothing sensitivity {:.2f}% (the curve's change under a 4x stiffer prior, worst value "
+        "band: its error between the values the sweep holds){}\n",
+        100 * smoothing_sensitivity,
+        smoothing_sensitivity > 0.01 ? "; more exposures (third stops) would pin it" : "");
+  }
+  for (size_t c = 0; c < error_model.channels.size(); ++c) {
+    const auto& m = error_model.channels[c];
+    const auto worst = std::max_element(m.sd.begin(), m.sd.end()) - m.sd.begin();
+    double sum = 0;
+    for (double v : m.sd) sum += v * v;
+    s << fmt::format(
+        "error model (channel {}): ln X's error {:.2f}% RMS over values {:.0f}..{:.0f}, largest "
+        "{:.2f}% at {:.0f}, correlated over {:.0f} values ({} simulated sweeps)\n",
+        c, 100 * std::sqrt(sum / m.sd.size()), m.value_edges.front(), m.value_edges.back(),
+        100 * m.sd[worst], 0.5 * (m.value_edges[worst] + m.value_edges[worst + 1]),
+        m.correlation_length, error_model.replicates);
+  }
+  if (!timing.stages.empty()) {
+    s << fmt::format("time: {:.2f} s (", timing.total_s);
+    for (size_t k = 0; k < timing.stages.size(); ++k) {
+      s << fmt::format("{}{} {:.2f}", k ? ", " : "", timing.stages[k].first,
+                       timing.stages[k].second);
+    }
+    s << ")\n";
+  }
+  for (const auto& f : frames) {
+    s << fmt::format(
+        "  {:<20} listed {:>10.5g} s  used {:>10.5g} s  {}\n", f.file, f.listed_s, f.estimated_s,
+        !f.used ? "left out: " + f.note
+                : (f.consistent ? (f.note.empty() ? "ok" : "ok (re-timed: " + f.note + ")")
+                                : "re-timed: " + f.note));
+  }
+  return s.str();
+}
+
+namespace {
+
+nlohmann::json TimingJson(const ResponseTiming& t) {
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& [name, seconds] : t.stages) stages[name] = seconds;
+  return {{"total_s", t.total_s}, {"stages_s", stages}};
+}
+
+}  // namespace
+
+nlohmann::json ResponseResult::ToJson() const {
+  nlohmann::json fr = nlohmann::json::array();
+  for (const auto& f : frames) {
+    fr.push_back({{"file", f.file},
+                  {"listed_exposure_s", f.listed_s},
+                  {"used_exposure_s", f.estimated_s},
+                  {"consistent", f.consistent},
+                  {"used", f.used},
+                  {"note", f.note}});
+  }
+  return {{"bit_depth", bit_depth},
+          {"channels", channels},
+          {"black_level", black_level},
+          {"black_level_source", BlackLevelSourceName(black_level_source)},
+          {"black_level_range", black_level_range},
+          {"saturation_level", saturation_level},
+          {"inverse_response", inverse_response},
+          {"frames", fr},
+          {"consistency", consistency.ToJson()},
+          {"regional_mapping_difference", regional_mapping_difference},
+          {"smoothing_sensitivity", std::isfinite(smoothing_sensitivity)
+                                        ? nlohmann::json(smoothing_sensitivity)
+                                        : nlohmann::json()},
+          {"rms_log_residual", rms_log_residual},
+          {"lowest_supported_value", lowest_supported_value},
+          {"timing", TimingJson(timing)},
+          {"error_model", error_model.empty() ? nlohmann::json() : error_model.ToJson()}};
+}
+
+ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::string& source) {
+  ResponseResult r;
+  try {
+    r.bit_depth = j.at("bit_depth").get<int>();
+    // Checked before any shift by it: 1 << 40 is undefined behaviour.
+    if (r.bit_depth < 8 || r.bit_depth > 16) {
+      throw InputError(source + ": bit_depth must be 8..16, not " + std::to_string(r.bit_depth));
+    }
+    r.black_level = j.at("black_level").get<std::vector<double>>();
+    // Written since the black level can be measured; older files held estimates or options.
+    const std::string named = j.value("black_level_source", "estimated");
+    bool known = false;
+    for (auto b : {BlackLevelSource::kEstimated, BlackLevelSource::kOption,
+                   BlackLevelSource::kSession, BlackLevelSource::kDarkFrames,
+                   BlackLevelSource::kRawMetadata, BlackLevelSource::kAssumed}) {
+      if (named == BlackLevelSourceName(b)) r.black_level_source = b, known = true;
+    }
+    if (!known) throw InputError(source + ": black_level_source '" + named + "' is unknown");
+    r.black_level_range = j.value("black_level_range", std::vector<std::array<double, 2>>());
+    r.inverse_response = j.at("inverse_response").get<std::vector<std::vector<double>>>();
+    r.channels = static_cast<int>(r.inverse_response.size());
+    r.saturation_level =
+        j.value("saturation_level", std::vector<double>(r.channels, (1 << r.bit_depth) - 1.0));
+    r.lowest_supported_value = j.value("lowest_supported_value", std::vector<double>());
+  } catch (const nlohmann::json::exception&) {
+    throw InputError(source + ": needs bit_depth, black_level and inverse_response");
+  }
+  if (r.black_level_range.empty()) {
+    for (double b : r.black_level) r.black_level_range.push_back({b, b});
+  }
+  // The self-check and the smoothing sensitivity set the response's share of the calibration's
+  // accuracy (PhotometricCalibration::ResponseAccuracy), so they are read back, not dropped.
+  if (j.contains("consistency"))
+    r.consistency = PairConsistency::FromJson(j["consistency"], source);
+  if (j.contains("smoothing_sensitivity") && !j["smoothing_sensitivity"].is_null()) {
+    const auto& v = j["smoothing_sensitivity"];
+    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
+    }
+    r.smoothing_sensitivity = v.get<double>();
+  }
+  // The error model is what gonio run propagates; a bad one must not reach the error bars.
+  if (j.contains("error_model") && !j["error_model"].is_null()) {
+    r.error_model = ResponseErrorModel::FromJson(j["error_model"], source);
+    if (static_cast<int>(r.error_model.channels.size()) != r.channels) {
+      throw InputError(source + ": error_model needs one entry per channel");
+    }
+  }
+  if (!r.lowest_supported_value.empty() &&
+      static_cast<int>(r.lowest_supported_value.size()) != r.channels) {
+    throw InputError(source + ": lowest_supported_value needs one value per channel");
+  }
+  for (double v : r.lowest_supported_value) {
+    if (!(v >= 0 && v <= (1 << r.bit_depth))) {
+      throw InputError(source + ": lowest_supported_value must lie in the value range");
+    }
+  }
+  if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
+      static_cast<int>(r.black_level.size()) != r.channels ||
+      static_cast<int>(r.black_level_range.size()) != r.channels) {
+    throw InputError(source + ": inconsistent bit_depth, black_level and inverse_response");
+  }
+  for (const auto& t : r.inverse_response) {
+    if (static_cast<int>(t.size()) != (1 << r.bit_depth)) {
+      throw InputError(source + ": inverse_response needs 2^bit_depth values per channel");
+    }
+    for (size_t z = 1; z < t.size(); ++z) {
+      if (!(t[z] >= t[z - 1]) || !std::isfinite(t[z])) {
+        throw InputError(source + ": inverse_response must be finite and non-decreasing");
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace gonio

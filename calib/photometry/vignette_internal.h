@@ -1,0 +1,54 @@
+// Shared by the two vignetting front ends (calib/photometry/vignette.h): board frames with poses
+// (vignette.cc) and a flat field without poses (vignette_flat.cc). Not part of the interface.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "calib/photometry/vignette.h"
+#include "common/camera_model.h"
+#include "common/vignetting.h"
+
+namespace gonio::vignette_internal {
+
+struct Sample {
+  int32_t ray;       // index into the sampled-pixel table
+  int32_t acell;     // texture cell: of the board (with poses), or the frame (a flat field)
+  float value;       // linearized value / (exposure * gain), channels averaged
+  float ln_falloff;  // ln(cos(theta) / d^2) of a lamp at the camera centre (vignette_lamp.h)
+};
+
+struct SampledPixel {
+  Eigen::Vector3d ray = Eigen::Vector3d::Zero();  // unprojected, z = 1
+  int vcell = 0;
+  double r2 = 0;  // (distance to the principal point / half-diagonal)^2
+};
+
+// The sampled pixels with their rays (the camera is fixed, so once for all frames) and the
+// vignette grid they fall in.
+struct PixelGrid {
+  std::vector<SampledPixel> pixels;
+  std::vector<cv::Point> xy;
+  int gw = 0, gh = 0;  // vignette grid cells per axis
+  VignettingGeometry geometry;
+};
+PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& options);
+
+// The samples on their texture cells.
+struct SampleSet {
+  std::vector<Sample> samples;
+  size_t texture_cells = 0;
+  std::vector<int> cell_count;  // samples per vignette cell
+};
+
+// V and the texture from the samples (radial stage, then the map model where the data cover
+// the image); with `test_lamp`, the camera-lamp test on the radial stage's residuals
+// (InputError when the brightness follows a lamp on the camera). Fills everything of `result`
+// but frames_used and poses.
+void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
+                   const VignetteOptions& options, bool test_lamp, VignetteResult* result);
+
+}  // namespace gonio::vignette_internal

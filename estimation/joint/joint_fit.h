@@ -1,0 +1,173 @@
+// The joint fit of a BRDF model and the unknown lamp: one Ceres problem over the model's
+// parameters (per-channel albedo-like parameters with shared roughness), the lamp position
+// (fixed in the board frame when the camera moves, or in the camera frame when the board
+// moves) and the lamp intensity. Angles and the 1/r^2 irradiance are computed per observation
+// inside the cost from the lamp estimate:
+//   L = f_r(theta_i, theta_r, phi) * I * cos(theta_i) / d^2
+// The board's white reference (Lambertian, known albedo A_w: L = A_w/pi * I cos(theta_i)/d^2)
+// fixes I, and with it the sample's absolute albedo; without it albedo x intensity is reported
+// as one quantity and the two are flagged as undetermined separately.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "estimation/extract/observations.h"
+#include "estimation/fit/brdf_fit.h"
+#include "estimation/fit/model_selection.h"
+#include "estimation/fit/uncertainty.h"
+#include "reflectance/angles.h"
+
+namespace gonio {
+
+// The frame the lamp stays fixed in while the photographs are taken: the board's (the camera
+// moves around board and lamp) or the camera's (the board turns in front of a camera that
+// carries the lamp).
+enum class LightFrame { kBoard, kCamera };
+// "board" or "camera"; InputError naming `option_name` otherwise.
+LightFrame ParseLightFrame(const std::string& word, const std::string& option_name);
+std::string ToString(LightFrame frame);
+
+// A nuisance of the scene, something the material does not explain but the data may show
+// (docs/pipeline.md "Nuisances chosen by evidence"): left out (kNone), fitted (kFit), or chosen
+// the way models are (kAuto): the model search without it, then the selected model refitted
+// with it on the selection subsample; kept when the criterion (BIC, or AIC) drops by more than
+// JointFitOptions::nuisance_margin, and then the models searched again with it.
+enum class NuisanceTerm { kNone, kFit, kAuto };
+// "none", "fit" or "auto"; InputError naming `option_name` otherwise.
+NuisanceTerm ParseNuisanceTerm(const std::string& word, const std::string& option_name);
+std::string ToString(NuisanceTerm term);
+
+// The room's light (docs/pipeline.md "Ambient light"): not modelled (kNone: the data are
+// lamp-only, e.g. lamp-off frames were subtracted, or the room is dark), or one constant per
+// colour channel fitted on the sample (ambient radiance L_a) and one on the white reference
+// (ambient irradiance E_a, reflected as A_w E_a / pi):
+//   L = f_r I cos(theta_i) / d^2 + L_a        L_w = A_w / pi (I cos(theta_i) / d^2 + E_a)
+// With lamp-off frames subtracted, kAuto leaves it out.
+using AmbientTerm = NuisanceTerm;
+AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name);
+
+// Lamp starts farther than this from the board origin are refused as typos (metres).
+inline constexpr double kMaxLightDistance = 1000.0;
+
+struct JointFitOptions {
+  std::vector<std::string> candidates;          // empty: AutoCandidates()
+  Criterion criterion = Criterion::kBic;        // cv: K folds of held-out frames
+  LightFrame light_frame = LightFrame::kBoard;  // where the lamp is fixed
+  std::optional<Eigen::Vector3d> light_init;    // in light_frame; none: multi-start
+  std::optional<double> white_albedo;           // known albedo of the white reference
+  bool per_channel = true;                      // per-channel albedo-like parameters (colour data)
+  AmbientTerm ambient = AmbientTerm::kAuto;     // --ambient
+  // --sample-height: a correction to board.json's sample_height_m fitted with the rest (the
+  // sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
+  NuisanceTerm sample_height = NuisanceTerm::kAuto;
+  // kAuto nuisances are kept when they lower the criterion by more than this and each of their
+  // terms exceeds nuisance_min_z of its standard deviations.
+  double nuisance_margin = 2.0;
+  double nuisance_min_z = 3.0;
+  RobustLoss robust_loss = RobustLoss::kHuber;  // scale 3 sigma
+  double relative_noise_floor = 0.01;           // sigma^2 = variance + (floor * L)^2
+  size_t selection_max_observations = 3000;     // candidates compared on a subsample
+  size_t final_max_observations = 30000;        // the selected model's final fit
+  // The lamp distance is only measured through the change of irradiance (cos theta_i / d^2)
+  // across the sample. Below this relative contrast, photometric calibration errors of a few
+  // tenths of a percent would move it arbitrarily: its distance is reported as undetermined.
+  double min_irradiance_contrast = 0.05;
+  // Fit every candidate (a comparison table, `--models all`) instead of the staged search,
+  // which stops at the first parameter count whose best model explains the data to the noise.
+  bool exhaustive = false;
+  // Fit van-ginneken and oren-nayar-vcavity through their smooth tables
+  // (estimation/joint/tabulated_models.h): same model within the tabulation error, many times
+  // faster.
+  bool tabulated_models = true;
+  int cv_folds = 4;
+  int max_iterations = 100;
+  int threads = 0;
+  UncertaintyOptions uncertainty;
+  void Check() const;
+};
+
+struct FrameResidual {
+  int frame = 0;
+  std::string file;
+  size_t n = 0;
+  double rms_sigma = 0;      // rms of residual / sigma
+  double mean_relative = 0;  // mean of (model - measured) / measured
+};
+
+struct JointFitResult {
+  BrdfFitResult material;  // grey or channel-0 parameters, their stddev, metrics
+  // The parameters fitted per colour channel (ParamInfo::per_channel: albedo-like ones) and,
+  // per channel, their values in that order (fit.json: params_per_channel).
+  std::vector<std::string> per_channel_param_names;
+  std::vector<std::vector<double>> per_channel_params;
+  LightFrame light_frame = LightFrame::kBoard;
+  Eigen::Vector3d light_position = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> light_stddev;
+  double intensity = 1.0;
+  std::optional<double> intensity_stddev;
+  bool absolute = false;                        // a white reference fixed the intensity
+  std::vector<std::string> undetermined_light;  // "light_x", "intensity", ...
+  // The ambient terms per colour channel (AmbientTerm::kFit; empty otherwise): the sample's
+  // ambient radiance and the ambient irradiance on the white reference (empty without a
+  // white reference), with their standard deviations; lamp_irradiance: the lamp's mean
+  // irradiance I cos(theta_i) / d^2 over the sample, which the irradiance is a fraction of.
+  AmbientTerm ambient = AmbientTerm::kNone;
+  std::vector<double> ambient_sample, ambient_irradiance;
+  std::vector<std::optional<double>> ambient_sample_stddev, ambient_irradiance_stddev;
+  double lamp_irradiance = 0;
+  std::string ambient_reason;  // kAuto: why the terms were kept or left out
+  // --sample-height fit (or auto, kept): the fitted correction to board.json's sample height
+  // (metres, > 0: the top stands further out) and its standard deviation.
+  std::optional<double> sample_height_offset, sample_height_offset_stddev;
+  std::string sample_height_reason;  // kAuto: why the correction was kept or left out
+  size_t lamp_off_frames = 0;        // frames whose lamp-off radiance extraction subtracted
+  std::vector<FrameResidual> frames;
+  std::vector<std::string> warnings;
+  size_t n_observations = 0;
+
+  nlohmann::json ToJson() const;
+  nlohmann::json AmbientJson() const;  // fit.json "ambient" (docs/formats.md)
+};
+
+struct JointSelectionResult {
+  ModelSelectionResult selection;    // candidates' material results and the rule's reason
+  std::vector<JointFitResult> fits;  // same order as selection.candidates
+  JointFitResult final_fit;          // the selected model refitted on every observation
+  std::string Report() const;
+  nlohmann::json ToJson() const;
+};
+
+// The angles and irradiance factor cos(theta_i)/d^2 of an observation under a fitted lamp, at
+// the fitted sample height (the same computation the cost uses). False when the lamp is behind
+// the sample.
+bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles<double>* angles,
+                         double* irradiance_factor);
+
+// One model, from a given lamp start (in options.light_frame).
+JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
+                        const Eigen::Vector3d& light_start, const JointFitOptions& options);
+
+// Lamp starting points: options.light_init, else a deterministic set over the hemisphere in
+// front of the board, screened with a Lambertian fit; returns the best.
+Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& options);
+
+// `options` with the nuisances as `fit` has them (kAuto resolved to kFit or kNone): what a refit
+// of the same model must use (the calibration error's refits, the split test).
+JointFitOptions WithChosenNuisances(const JointFitOptions& options, const JointFitResult& fit);
+
+// The radiance `fit` predicts for observation `o` in `channel`: the material under the lamp,
+// plus the fitted ambient term, at the fitted sample height (the white reference: its known
+// albedo `white_albedo`). NaN when the lamp is behind the point.
+double PredictedRadiance(const Observation& o, int channel, const JointFitResult& fit,
+                         double white_albedo);
+
+// Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
+// InputError on unusable data (no sample observations, one frame with --criterion cv, ...).
+JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options);
+
+}  // namespace gonio

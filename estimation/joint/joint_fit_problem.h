@@ -1,0 +1,332 @@
+// The Ceres problem of the joint fit (estimation/joint/joint_fit.h), internal to joint_fit.cc: the
+// lamp and viewing geometry of an observation, the residuals of sample and white-reference
+// observations, the unknowns (State), building and solving the problem, and the radiance a
+// state predicts.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include "common/math.h"
+#include "common/parallel.h"
+#include "estimation/joint/joint_fit.h"
+#include "reflectance/angles.h"
+#include "reflectance/model.h"
+
+namespace gonio::joint_fit_internal {
+
+// A fitted sample-height correction is searched within this many metres of board.json's.
+inline constexpr double kMaxSampleHeightOffset = 0.05;
+
+// Lamp position in the board frame for one observation: `light` as fitted, in the board frame,
+// or in the camera frame (then moved by the observation's board_from_cam pose).
+template <typename T>
+void LightInBoard(const Observation& o, LightFrame frame, const T* light, T* light_in_board) {
+  if (frame == LightFrame::kBoard) {
+    for (int k = 0; k < 3; ++k) light_in_board[k] = light[k];
+    return;
+  }
+  const T aa[3] = {T(o.board_from_cam_aa.x()), T(o.board_from_cam_aa.y()),
+                   T(o.board_from_cam_aa.z())};
+  ceres::AngleAxisRotatePoint(aa, light, light_in_board);
+  for (int k = 0; k < 3; ++k) light_in_board[k] += T(o.camera_in_board[k]);
+}
+
+// Irradiance factor cos(theta_i)/d^2 at the observed point for the lamp at `light_in_board`,
+// and the (unnormalized) directions to lamp and camera in the sample frame (board x, -y, -z:
+// the sample's outward normal is -z_board). Call sites name them lb, ls and vs.
+// height_offset: the sample's surface this much further out of the board than the
+// observation's point (metres; the fitted correction to board.json's sample_height_m): the
+// point moves along the pixel's ray, from the camera, to the plane z = p.z - height_offset.
+template <typename T>
+T Geometry(const Observation& o, const T* light_in_board, T* light_dir_in_sample,
+           T* view_dir_in_sample, const T& height_offset = T(0)) {
+  const T* lb = light_in_board;
+  T* ls = light_dir_in_sample;
+  T* vs = view_dir_in_sample;
+  const Eigen::Vector3d& c = o.camera_in_board;
+  const Eigen::Vector3d ray = o.p_in_board - c;
+  const T along = (T(ray.z()) - height_offset) / T(ray.z());  // 1 without an offset
+  const T p[3] = {T(c.x()) + along * T(ray.x()), T(c.y()) + along * T(ray.y()),
+                  T(c.z()) + along * T(ray.z())};
+  const T l[3] = {lb[0] - p[0], lb[1] - p[1], lb[2] - p[2]};
+  ls[0] = l[0];
+  ls[1] = -l[1];
+  ls[2] = -l[2];
+  vs[0] = T(c.x()) - p[0];
+  vs[1] = -(T(c.y()) - p[1]);
+  vs[2] = -(T(c.z()) - p[2]);
+  const T d2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
+  using std::sqrt;
+  return ls[2] / (d2 * sqrt(d2));  // cos(theta_i) / d^2
+}
+
+// Residual of one sample observation in one channel. The model's parameters come from two
+// blocks: `shared` (roughness and the like, one for all channels) and `channel` (the
+// per-channel ones of this channel); per_channel[k] says which block holds parameter k.
+template <typename M>
+struct SampleRadianceResidual {
+  const Observation* o;
+  int channel;
+  double inv_sigma;
+  LightFrame light_frame;
+  std::array<bool, 16> per_channel;
+  // ambient: this channel's ambient radiance of the sample (0 and constant unless fitted).
+  // height_offset: the fitted correction to the sample's height (0 and constant unless fitted).
+  template <typename T>
+  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity,
+                  const T* ambient, const T* height_offset, T* r) const {
+    T lb[3], ls[3], vs[3];
+    LightInBoard(*o, light_frame, light, lb);
+    const T e = Geometry(*o, lb, ls, vs, height_offset[0]);
+    T p[M::kNumParams];
+    for (int k = 0; k < M::kNumParams; ++k) p[k] = per_channel[k] ? chan[k] : shared[k];
+    T f = T(0);
+    if (ls[2] > T(0)) f = M::Evaluate(p, AnglesFromDirections(ls, vs));
+    const T model = (e > T(0) ? f * intensity[0] * e : T(0)) + ambient[0];
+    r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
+    return true;
+  }
+};
+
+struct WhiteRadianceResidual {
+  const Observation* o;
+  int channel;
+  double inv_sigma, white_albedo;
+  LightFrame light_frame;
+  // ambient_irradiance: this channel's ambient irradiance E_a (0 and constant unless fitted);
+  // the Lambertian reference reflects A_w / pi of it.
+  template <typename T>
+  bool operator()(const T* light, const T* intensity, const T* ambient_irradiance, T* r) const {
+    T lb[3], ls[3], vs[3];
+    LightInBoard(*o, light_frame, light, lb);
+    const T e = Geometry(*o, lb, ls, vs);
+    const T model =
+        T(white_albedo * kInvPi) * ((e > T(0) ? intensity[0] * e : T(0)) + ambient_irradiance[0]);
+    r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
+    return true;
+  }
+};
+
+inline double Sigma(const Observation& o, int c, double floor) {
+  return std::sqrt(o.variance[c] + floor * floor * o.radiance[c] * o.radiance[c]) + 1e-30;
+}
+
+// A white-reference observation has a residual only when the reference's albedo is known.
+inline bool HasResidual(const Observation& o, const JointFitOptions& options) {
+  return !o.white || options.white_albedo.has_value();
+}
+
+// Residuals of the problem over `use`: one per channel of every observation that has one.
+inline size_t CountResiduals(const ObservationSet& data, const std::vector<size_t>& use,
+                             const JointFitOptions& options) {
+  size_t n = 0;
+  for (size_t i : use) n += HasResidual(data.observations[i], options) ? data.channels : 0;
+  return n;
+}
+
+inline ceres::LossFunction* NewLoss(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kHuber:
+      return new ceres::HuberLoss(3.0);
+    case RobustLoss::kCauchy:
+      return new ceres::CauchyLoss(3.0);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+// The unknowns of one model's fit. `shared` and every `chan[c]` are full parameter vectors;
+// only the shared entries of `shared` and the per-channel entries of `chan[c]` are free.
+struct State {
+  std::vector<double> shared;
+  std::vector<std::vector<double>> chan;  // per channel (one when options.per_channel is off)
+  Eigen::Vector3d light;
+  double intensity = 1;
+  // Per channel: the sample's ambient radiance and the ambient irradiance on the white
+  // reference (docs/pipeline.md "Ambient light"); zero and held constant unless fitted.
+  std::vector<double> ambient_sample, ambient_irradiance;
+  double height_offset = 0;  // metres, added to board.json's sample height when fitted
+  double cost = INFINITY;
+  bool usable = false;
+};
+
+template <typename M>
+void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
+                  const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
+  std::array<bool, 16> per_channel{};
+  for (int k = 0; k < M::kNumParams; ++k) per_channel[k] = info.params[k].per_channel;
+  for (size_t idx : use) {
+    const Observation& obs = data.observations[idx];
+    if (!HasResidual(obs, o)) continue;
+    for (int c = 0; c < data.channels; ++c) {
+      const int chan = o.per_channel ? c : 0;
+      ceres::LossFunction* loss = plain ? nullptr : NewLoss(o.robust_loss);
+      const double inv_sigma = 1.0 / Sigma(obs, c, o.relative_noise_floor);
+      if (obs.white) {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1, 1>(
+                new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.light_frame}),
+            loss, s->light.data(), &s->intensity, &s->ambient_irradiance[c]);
+      } else {
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
+                                            M::kNumParams, 3, 1, 1, 1>(
+                new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.light_frame, per_channel}),
+            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity,
+            &s->ambient_sample[c], &s->height_offset);
+      }
+    }
+  }
+}
+
+// The ambient terms (held at zero) and the sample-height correction are parameters only when
+// the options fit them; otherwise constant, in the solved and in the plain problem alike, so
+// neither the solve nor the uncertainty analysis sees them.
+inline void HoldUnfittedTerms(const JointFitOptions& o, State* s, ceres::Problem* problem) {
+  std::vector<double*> held;
+  if (o.ambient != AmbientTerm::kFit) {
+    for (double& a : s->ambient_sample) held.push_back(&a);
+    for (double& a : s->ambient_irradiance) held.push_back(&a);
+  }
+  if (o.sample_height != NuisanceTerm::kFit) held.push_back(&s->height_offset);
+  for (double* b : held) {
+    if (problem->HasParameterBlock(b)) problem->SetParameterBlockConstant(b);
+  }
+}
+
+// Registry bounds on every parameter, the intensity positive, the height correction bounded
+// when fitted, and manifolds that hold the entries of each block that belong to the other
+// block constant.
+inline void ConstrainParameters(const ModelInfo& info, const JointFitOptions& o, State* s,
+                                ceres::Problem* problem) {
+  if (o.sample_height == NuisanceTerm::kFit && problem->HasParameterBlock(&s->height_offset)) {
+    // The sample's top stays in front of the board's far side and within a sane thickness.
+    problem->SetParameterLowerBound(&s->height_offset, 0, -kMaxSampleHeightOffset);
+    problem->SetParameterUpperBound(&s->height_offset, 0, kMaxSampleHeightOffset);
+  }
+  const int n = info.num_params();
+  std::vector<int> channel_idx, shared_idx;
+  for (int k = 0; k < n; ++k) (info.params[k].per_channel ? channel_idx : shared_idx).push_back(k);
+  if (problem->HasParameterBlock(s->shared.data())) {
+    if (shared_idx.empty()) {
+      problem->SetParameterBlockConstant(s->shared.data());
+    } else if (!channel_idx.empty()) {
+      problem->SetManifold(s->shared.data(), new ceres::SubsetManifold(n, channel_idx));
+    }
+    for (auto& ch : s->chan) {
+      if (!problem->HasParameterBlock(ch.data())) continue;
+      if (channel_idx.empty()) {
+        problem->SetParameterBlockConstant(ch.data());
+      } else if (!shared_idx.empty()) {
+        problem->SetManifold(ch.data(), new ceres::SubsetManifold(n, shared_idx));
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      problem->SetParameterLowerBound(s->shared.data(), k, info.params[k].min);
+      problem->SetParameterUpperBound(s->shared.data(), k, info.params[k].max);
+      for (auto& ch : s->chan) {
+        if (!problem->HasParameterBlock(ch.data())) continue;
+        problem->SetParameterLowerBound(ch.data(), k, info.params[k].min);
+        problem->SetParameterUpperBound(ch.data(), k, info.params[k].max);
+      }
+    }
+  }
+  if (problem->HasParameterBlock(&s->intensity)) {
+    problem->SetParameterLowerBound(&s->intensity, 0, 1e-12 * std::abs(s->intensity));
+  }
+}
+
+// Builds the problem over `use` observations. `plain` leaves out loss, bounds and manifolds
+// (for the Jacobian of the uncertainty analysis).
+template <typename M>
+void BuildProblem(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
+                  const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
+  AddResiduals<M>(data, use, info, o, s, plain, problem);
+  HoldUnfittedTerms(o, s, problem);
+  if (!plain) ConstrainParameters(info, o, s, problem);
+}
+
+template <typename M>
+void Solve(const ObservationSet& data, const std::vector<size_t>& use, const ModelInfo& info,
+           const JointFitOptions& o, State* s) {
+  ceres::Problem problem;
+  BuildProblem<M>(data, use, info, o, s, false, &problem);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = 1e-10;
+  so.logging_type = ceres::SILENT;
+  // The bounds make Ceres' trust-region minimizer run a projected Armijo line search along
+  // every step. With its default cubic interpolation that search evaluates the gradient, i.e.
+  // the whole Jacobian, at the trial point: a second Jacobian per iteration, about 40% of a
+  // fit's time (counted with Solver::Summary, docs/bench.md). Quadratic interpolation needs
+  // only the trial point's cost (the gradient at the start is known); a step that passes the
+  // Armijo test at full length, as almost every step does, is the same either way.
+  so.line_search_interpolation_type = ceres::QUADRATIC;
+  so.num_threads = ResolveThreads(o.threads);
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  s->cost = summary.final_cost;
+  s->usable = summary.IsSolutionUsable() && std::isfinite(summary.final_cost) &&
+              s->light.allFinite() && std::isfinite(s->intensity);
+}
+
+template <typename M>
+double Predict(const Observation& obs, int c, const State& s, const ModelInfo& info,
+               LightFrame light_frame, std::optional<double> white_albedo) {
+  double lb[3], ls[3], vs[3];
+  LightInBoard(obs, light_frame, s.light.data(), lb);
+  const double e = Geometry(obs, lb, ls, vs, obs.white ? 0.0 : s.height_offset);
+  if (obs.white) {
+    return white_albedo.value_or(0.0) * kInvPi *
+           ((e > 0 ? s.intensity * e : 0.0) + s.ambient_irradiance[c]);
+  }
+  if (e <= 0) return s.ambient_sample[c];
+  double p[M::kNumParams];
+  const auto& ch = s.chan[std::min<size_t>(c, s.chan.size() - 1)];
+  for (int k = 0; k < M::kNumParams; ++k) p[k] = info.params[k].per_channel ? ch[k] : s.shared[k];
+  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e + s.ambient_sample[c];
+}
+
+// One free column of the Jacobian: the entry `index` of parameter block `block`, its range
+// (the scale of AnalyzeUncertainty's range-scaled Jacobian) and the name it is reported by.
+struct FreeColumn {
+  double* block;
+  int index;
+  double range;
+  std::string name;
+};
+
+// The free columns of `s`'s problem: shared, then per-channel parameters (channel c > 0 named
+// "albedo[c]"), lamp x, y, z (range: its distance) and intensity. `blocks` receives the
+// parameter blocks in evaluation order.
+std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem& problem, State* s,
+                                    double light_distance, std::vector<double*>* blocks);
+
+// The Jacobian of the problem's residuals restricted to `cols` (one row per residual, in the
+// order they were added); `cost` is half the sum of squared residuals.
+Eigen::MatrixXd FreeJacobian(ceres::Problem* problem, const std::vector<double*>& blocks,
+                             const std::vector<FreeColumn>& cols, double* cost);
+
+// Every `max_n`-th observation or so: a deterministic subsample of at most max_n.
+std::vector<size_t> Subsample(const ObservationSet& data, size_t max_n);
+
+// One registry model fitted jointly with the lamp (joint_fit.cc), for the model search
+// (joint_selection.cc): from the registry defaults and `light_start`, or from `warm`, a
+// converged fit of the same model and options (on other observations of the same scene), so a
+// refit does not descend again from the defaults.
+JointFitResult FitCandidate(const std::string& model, const ObservationSet& data,
+                            const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
+                            const JointFitOptions& options, bool cross_validate,
+                            const JointFitResult* warm = nullptr);
+
+}  // namespace gonio::joint_fit_internal

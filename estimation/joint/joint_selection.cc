@@ -1,0 +1,349 @@
+// The model search of the joint fit (docs/pipeline.md "Staged search"): candidates in stages
+// of equal parameter count until one explains the data to the noise, the information-criterion
+// rule, practical significance, and the final refit. One candidate's fit is FitCandidate
+// (joint_fit.cc).
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "common/error.h"
+#include "common/log.h"
+#include "common/parallel.h"
+#include "estimation/joint/joint_fit.h"
+#include "estimation/joint/joint_fit_problem.h"
+#include "reflectance/registry.h"
+
+namespace gonio {
+
+using joint_fit_internal::CountResiduals;
+using joint_fit_internal::FitCandidate;
+using joint_fit_internal::Subsample;
+
+namespace {
+
+// The candidates in stages of equal parameter count, cheapest first (AutoCandidates and
+// explicit lists alike): the staged search of docs/pipeline.md.
+std::vector<std::vector<std::string>> Stages(const std::vector<std::string>& names) {
+  std::map<size_t, std::vector<std::string>> by_count;
+  for (const auto& n : names) by_count[FindModel(n).params.size()].push_back(n);
+  std::vector<std::vector<std::string>> stages;
+  for (auto& [count, group] : by_count) stages.push_back(group);
+  return stages;
+}
+
+// A fit explains its data when its weighted residuals are what the noise model (pixel noise
+// and the relative floor) predicts: sum z^2 / n <= 1 + 3 sqrt(2 / n), the chi-square
+// distribution's mean plus three of its standard deviations.
+bool ExplainsToTheNoise(const JointFitResult& f) {
+  const double n = static_cast<double>(f.material.n_samples);  // the residuals the fit has
+  return f.material.converged && n > 0 &&
+         f.material.weighted_ssr / n <= 1.0 + 3.0 * std::sqrt(2.0 / n);
+}
+
+// The candidates of one stage, in parallel (each solve single-threaded).
+std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
+                                     const ObservationSet& data, const std::vector<size_t>& use,
+                                     const Eigen::Vector3d& light0, const JointFitOptions& options,
+                                     Progress* progress) {
+  std::vector<JointFitResult> fits(names.size());
+  JointFitOptions per = options;
+  per.threads = 1;
+  const bool cross_validate = options.criterion == Criterion::kCv;
+  std::mutex mutex;
+  ParallelFor(names.size(), options.threads, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      fits[k] = FitCandidate(names[k], data, use, light0, per, cross_validate);
+      std::lock_guard<std::mutex> lock(mutex);
+      progress->Step();
+    }
+  });
+  return fits;
+}
+
+// Free parameters of a candidate in the joint fit: its per-channel parameters once per channel,
+// its shared ones once, the lamp position (3), the intensity (1) and the fitted ambient terms
+// (two per channel at most).
+size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions& o) {
+  size_t k = 4 + (o.ambient != AmbientTerm::kNone ? 2 * channels : 0) +
+             (o.sample_height != NuisanceTerm::kNone);
+  for (const auto& p : info.params) k += (p.per_channel && o.per_channel) ? channels : 1;
+  return k;
+}
+
+// Fewer residuals than a model's free parameters leave some of them anywhere: such a fit
+// would report values with a meaningless (or zero) spread. Refused before any solve.
+void CheckEnoughResiduals(const ObservationSet& data, const std::vector<std::string>& names,
+                          const JointFitOptions& o) {
+  std::vector<size_t> all(data.observations.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  const size_t n = CountResiduals(data, all, o);
+  size_t fewest = SIZE_MAX;
+  for (const auto& name : names) {
+    fewest = std::min(fewest, FreeParameters(FindModel(name), data.channels, o));
+  }
+  if (n <= fewest) {
+    throw InputError(fmt::format(
+        "{} observation(s) give {} residual(s): too few to determine the {} free parameters "
+        "of the simplest candidate (material, lamp position and intensity); extract more "
+        "pixels or frames",
+        data.observations.size(), n, fewest));
+  }
+}
+
+// The largest relative difference between two fits' predicted radiance over the sample
+// observations `use`: how far apart the two models are where the data were taken.
+double MaxRelativeDifference(const JointFitResult& a, const JointFitResult& b,
+                             const ObservationSet& data, const std::vector<size_t>& use) {
+  double worst = 0;
+  for (size_t i : use) {
+    const Observation& o = data.observations[i];
+    if (o.white) continue;
+    Angles<double> ga, gb;
+    double ea = 0, eb = 0;
+    if (!ObservationGeometry(o, a, &ga, &ea) || !ObservationGeometry(o, b, &gb, &eb)) continue;
+    const double la = a.material.Predict({ga.theta_i, ga.theta_r, ga.phi, 0, 1}) * a.intensity * ea;
+    const double lb = b.material.Predict({gb.theta_i, gb.theta_r, gb.phi, 0, 1}) * b.intensity * eb;
+    const double scale = std::max({std::abs(la), std::abs(lb), 1e-300});
+    if (std::isfinite(la) && std::isfinite(lb)) worst = std::max(worst, std::abs(la - lb) / scale);
+  }
+  return worst;
+}
+
+// Practical significance: a richer model chosen by the criterion wins only if its prediction
+// differs from the best simpler model's somewhere in the observed domain by more than the
+// relative noise floor (the calibration uncertainty the fit assumes); otherwise the simpler
+// model is chosen and the reason says so.
+void ApplyPracticalSignificance(const ObservationSet& data, const std::vector<size_t>& use,
+                                const JointFitOptions& o, JointSelectionResult* out) {
+  const int chosen = out->selection.selected;
+  const auto& rich = out->fits[chosen];
+  int simpler = -1;
+  for (int k = 0; k < static_cast<int>(out->fits.size()); ++k) {
+    const auto& c = out->fits[k].material;
+    if (!c.converged || c.n_params >= rich.material.n_params) continue;
+    if (simpler < 0 || out->selection.CriterionValue(c) <
+                           out->selection.CriterionValue(out->fits[simpler].material)) {
+      simpler = k;
+    }
+  }
+  if (simpler < 0) return;
+  const double diff = MaxRelativeDifference(rich, out->fits[simpler], data, use);
+  if (diff > o.relative_noise_floor) return;
+  out->selection.selected = simpler;
+  out->selection.reason = fmt::format(
+      "{} is chosen: {} (preferred by {}) differs from it by at most {:.2f}% over the observed "
+      "geometry, below the {:.1f}% calibration floor (practical significance)",
+      out->fits[simpler].material.model, rich.material.model, ToString(o.criterion), 100 * diff,
+      100 * o.relative_noise_floor);
+}
+
+}  // namespace
+
+namespace {
+
+// The staged search into out->fits and out->selection: stages of equal parameter count until
+// one explains the data to the noise (all of them with options.exhaustive), the rule, and
+// practical significance.
+void SearchModels(const ObservationSet& data, const std::vector<std::string>& names,
+                  const std::vector<size_t>& use, const Eigen::Vector3d& light0,
+                  const JointFitOptions& search, JointSelectionResult* out,
+                  size_t min_stage_params = 0) {
+  out->fits.clear();
+  out->selection = {};
+  Progress progress("joint fit candidates", names.size());
+  std::string stopped;
+  for (const auto& stage : Stages(names)) {
+    const auto fits = FitStage(stage, data, use, light0, search, &progress);
+    bool explained = false;
+    for (const auto& f : fits) {
+      explained = explained || ExplainsToTheNoise(f);
+      spdlog::info("{}: weighted residual {:.3g} per residual{}", f.material.model,
+                   f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1),
+                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "");
+      out->fits.push_back(f);
+    }
+    if (explained && !search.exhaustive && FindModel(stage[0]).params.size() >= min_stage_params) {
+      if (out->fits.size() < names.size()) {
+        stopped = fmt::format(
+            "; the search stopped after {} of {} candidates: a model with {} material parameters "
+            "explains the "
+            "data to the noise, so richer ones were not tried",
+            out->fits.size(), names.size(), FindModel(stage[0]).params.size());
+      }
+      break;
+    }
+  }
+  progress.Done();
+  for (const auto& f : out->fits) out->selection.candidates.push_back(f.material);
+  ModelSelectionOptions sel;
+  sel.criterion = search.criterion;
+  ChooseSimplestAdequate(sel, &out->selection);
+  ApplyPracticalSignificance(data, use, search, out);
+  out->selection.reason += stopped;
+}
+
+// |value| / standard deviation of a fit's ambient terms (the largest over the sample's
+// radiance and the white reference's irradiance, per channel) or of its height correction; 0
+// when undetermined.
+double NuisanceZ(const JointFitResult& f, bool ambient_term) {
+  auto z = [](double v, const std::optional<double>& sd) {
+    return sd && *sd > 0 ? std::abs(v) / *sd : 0.0;
+  };
+  if (!ambient_term) {
+    return f.sample_height_offset ? z(*f.sample_height_offset, f.sample_height_offset_stddev) : 0.0;
+  }
+  double best = 0;
+  for (size_t c = 0; c < f.ambient_sample.size() && c < f.ambient_sample_stddev.size(); ++c) {
+    best = std::max(best, z(f.ambient_sample[c], f.ambient_sample_stddev[c]));
+  }
+  for (size_t c = 0; c < f.ambient_irradiance.size() && c < f.ambient_irradiance_stddev.size();
+       ++c) {
+    best = std::max(best, z(f.ambient_irradiance[c], f.ambient_irradiance_stddev[c]));
+  }
+  return best;
+}
+
+// The nuisances (docs/pipeline.md "Nuisances chosen by evidence"): every combination of the
+// kAuto ones refitted with the selected model on the selection subsample `use`, from its lamp.
+// As models are chosen: the best criterion (BIC, or AIC) among the fit without them and the
+// combinations whose every term exceeds options.nuisance_min_z of the standard deviation it
+// will have in the final fit (on final_n observations),
+// then the combination with the fewest terms within options.nuisance_margin of it. Returns
+// `search` with the chosen terms on (kFit); `reason` lists every criterion value ("-": a term
+// within its error bar).
+JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
+                                size_t final_n, const JointFitResult& chosen,
+                                const JointFitOptions& search, const JointFitOptions& options,
+                                std::string* reason) {
+  const bool ambient = options.ambient == AmbientTerm::kAuto && data.lamp_off_frames == 0;
+  const bool height = options.sample_height == NuisanceTerm::kAuto;
+  if (options.ambient == AmbientTerm::kAuto && data.lamp_off_frames > 0) {
+    *reason = "lamp-off frames subtracted: no ambient term";
+  }
+  if (!ambient && !height) return search;
+  const bool aic = options.criterion == Criterion::kAic;
+  auto criterion = [&](const JointFitResult& f) {
+    return !f.material.converged ? INFINITY : aic ? f.material.aic : f.material.bic;
+  };
+  struct Trial {
+    bool ambient = false, height = false;
+    double value = INFINITY;
+  };
+  std::vector<Trial> trials = {{false, false, criterion(chosen)}};
+  for (int mask = 1; mask < 4; ++mask) {
+    Trial t{(mask & 1) != 0, (mask & 2) != 0};
+    if ((t.ambient && !ambient) || (t.height && !height)) continue;
+    JointFitOptions o = search;
+    if (t.ambient) o.ambient = AmbientTerm::kFit;
+    if (t.height) o.sample_height = NuisanceTerm::kFit;
+    const JointFitResult f =
+        FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false);
+    // Every term of the combination must stand out of its own error bar, which the noise model
+    // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
+    // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
+    // The bar is the one the final fit on `final_n` observations will have (1 / sqrt(n)).
+    const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
+                                   static_cast<double>(std::max<size_t>(use.size(), 1)));
+    const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
+                             (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
+    t.value = significant ? criterion(f) : INFINITY;
+    trials.push_back(t);
+  }
+  double best = INFINITY;
+  for (const auto& t : trials) best = std::min(best, t.value);
+  auto terms = [](const Trial& t) { return int(t.ambient) + int(t.height); };
+  const Trial* pick = &trials[0];
+  for (const auto& t : trials) {
+    if (t.value > best + options.nuisance_margin) continue;
+    if (pick->value > best + options.nuisance_margin || terms(t) < terms(*pick) ||
+        (terms(t) == terms(*pick) && t.value < pick->value)) {
+      pick = &t;
+    }
+  }
+  std::string list;
+  for (const auto& t : trials) {
+    const std::string name = t.ambient && t.height ? "ambient and height"
+                             : t.ambient           ? "ambient"
+                             : t.height            ? "height"
+                                                   : "neither";
+    list += fmt::format("{}{} {}", list.empty() ? "" : ", ", name,
+                        std::isfinite(t.value) ? fmt::format("{:.1f}", t.value) : "-");
+  }
+  *reason = fmt::format(
+      "nuisances by {} ({} on {} observations; kept when lower by more than {:g} and each "
+      "term beyond {:g} standard deviations): {}: {}",
+      aic ? "AIC" : "BIC", chosen.material.model, use.size(), options.nuisance_margin,
+      options.nuisance_min_z, list,
+      terms(*pick) == 0               ? "none kept"
+      : pick->ambient && pick->height ? "ambient light and sample height kept"
+      : pick->ambient                 ? "ambient light kept"
+                                      : "sample height kept");
+  spdlog::info("{}", *reason);
+  JointFitOptions out = search;
+  if (pick->ambient) out.ambient = AmbientTerm::kFit;
+  if (pick->height) out.sample_height = NuisanceTerm::kFit;
+  return out;
+}
+
+}  // namespace
+
+JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
+  options.Check();
+  size_t sample = 0;
+  std::set<int> frames;
+  for (const auto& o : data.observations) {
+    sample += !o.white;
+    frames.insert(o.frame);
+  }
+  if (sample == 0) throw InputError("no sample observations to fit");
+  if (options.criterion == Criterion::kCv && frames.size() < 2) {
+    throw InputError("--criterion cv: needs observations from at least 2 frames to hold out");
+  }
+  const std::vector<std::string> names =
+      options.candidates.empty() ? AutoCandidates() : options.candidates;
+  CheckEnoughResiduals(data, names, options);
+  // kAuto nuisances: the search without them; ChooseNuisances decides after it.
+  JointFitOptions search = options;
+  if (search.ambient == AmbientTerm::kAuto) search.ambient = AmbientTerm::kNone;
+  if (search.sample_height == NuisanceTerm::kAuto) search.sample_height = NuisanceTerm::kNone;
+  const Eigen::Vector3d light0 = InitialLight(data, search);
+  const auto use = Subsample(data, options.selection_max_observations);
+  JointSelectionResult out;
+  SearchModels(data, names, use, light0, search, &out);
+  std::string nuisance_reason;
+  const auto final_use = Subsample(data, options.final_max_observations);
+  const JointFitOptions chosen_options =
+      ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
+                      options, &nuisance_reason);
+  if (chosen_options.ambient != search.ambient ||
+      chosen_options.sample_height != search.sample_height) {
+    // A kept nuisance can change which model explains the data: search again with it, at
+    // least up to the stage of the model selected without it (a nuisance term can mimic some
+    // of a material's shape; the criterion, not the stopping rule, must decide that).
+    spdlog::info("searching the models again with the kept nuisance terms");
+    const JointFitResult before = out.fits[out.selection.selected];
+    SearchModels(data, names, use, before.light_position, chosen_options, &out,
+                 FindModel(before.material.model).params.size());
+  }
+  const auto& chosen = out.fits[out.selection.selected];
+  spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
+               data.observations.size());
+  // The final fit on (up to final_max_observations of) everything; no folds again. It starts
+  // from the chosen candidate's solution on the subsample, which is within its noise of the
+  // final one, instead of descending again from the registry defaults (the search's largest
+  // single cost for the expensive models: 10x the subsample, docs/bench.md).
+  out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.light_position,
+                               chosen_options, false, &chosen);
+  if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
+  if (options.sample_height == NuisanceTerm::kAuto) {
+    out.final_fit.sample_height_reason = nuisance_reason;
+  }
+  return out;
+}
+
+}  // namespace gonio
