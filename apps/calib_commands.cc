@@ -144,7 +144,7 @@ struct CalibrateArgs {
 };
 
 void RunCalibrate(const CalibrateArgs& a) {
-  CalibrationOptions options = options;
+  CalibrationOptions options = a.options;
   try {
     options.lens_model = ParseLensModel(a.lens_model);
   } catch (const InputError& e) {

@@ -63,6 +63,13 @@ void PrintJson(const nlohmann::json& j) {
 }
 
 void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {
+  if (std::filesystem::is_directory(out)) {
+    throw InputError("--out: " + out + " is a folder; give the name of the file to write");
+  }
+  CheckOutputFolderIsNotInput(out, inputs);
+}
+
+void CheckOutputFolderIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {
   namespace fs = std::filesystem;
   // Before any work: a run that ends at a missing folder, or at a name the system refuses, has
   // wasted its time.
@@ -71,9 +78,6 @@ void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string
   const fs::path parent = fs::path(out).parent_path();
   if (!parent.empty() && !fs::is_directory(parent, ec)) {
     throw InputError(out + ": output folder " + parent.string() + " does not exist");
-  }
-  if (fs::is_directory(out, ec)) {
-    throw InputError("--out: " + out + " is a folder; give the name of the file to write");
   }
   for (const auto& in : inputs) {
     if (in.empty()) continue;

@@ -31,5 +31,7 @@ using gonio::ParseVector3;  // common/parse.h
 // when it is one of `inputs` (the same file by path or inode): a command must never replace
 // what it reads.
 void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs);
+// The same for an output folder written as a whole (an existing one is replaced).
+void CheckOutputFolderIsNotInput(const std::string& out, const std::vector<std::string>& inputs);
 
 }  // namespace gonio::cli

@@ -160,7 +160,8 @@ constexpr const char* kVignetteAlternatives =
 
 // The frames of the session, each with its pose from --poses (frames gonio locate skipped are
 // left out), or without poses for a flat field.
-std::vector<VignetteFrame> VignetteFrames(const VignetteArgs& args, const Session& session) {
+std::vector<VignetteFrame> VignetteFrames(const VignetteArgs& args, const Session& session,
+                                          const PhotometricCalibration& calib) {
   std::vector<std::pair<std::string, Rigid3d>> poses;
   if (!args.poses.empty()) poses = ReadPoses(args.poses);
   std::vector<VignetteFrame> frames;
@@ -224,7 +225,7 @@ void RunVignette(VignetteArgs& args) {
   const CameraModel camera = CameraModel::Read(args.camera);
   PhotometricCalibration calib;
   calib.response = ResponseResult::FromJson(ReadJsonFile(args.response), args.response);
-  const std::vector<VignetteFrame> frames = VignetteFrames(args, session);
+  const std::vector<VignetteFrame> frames = VignetteFrames(args, session, calib);
   spdlog::info("vignetting from {} frames{}", frames.size(),
                flat_field ? " of a flat field (no poses)" : "");
   VignetteResult r;

@@ -54,7 +54,7 @@ void RunPlan(const PlanArgs& a) {
   if (!a.sensor.empty()) {
     o.sensor = synth::SceneFromJson(ReadJsonFile(a.sensor), a.sensor).photometric;
   }
-  CheckOutputIsNotInput(a.out, {a.board, a.camera, a.sensor});
+  CheckOutputFolderIsNotInput(a.out, {a.board, a.camera, a.sensor});
   const Board board = Board::Read(a.board);
   const CameraModel camera = CameraModel::Read(a.camera);
   const PlanResult plan = MakePlan(board, camera, o);

@@ -5,6 +5,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/log.h"
@@ -12,7 +13,6 @@
 #include "data_synth/rectified_views.h"
 #include "data_synth/scene.h"
 #include "data_synth/sfs_renderer.h"
-#include "calib/photometry/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

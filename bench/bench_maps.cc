@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bench/bench_internal.h"
+#include "calib/photometry/synth_photometric.h"
 #include "common/error.h"
 #include "common/float_tiff.h"
 #include "common/io.h"
@@ -19,7 +20,6 @@
 #include "data_synth/rectified_views.h"
 #include "data_synth/scene.h"
 #include "estimation/maps/maps.h"
-#include "calib/photometry/synth_photometric.h"
 
 namespace fs = std::filesystem;
 

@@ -155,7 +155,6 @@ class BoardShader {
   const bool point_light_;
   std::vector<double> rho_dh_;
   std::optional<TexturedShader> textured_;
-  bool point_light_ = scene_.light.type == "point";
 };
 
 // One pixel footprint: the board points of its four corners (z = 0) and, for a raised sample,

@@ -8,8 +8,8 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "common/provenance.h"
 #include "common/option_words.h"
+#include "common/provenance.h"
 
 namespace gonio {
 namespace {

@@ -1,5 +1,5 @@
-// observations.csv (estimation/extract/observations.h, ReadObservations): an accepted set holds only
-// finite numbers, radiance and variance per channel, non-negative variances, and survives
+// observations.csv (estimation/extract/observations.h, ReadObservations): an accepted set holds
+// only finite numbers, radiance and variance per channel, non-negative variances, and survives
 // WriteObservations -> ReadObservations unchanged (assumptions included).
 #include "estimation/extract/observations.h"
 #include "fuzz/fuzz_util.h"

@@ -2,11 +2,11 @@
 // data_synth renders what a user shoots: the session (default preset) and an exposure sweep of
 // the same camera in third stops (docs/capture-guide.md). The demo then calibrates as a user
 // does, from those images only: the camera model with mrcal from the session's frames, the
-// inverse response from the sweep, the vignetting from the board's paper (calib/photometry/vignette.h);
-// and runs the chain of `gonio run` (pipeline/run.h). truth.json only judges: the recovered
-// values against the true ones, each with z = error / reported standard deviation.
-// With `oracle`, the renderer's own camera model and photometric chain replace the user's
-// calibrations (no sweep is rendered): what the fit reaches when the calibrations are exact.
+// inverse response from the sweep, the vignetting from the board's paper
+// (calib/photometry/vignette.h); and runs the chain of `gonio run` (pipeline/run.h). truth.json
+// only judges: the recovered values against the true ones, each with z = error / reported standard
+// deviation. With `oracle`, the renderer's own camera model and photometric chain replace the
+// user's calibrations (no sweep is rendered): what the fit reaches when the calibrations are exact.
 #pragma once
 
 #include <filesystem>

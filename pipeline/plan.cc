@@ -13,9 +13,9 @@
 
 #include "common/error.h"
 #include "common/math.h"
+#include "common/option_words.h"
 #include "common/parallel.h"
 #include "data_synth/photometric.h"
-#include "common/option_words.h"
 
 namespace gonio {
 namespace {

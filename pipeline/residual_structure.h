@@ -19,8 +19,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "estimation/joint/joint_fit.h"
 #include "estimation/extract/observations.h"
+#include "estimation/joint/joint_fit.h"
 
 namespace gonio {
 

@@ -214,8 +214,8 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   r.assumptions = in.assumptions;
   Stopwatch clock;
   FrameCache cache(in.session, FrameExpectationOf(in), o.frame_cache_mb);
-  // Counted where images are decoded and boards detected (common/image_io.h, calib/geometry/detect.h),
-  // not by this function, so the counts say what the chain did.
+  // Counted where images are decoded and boards detected (common/image_io.h,
+  // calib/geometry/detect.h), not by this function, so the counts say what the chain did.
   const size_t decodes_before = ImageDecodeCount(), detections_before = BoardDetectionCount();
 
   spdlog::info("[1/4] detecting the board in {} frames", in.session.frames.size());

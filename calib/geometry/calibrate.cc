@@ -382,7 +382,8 @@ CalibrationResult Calibrate(const Board& board, const std::vector<BoardObservati
   } else {
     SolveOpenCv(cv_solve, width, height, options, &result);
   }
-  // Recorded with the model, so a session that does not fit it is recognised (calib/geometry/locate.h).
+  // Recorded with the model, so a session that does not fit it is recognised
+  // (calib/geometry/locate.h).
   result.camera.calibration_rms_px = result.rms_px;
   return result;
 }

@@ -391,9 +391,9 @@ void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<
   std::vector<double> lo(result->channels), hi(result->channels);
   for (int c = 0; c < result->channels; ++c) {
     double z_top = 0;
-    result->inverse_response.push_back(BuildTable(
-        fits[c], setups[c], &result->black_level[c], &result->black_level_range[c], black_given,
-        &result->lowest_supported_value[c], &z_top));
+    result->inverse_response.push_back(BuildTable(fits[c], setups[c], &result->black_level[c],
+                                                  &result->black_level_range[c], black_given,
+                                                  &result->lowest_supported_value[c], &z_top));
     result->saturation_level[c] = std::floor(z_top) + 1;
     rms += fits[c].rms * fits[c].rms;
     lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
@@ -462,13 +462,15 @@ void SetupChannels(const std::vector<ExposureFrame>& frames,
   setups->assign(channels, s);
   pixels->assign(channels, {});
   const bool black_given = o.black_level || !o.channel_black_level.empty();
-  if (!o.channel_black_level.empty() && static_cast<int>(o.channel_black_level.size()) != channels) {
+  if (!o.channel_black_level.empty() &&
+      static_cast<int>(o.channel_black_level.size()) != channels) {
     throw InputError(fmt::format("{} black levels for {}-channel frames",
                                  o.channel_black_level.size(), channels));
   }
   for (int c = 0; c < channels; ++c) {
     Setup& cs = (*setups)[c];
-    if (!o.channel_black_level.empty()) cs.dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
+    if (!o.channel_black_level.empty())
+      cs.dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
     cs.darkest_value = DarkestValue(frames, c, s.bit_depth, &cs.darkest_piled);
     if (!black_given && cs.darkest_piled) {
       // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
@@ -541,7 +543,8 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   result.smoothing_sensitivity = SmoothingSensitivity(setups, fits, stiff, result, o);
   clock.Lap("smoothing sensitivity");
   if (o.error_replicates > 0) {
-    result.error_model = ErrorModel(frames, planes, free_time, setups, pixels, fits, stiff, result, o);
+    result.error_model =
+        ErrorModel(frames, planes, free_time, setups, pixels, fits, stiff, result, o);
     clock.Lap("error model");
   }
   return result;

@@ -125,8 +125,8 @@ struct ResponseErrorModel {
     double correlation_length = 0;    // pixel values
   };
   std::vector<Channel> channels;
-  int replicates = 0;          // simulated sweeps refitted
-  double stiffer_prior = 0;    // the smoothness factor of the simulated curve
+  int replicates = 0;        // simulated sweeps refitted
+  double stiffer_prior = 0;  // the smoothness factor of the simulated curve
   std::string method;
 
   bool empty() const { return channels.empty(); }

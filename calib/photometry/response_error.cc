@@ -1,5 +1,5 @@
-// The inverse response's error model (calib/photometry/response.h ResponseErrorModel, docs/photometric.md
-// "Error model").
+// The inverse response's error model (calib/photometry/response.h ResponseErrorModel,
+// docs/photometric.md "Error model").
 //
 // What errs in a fitted curve is mostly not where the self-check looks. A sweep whose exposures
 // step by a factor r cannot tell h from h plus any function periodic in ln X with period ln r:
@@ -16,9 +16,9 @@
 // draws of the fit's error, bias included, on this sweep's scene and steps.
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <cstdio>
 #include <cstdlib>
+#include <random>
 
 #include <fmt/format.h>
 
@@ -76,8 +76,9 @@ std::vector<double> ValueNoise(const std::vector<KnotObservation>& obs, const Ch
     omega[i] = o.w * o.w * HuberWeight(o.w * r[i], kHuberScale);
     slope[i] = (fit.h[o.k + 1] - fit.h[o.k]) / spacing;
     total[o.pixel] += omega[i];
-    band[i] = std::clamp(static_cast<int>((o.k + o.a) * spacing / (s.max_value + 1.0) * kNoiseBands),
-                         0, kNoiseBands - 1);
+    band[i] =
+        std::clamp(static_cast<int>((o.k + o.a) * spacing / (s.max_value + 1.0) * kNoiseBands), 0,
+                   kNoiseBands - 1);
   }
   std::vector<double> sd(kNoiseBands, 1.0);
   for (int step = 0; step < 4; ++step) {
@@ -97,8 +98,8 @@ std::vector<double> ValueNoise(const std::vector<KnotObservation>& obs, const Ch
       const double W = total[obs[i].pixel];
       const double a = 1 - 2 * omega[i] / W;
       if (!(slope[i] > 0) || !(a > 0.05) || !(W > 0)) continue;
-      in_band[band[i]].push_back({r[i] * r[i], a * slope[i] * slope[i],
-                                  shared[obs[i].pixel] / (W * W)});
+      in_band[band[i]].push_back(
+          {r[i] * r[i], a * slope[i] * slope[i], shared[obs[i].pixel] / (W * W)});
     }
     std::vector<double> next(kNoiseBands, NAN);
     std::vector<double> ratio;
@@ -139,11 +140,11 @@ std::vector<KnotObservation> Simulate(const ChannelFit& fit, const std::vector<i
     for (int j : s.usable) {
       if (!Usable(frames[j], pixels[p])) continue;
       const double z0 = forward.Value(fit.ln_e[p] + fit.ln_t[j]);
-      const int b = std::clamp(static_cast<int>(z0 / (s.max_value + 1.0) * kNoiseBands), 0,
-                               kNoiseBands - 1);
+      const int b =
+          std::clamp(static_cast<int>(z0 / (s.max_value + 1.0) * kNoiseBands), 0, kNoiseBands - 1);
       const double sd = std::sqrt(std::max(0.0, noise[b] * noise[b] - 1.0 / 12));
-      const double z = std::clamp(std::round(z0 + sd * normal(*rng)), 0.0,
-                                  static_cast<double>(s.max_value));
+      const double z =
+          std::clamp(std::round(z0 + sd * normal(*rng)), 0.0, static_cast<double>(s.max_value));
       const double w = HatWeight(s, z);
       if (w < 0.05) continue;
       const auto [k, a] = KnotsOf(s, z);
@@ -187,9 +188,9 @@ ResponseErrorModel::Channel BandStatistics(const std::vector<std::vector<double>
       if (e > 0) sum_sq_slope += std::pow((err[e] - err[e - 1]) / width, 2);
     }
   }
-  m.correlation_length =
-      sum_sq_slope > 0 ? std::sqrt(sum_sq / kModelBands / (sum_sq_slope / (kModelBands - 1)))
-                       : hi - lo;
+  m.correlation_length = sum_sq_slope > 0
+                             ? std::sqrt(sum_sq / kModelBands / (sum_sq_slope / (kModelBands - 1)))
+                             : hi - lo;
   m.correlation_length = std::clamp(m.correlation_length, width, hi - lo);
   for (int e = 0; e < kModelBands; ++e) {
     double sum = 0, weight = 0;
@@ -206,13 +207,10 @@ ResponseErrorModel::Channel BandStatistics(const std::vector<std::vector<double>
 
 }  // namespace
 
-ResponseErrorModel::Channel ChannelErrorModel(const std::vector<ExposureFrame>& frames,
-                                              const std::vector<bool>& free_time, const Setup& s,
-                                              const std::vector<cv::Point>& pixels,
-                                              const std::vector<cv::Mat>& planes,
-                                              const ChannelFit& fit, const ChannelFit& stiff,
-                                              double lo, double hi, const ResponseOptions& o,
-                                              int channel) {
+ResponseErrorModel::Channel ChannelErrorModel(
+    const std::vector<ExposureFrame>& frames, const std::vector<bool>& free_time, const Setup& s,
+    const std::vector<cv::Point>& pixels, const std::vector<cv::Mat>& planes, const ChannelFit& fit,
+    const ChannelFit& stiff, double lo, double hi, const ResponseOptions& o, int channel) {
   const auto obs = CollectObservations(planes, frames, s, pixels);
   std::vector<int> observed;
   std::vector<bool> seen(pixels.size(), false);
@@ -226,7 +224,8 @@ ResponseErrorModel::Channel ChannelErrorModel(const std::vector<ExposureFrame>& 
   // 1.2 %; from the stiffer curve 1.20 %, from the renderer's own curve 1.48 %).
   const ForwardResponse forward(stiff.h, s);
   const std::vector<double> noise = ValueNoise(obs, fit, s);
-  if (std::getenv("GONIO_DEBUG_NOISE")) for (int b = 0; b < kNoiseBands; ++b) std::fprintf(stderr, "NOISE %d %.2f\n", b, noise[b]);
+  if (std::getenv("GONIO_DEBUG_NOISE"))
+    for (int b = 0; b < kNoiseBands; ++b) std::fprintf(stderr, "NOISE %d %.2f\n", b, noise[b]);
   const int B = o.error_replicates;
   std::vector<std::vector<double>> diffs(B);
   ParallelFor(B, o.threads, [&](size_t b0, size_t b1) {
@@ -293,7 +292,8 @@ ResponseErrorModel ResponseErrorModel::FromJson(const nlohmann::json& j,
     }
     return v.get<double>();
   };
-  if (j.contains("replicates")) m.replicates = static_cast<int>(number(j["replicates"], "replicates"));
+  if (j.contains("replicates"))
+    m.replicates = static_cast<int>(number(j["replicates"], "replicates"));
   if (j.contains("stiffer_prior")) m.stiffer_prior = number(j["stiffer_prior"], "stiffer_prior");
   for (const auto& c : j["channels"]) {
     if (!c.is_object() || !c.contains("value_edges") || !c.contains("sd") ||

@@ -169,12 +169,9 @@ double SmoothingSensitivity(const std::vector<Setup>& setups, const std::vector<
 
 // One channel's error model over the values [lo, hi] (response_error.cc): the sweep simulated
 // from the `stiff` refit's curve o.error_replicates times and refitted as `fit` was.
-ResponseErrorModel::Channel ChannelErrorModel(const std::vector<ExposureFrame>& frames,
-                                              const std::vector<bool>& free_time, const Setup& s,
-                                              const std::vector<cv::Point>& pixels,
-                                              const std::vector<cv::Mat>& planes,
-                                              const ChannelFit& fit, const ChannelFit& stiff,
-                                              double lo, double hi, const ResponseOptions& o,
-                                              int channel);
+ResponseErrorModel::Channel ChannelErrorModel(
+    const std::vector<ExposureFrame>& frames, const std::vector<bool>& free_time, const Setup& s,
+    const std::vector<cv::Point>& pixels, const std::vector<cv::Mat>& planes, const ChannelFit& fit,
+    const ChannelFit& stiff, double lo, double hi, const ResponseOptions& o, int channel);
 
 }  // namespace gonio

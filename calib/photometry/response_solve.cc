@@ -1,4 +1,5 @@
-// The inverse-response fit's least-squares problem solved directly (calib/photometry/response_fit.h).
+// The inverse-response fit's least-squares problem solved directly
+// (calib/photometry/response_fit.h).
 //
 // Every residual of the fit is linear in its unknowns: w (h(Z) - ln E_p - ln t_j) with h linear
 // between two knots, and the smoothing prior's second differences of h. Only the Huber loss

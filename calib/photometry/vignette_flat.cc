@@ -1,6 +1,6 @@
-// Vignetting from a flat field without poses (calib/photometry/vignette.h, CalibrateFlatFieldVignette):
-// every sampled pixel of frame k is one sample of texture cell k, so the shared solver
-// (vignette_internal.h) fits I_k(x) = V(x) C_k.
+// Vignetting from a flat field without poses (calib/photometry/vignette.h,
+// CalibrateFlatFieldVignette): every sampled pixel of frame k is one sample of texture cell k, so
+// the shared solver (vignette_internal.h) fits I_k(x) = V(x) C_k.
 #include <algorithm>
 #include <mutex>
 

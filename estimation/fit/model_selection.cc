@@ -8,8 +8,8 @@
 #include <fmt/format.h>
 
 #include "common/error.h"
-#include "common/parallel.h"
 #include "common/option_words.h"
+#include "common/parallel.h"
 #include "reflectance/registry.h"
 
 namespace gonio {

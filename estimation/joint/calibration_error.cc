@@ -179,9 +179,10 @@ CalibrationSpread Refits(const ObservationSet& data, const std::vector<size_t>& 
   CalibrationSpread s;
   s.draws = static_cast<int>(lx.size());
   if (2 * s.draws < draws) {
-    throw NumericalError(fmt::format("calibration error propagation: only {} of {} refits under "
-                                     "the {} error converged",
-                                     s.draws, draws, source));
+    throw NumericalError(
+        fmt::format("calibration error propagation: only {} of {} refits under "
+                    "the {} error converged",
+                    s.draws, draws, source));
   }
   for (size_t i = 0; i < np; ++i) s.param_stddev.push_back(StdDev(params[i]));
   s.light_stddev = Eigen::Vector3d(StdDev(lx), StdDev(ly), StdDev(lz));
@@ -227,9 +228,8 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   std::vector<ResponseCurveSampler> samplers;
   for (const auto& c : error.response.channels) samplers.emplace_back(c);
   if (!samplers.empty()) {
-    p.response = Refits(data, use, fit, fit_options, options.draws, "response", [&] {
-      return ResponseField(data, use, samplers, &rng);
-    });
+    p.response = Refits(data, use, fit, fit_options, options.draws, "response",
+                        [&] { return ResponseField(data, use, samplers, &rng); });
   }
   const auto modes = VignetteModes(data, use, error);
   if (error.vignette_rms > 0 && !modes.empty()) {
@@ -248,8 +248,10 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   t.param_stddev.assign(np, 0.0);
   for (const CalibrationSpread* s : {&p.response, &p.vignetting}) {
     if (s->draws == 0) continue;
-    for (size_t i = 0; i < np; ++i) t.param_stddev[i] = std::hypot(t.param_stddev[i], s->param_stddev[i]);
-    for (int k = 0; k < 3; ++k) t.light_stddev[k] = std::hypot(t.light_stddev[k], s->light_stddev[k]);
+    for (size_t i = 0; i < np; ++i)
+      t.param_stddev[i] = std::hypot(t.param_stddev[i], s->param_stddev[i]);
+    for (int k = 0; k < 3; ++k)
+      t.light_stddev[k] = std::hypot(t.light_stddev[k], s->light_stddev[k]);
     t.intensity_stddev = std::hypot(t.intensity_stddev, s->intensity_stddev);
   }
   spdlog::debug("calibration error propagated over {} refits", t.draws);
@@ -322,9 +324,9 @@ std::string CalibrationPropagation::Report() const {
     for (size_t i = 0; i < param_names.size() && i < c.param_stddev.size(); ++i) {
       s += fmt::format(" {} +-{:.3g}", param_names[i], c.param_stddev[i]);
     }
-    s += fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n",
-                     c.light_stddev.x(), c.light_stddev.y(), c.light_stddev.z(),
-                     c.intensity_stddev);
+    s +=
+        fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n", c.light_stddev.x(),
+                    c.light_stddev.y(), c.light_stddev.z(), c.intensity_stddev);
   };
   line("response", response);
   line("vignetting", vignetting);

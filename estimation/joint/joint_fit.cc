@@ -14,9 +14,9 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "common/math.h"
+#include "common/option_words.h"
 #include "common/parallel.h"
 #include "common/stats.h"
-#include "common/option_words.h"
 #include "estimation/joint/joint_fit_problem.h"
 #include "estimation/joint/tabulated_models.h"
 #include "reflectance/registry.h"
@@ -457,7 +457,7 @@ State StateFromResult(const ModelInfo& info, const JointFitResult& r, const Obse
   for (size_t c = 0; c < r.ambient_irradiance.size() && c < s.ambient_irradiance.size(); ++c) {
     s.ambient_irradiance[c] = r.ambient_irradiance[c];
   }
-  if (o.fit_sample_height) s.height_offset = r.sample_height_offset.value_or(0.0);
+  if (o.sample_height == NuisanceTerm::kFit) s.height_offset = r.sample_height_offset.value_or(0.0);
   return s;
 }
 

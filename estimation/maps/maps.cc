@@ -11,10 +11,10 @@
 #include "calib/geometry/detect.h"
 #include "common/error.h"
 #include "common/log.h"
+#include "common/option_words.h"
 #include "estimation/extract/extract.h"
 #include "estimation/maps/height.h"
 #include "estimation/maps/registration.h"
-#include "common/option_words.h"
 
 namespace fs = std::filesystem;
 

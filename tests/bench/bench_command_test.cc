@@ -28,7 +28,7 @@ TEST(BenchCli, SmokeRunWritesBenchJsonAndCharts) {
     EXPECT_GT(row["ns_per_eval_1t"].get<double>(), 0.0) << row["model"];
     EXPECT_GE(row["max_err"].get<double>(), 0.0);
   }
-  ASSERT_EQ(j["reference_loops"].size(), 3u);
+  ASSERT_EQ(j["reference_loops"].size(), 14u);
   for (const auto& loop : j["reference_loops"]) {
     EXPECT_GT(loop["ratio_registry_over_reference"].get<double>(), 0.0) << loop["model"];
     EXPECT_LT(loop["max_rel_diff"].get<double>(), 1e-12) << loop["model"];

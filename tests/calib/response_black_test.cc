@@ -252,7 +252,7 @@ TEST(BlackLevelCli, RefusalsSourcesAndTheWarning) {
   fs::remove(out);
   const testing::CommandResult missing = testing::RunGonio(base + " --dark no_such.png");
   EXPECT_EQ(missing.exit_code, 2);
-  EXPECT_NE(missing.err.find("no_such.png: not an image"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("no_such.png: no such file"), std::string::npos) << missing.err;
   EXPECT_EQ(testing::MessageLines(missing.err), 1) << missing.err;
   EXPECT_FALSE(fs::exists(out));
   session["dark_frames"] = {"dark_0000.png"};

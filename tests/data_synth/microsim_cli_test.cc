@@ -92,7 +92,7 @@ TEST(MicrosimCli, WritesAReciprocalTableWithKoenderinksInterreflection) {
 TEST(MicrosimCli, BadInputExitsWithTwoAndSaysWhy) {
   const std::pair<const char*, const char*> cases[] = {
       {"microsim --surface cubes --theta-i 0 --theta-r 0",
-       "--surface 'cubes': expected vgroove, gaussian or pits"},
+       "--surface: 'cubes' is not one of vgroove, gaussian, pits"},
       {"microsim --surface pits --theta-i 0 --theta-r 0", "--surface pits needs --aperture DEG"},
       {"microsim --surface pits --aperture 120 --theta-i 0 --theta-r 0",
        "pits aperture must be in [0, 90] deg (got 120.000000)"},

@@ -61,7 +61,7 @@ TEST(TextureTest, RenderedPixelIsTheModelAtTheTruthMaps) {
   s.photometric.black_level = 0;
   s.photometric.vignetting = {0, 0, 0};
   s.photometric.noise = false;
-  s.camera.lens_model = "LENSMODEL_PINHOLE";
+  s.camera.lens_model = LensModel::kPinhole;
   s.camera.intrinsics = {1100, 1100, 639.5, 479.5};
   s.views.mode = "explicit";
   Rigid3d pose;  // camera 0.45 m in front of the sample's centre, looking along +z

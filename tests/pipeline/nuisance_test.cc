@@ -12,10 +12,10 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "calib/photometry/synth_photometric.h"
 #include "common/camera_model.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "calib/photometry/synth_photometric.h"
 #include "tests/test_util.h"
 
 namespace gonio {

@@ -316,8 +316,9 @@ TEST(Pipeline, MaterialOutsideTheCandidatesIsNotAMeasurement) {
 // One pass over the data: every frame is decoded once and its board detected once, whether the
 // camera model is given or calibrated from the same detections; a cache budget of 0 decodes
 // the located frames a second time for extraction (so the counter does count). The counts are
-// those of the image reader and the detector themselves (common/image_io.h, calib/geometry/detect.h),
-// read around each run: a second detection or decode anywhere in the chain shows.
+// those of the image reader and the detector themselves (common/image_io.h,
+// calib/geometry/detect.h), read around each run: a second detection or decode anywhere in the
+// chain shows.
 TEST(Pipeline, EachFrameIsDecodedAndDetectedOnce) {
   const synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
   testing::TempDir dir;
