@@ -74,15 +74,12 @@ nlohmann::json PrintComparison(const std::vector<ExposureFrame>& frames, const R
   nlohmann::json j = nlohmann::json::array();
   std::cout << "pair consistency on the frames and times gonio used, values 5-95% of the range:\n";
   for (const auto& m : CompareWithClassicMethods(frames, r)) {
-    // gonio's time is its whole calibration (error model included), OpenCV's each method's.
-    const double seconds = m.method == "gonio" ? r.timing.total_s : m.seconds;
     std::cout << fmt::format(
         "  {:<17} median pair {:6.2f}%  worst pair {:6.2f}%  worst band bias "
-        "{:6.2f}%  {:7.2f} s\n",
+        "{:6.2f}%\n",
         m.method, 100 * m.consistency.median_pair, 100 * m.consistency.worst_pair,
-        100 * m.consistency.worst_band_bias, seconds);
-    j.push_back(
-        {{"method", m.method}, {"consistency", m.consistency.ToJson()}, {"seconds", seconds}});
+        100 * m.consistency.worst_band_bias);
+    j.push_back({{"method", m.method}, {"consistency", m.consistency.ToJson()}});
   }
   return j;
 }

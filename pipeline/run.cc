@@ -124,28 +124,14 @@ ObservationSet ExtractAll(const RunInputs& in, const RunOptions& o, const RunRes
   return extractor.Finish(in.session.dir.string());
 }
 
-// The vignetting's share of relative_accuracy: what the response's share (ResponseError) leaves.
-double VignetteRms(const PhotometricCalibration& p) {
-  const double accuracy = p.relative_accuracy.value_or(0.0);
-  const double response = std::min(PhotometricCalibration::ResponseError(p.response), accuracy);
-  return std::sqrt(std::max(0.0, accuracy * accuracy - response * response));
-}
-
-// The fit's relative noise floor: the photometric calibration's error as scatter from one
-// observation to the next, when photometric.json reports its accuracy (never below
-// kMinNoiseFloor: paper reflectance uniformity and shutter repeatability are not known better
-// than that on a printed bench), else the option's value. With the response's error model the
-// response's part is only what differs between the observations' values (ResponseScatter);
-// the part they share moves the parameters, which the propagation reports.
+// The fit's relative noise floor: the photometric calibration's own accuracy when it reports
+// one (never below kMinNoiseFloor: paper reflectance uniformity and shutter repeatability are
+// not known better than that on a printed bench), else the option's value.
 JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResult* r) {
   JointFitOptions fit = o.fit;
-  const PhotometricCalibration& p = in.photometric;
-  if (o.noise_floor_from_calibration && p.relative_accuracy) {
-    double floor = *p.relative_accuracy;
-    if (!p.response.error_model.empty()) {
-      floor = std::hypot(VignetteRms(p), ResponseScatter(p.response.error_model, r->observations));
-    }
-    fit.relative_noise_floor = std::max(floor, RunOptions::kMinNoiseFloor);
+  if (o.noise_floor_from_calibration && in.photometric.relative_accuracy) {
+    fit.relative_noise_floor =
+        std::max(*in.photometric.relative_accuracy, RunOptions::kMinNoiseFloor);
     r->noise_floor_source = in.photometric_source;
   } else {
     r->noise_floor_source = o.noise_floor_from_calibration ? "default" : "--noise-floor";
@@ -155,22 +141,25 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
 }
 
 // The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
-// when photometric.json says how accurate it is: the response's error model (whole curves over
-// the pixel value) and the rest of relative_accuracy for the vignetting.
+// when photometric.json says how accurate it is: the response's band biases (their RMS) and the
+// rest of relative_accuracy for the vignetting.
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
                           const JointFitOptions& fit_options, RunResult* r) {
-  const PhotometricCalibration& p = in.photometric;
-  if (!p.relative_accuracy || o.calibration_error.draws == 0 ||
-      !r->fit.final_fit.material.converged) {
-    return;
-  }
+  const auto& accuracy = in.photometric.relative_accuracy;
+  if (!accuracy || o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
+  const ResponseResult& response = in.photometric.response;
   CalibrationErrorModel e;
-  e.response = PhotometricCalibration::ResponseErrorModelOf(p.response);
-  e.vignette_rms = VignetteRms(p);
+  e.response_ratio_error = std::min(PhotometricCalibration::ResponseFieldRms(response), *accuracy);
+  // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
+  // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
+  // are in the noise floor but are no smooth field.
+  const double worst = std::min(PhotometricCalibration::ResponseAccuracy(response), *accuracy);
+  const double smoothing = PhotometricCalibration::SmoothingError(response);
+  e.vignette_rms =
+      std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
   e.principal_point = {r->camera.intrinsics[2], r->camera.intrinsics[3]};
   e.radius_px = 0.5 * std::hypot(r->camera.width, r->camera.height);
-  spdlog::info("propagating the calibration's error ({} refits per source)",
-               o.calibration_error.draws);
+  spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);
   r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
                                                    e, o.calibration_error);
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);

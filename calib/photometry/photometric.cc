@@ -44,15 +44,6 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
   }
   if (!(exposure_s > 0) || !(gain > 0)) throw InputError("exposure and gain must be > 0");
   const double max_value = (1 << response.bit_depth) - 1.0;
-  // Below the lowest value the sweep supports the table is an extrapolation (a line to the black
-  // level, off by up to a factor 2 on the 12-bit sweeps): no radiance is read there (dark).
-  std::vector<double> dark_limit(channels);
-  for (int c = 0; c < channels; ++c) {
-    dark_limit[c] = std::nextafter(response.black_level[c] + 0.5, INFINITY);
-    if (!response.lowest_supported_value.empty()) {
-      dark_limit[c] = std::max(dark_limit[c], response.lowest_supported_value[c]);
-    }
-  }
   cv::Mat values;
   raw.convertTo(values, CV_MAKETYPE(CV_64F, channels));
   *radiance = cv::Mat(raw.size(), CV_MAKETYPE(CV_32F, channels));
@@ -68,14 +59,15 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
       const double scale = 1.0 / (exposure_s * gain * v);
       for (int c = 0; c < channels; ++c) {
         const double z = in[x * channels + c];
-        const bool dark = z < dark_limit[c];
-        if (dark || z >= std::min(max_value, response.saturation_level[c])) ok[x] = 0;
+        if (z >= std::min(max_value, response.saturation_level[c]) ||
+            z <= response.black_level[c] + 0.5) {
+          ok[x] = 0;
+        }
         const double slope = response.Slope(c, z);
         double var_z = 1.0 / 12.0 + read_noise_dn * read_noise_dn;
         if (electrons_per_dn)
           var_z += std::max(0.0, z - response.black_level[c]) / *electrons_per_dn;
-        // A dark value reads as no radiance, as it did at the black level itself.
-        out[x * channels + c] = dark ? 0.0f : static_cast<float>(response.Linearize(c, z) * scale);
+        out[x * channels + c] = static_cast<float>(response.Linearize(c, z) * scale);
         var[x * channels + c] = static_cast<float>(slope * slope * var_z * scale * scale);
       }
     }
@@ -84,30 +76,10 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
 
 double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
                                                 double vignette_rms_relative) {
-  return std::min(std::hypot(ResponseError(response), vignette_rms_relative), 0.99);
-}
-
-double PhotometricCalibration::ResponseError(const ResponseResult& response) {
-  if (!response.error_model.empty()) return std::min(response.error_model.RmsSd(), 0.99);
-  return std::min(std::hypot(ResponseAccuracy(response), SmoothingError(response)), 0.99);
-}
-
-ResponseErrorModel PhotometricCalibration::ResponseErrorModelOf(const ResponseResult& response) {
-  if (!response.error_model.empty()) return response.error_model;
-  ResponseErrorModel m;
-  m.method = "stand-in from the self-check (response.json without an error model)";
-  const double sd = ResponseFieldRms(response);
-  if (!(sd > 0)) return m;
-  for (int c = 0; c < response.channels; ++c) {
-    const double lo = response.black_level[c] + 0.02 * ((1 << response.bit_depth) - 1);
-    const double hi = std::max(lo + 1, response.saturation_level[c] - 1);
-    ResponseErrorModel::Channel ch;
-    ch.value_edges = {lo, hi};
-    ch.sd = {sd};
-    ch.correlation_length = 0.5 * (hi - lo);
-    m.channels.push_back(ch);
-  }
-  return m;
+  return std::min(
+      std::sqrt(std::pow(ResponseAccuracy(response), 2) + std::pow(SmoothingError(response), 2) +
+                vignette_rms_relative * vignette_rms_relative),
+      0.99);
 }
 
 double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) {

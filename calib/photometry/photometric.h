@@ -36,21 +36,16 @@ struct PhotometricCalibration {
   // the response's error modes (estimation/joint/calibration_error.h).
   static double ResponseAccuracy(const ResponseResult& response);
   // The RMS of the response's band biases (its self-check's signed error per eighth of the
-  // value range); without bands: ResponseAccuracy.
+  // value range): the size of the smooth error field gonio run's calibration-error propagation
+  // draws, whose modes have an RMS of 1. The worst band (ResponseAccuracy) is the largest of
+  // eight noisy figures. Without bands: ResponseAccuracy.
   static double ResponseFieldRms(const ResponseResult& response);
   // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
-  // not measured).
+  // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
+  // radiance to the next, so they enter the noise floor, not the smooth error modes.
   static double SmoothingError(const ResponseResult& response);
-  // The response's share of relative_accuracy: the RMS of its error model's band standard
-  // deviations (ResponseErrorModel); for a response.json without one (written before the error
-  // model), sqrt(ResponseAccuracy^2 + SmoothingError^2).
-  static double ResponseError(const ResponseResult& response);
-  // The response's error model; for a response.json without one, a stand-in: the band biases'
-  // RMS (ResponseFieldRms) over the whole checked range, correlated over half of it (a smooth
-  // tilt, as the self-check can see).
-  static ResponseErrorModel ResponseErrorModelOf(const ResponseResult& response);
-  // sqrt(ResponseError^2 + vignetting^2): the response's and the vignetting fit's RMS relative
-  // residual, as independent relative errors of a radiance.
+  // sqrt(response^2 + smoothing^2 + vignetting^2): ResponseAccuracy, SmoothingError and the
+  // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);
 
   // A linear camera with the given black level and no vignetting (bit_depth 8..16); `source`
@@ -59,8 +54,7 @@ struct PhotometricCalibration {
                                        BlackLevelSource source);
 
   // radiance: CV_32FC(channels), variance: same, valid: CV_8U (0 where a channel is saturated
-  // or dark, where no radiance can be read: at/below the black level or below the lowest value
-  // the response's sweep supports, ResponseResult::lowest_supported_value; radiance 0 there).
+  // or at/below the black level, where no radiance can be read).
   void ToRadiance(const cv::Mat& raw, double exposure_s, double gain, cv::Mat* radiance,
                   cv::Mat* variance, cv::Mat* valid) const;
 

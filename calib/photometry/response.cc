@@ -1,7 +1,6 @@
 #include "calib/photometry/response.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -42,8 +41,6 @@ std::vector<double> Isotonic(const std::vector<double>& y, const std::vector<dou
   return out;
 }
 
-}  // namespace
-
 bool Usable(const ExposureFrame& f, const cv::Point& p) {
   return f.mask.empty() || f.mask.at<uint8_t>(p) != 0;
 }
@@ -55,8 +52,6 @@ double HatWeight(const Setup& s, double z) {
   const double half = 0.5 * (s.saturation_limit - s.dark_limit);
   return std::min(z - s.dark_limit, s.saturation_limit - z) / half;
 }
-
-namespace {
 
 // Pixels on flat areas (small gradient relative to the value, robust to tiny misalignment),
 // stratified by their mean value over the frames so that dark and bright scene parts are both
@@ -123,7 +118,11 @@ std::vector<cv::Point> SamplePixels(const std::vector<cv::Mat>& planes,
   return picked;
 }
 
-}  // namespace
+// Where value z falls between knots: h(z) = (1 - a) h[k] + a h[k + 1].
+struct KnotPair {
+  int k;
+  double a;
+};
 
 KnotPair KnotsOf(const Setup& s, double z) {
   const double pos = KnotPosition(s, z);
@@ -148,8 +147,6 @@ std::vector<KnotObservation> CollectObservations(const std::vector<cv::Mat>& pla
   }
   return obs;
 }
-
-namespace {
 
 double HOf(const ChannelFit& fit, const KnotObservation& o) {
   return (1 - o.a) * fit.h[o.k] + o.a * fit.h[o.k + 1];
@@ -258,38 +255,27 @@ void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setu
 
 }  // namespace
 
-ChannelFit FitKnotObservations(const std::vector<KnotObservation>& obs, size_t num_pixels,
-                               const std::vector<ExposureFrame>& frames,
-                               const std::vector<bool>& free_time, bool times_unknown,
-                               const Setup& s, const ResponseOptions& o, const ChannelFit* start) {
-  if (obs.empty()) throw InputError("exposure sweep: no pixel is well exposed in any frame");
-  const int K = s.num_knots;
-  ChannelFit fit;
-  fit.counts.assign(K, 0.0);
-  fit.ln_e.assign(num_pixels, 0.0);
-  if (start) {
-    fit.h = start->h;
-    fit.ln_t = start->ln_t;
-  } else {
-    fit.h.resize(K);
-    for (int k = 0; k < K; ++k) fit.h[k] = std::log((k + 0.5) / K);  // start: linear response
-    fit.ln_t.assign(frames.size(), 0.0);
-    for (size_t j = 0; j < frames.size(); ++j) fit.ln_t[j] = std::log(frames[j].exposure_s);
-  }
-  StartingPoint(obs, &fit, &fit.ln_e);
-  LinearFitSpec spec;
-  spec.smooth_weight = SmoothWeights(s, SmoothnessWeight(s, o.smoothness, obs.size()));
-  FixGauge(free_time, times_unknown, s, obs, &spec, &fit);
-  SolveResponseFit(obs, spec, &fit.h, &fit.ln_e, &fit.ln_t);
-  Residuals(obs, fit.ln_e, frames.size(), &fit);
-  return fit;
-}
-
 ChannelFit FitChannel(const std::vector<cv::Mat>& planes, const std::vector<ExposureFrame>& frames,
                       const std::vector<bool>& free_time, bool times_unknown, const Setup& s,
                       const std::vector<cv::Point>& pixels, const ResponseOptions& o) {
-  return FitKnotObservations(CollectObservations(planes, frames, s, pixels), pixels.size(), frames,
-                             free_time, times_unknown, s, o, nullptr);
+  const int K = s.num_knots;
+  ChannelFit fit;
+  fit.h.resize(K);
+  for (int k = 0; k < K; ++k) fit.h[k] = std::log((k + 0.5) / K);  // start: linear response
+  fit.ln_t.assign(frames.size(), 0.0);
+  for (size_t j = 0; j < frames.size(); ++j) fit.ln_t[j] = std::log(frames[j].exposure_s);
+  fit.counts.assign(K, 0.0);
+  std::vector<double> ln_e(pixels.size(), 0.0);
+
+  const auto obs = CollectObservations(planes, frames, s, pixels);
+  if (obs.empty()) throw InputError("exposure sweep: no pixel is well exposed in any frame");
+  StartingPoint(obs, &fit, &ln_e);
+  LinearFitSpec spec;
+  spec.smooth_weight = SmoothWeights(s, SmoothnessWeight(s, o.smoothness, obs.size()));
+  FixGauge(free_time, times_unknown, s, obs, &spec, &fit);
+  SolveResponseFit(obs, spec, &fit.h, &ln_e, &fit.ln_t);
+  Residuals(obs, ln_e, frames.size(), &fit);
+  return fit;
 }
 
 namespace {
@@ -330,7 +316,7 @@ void CheckSupportedRange(const std::vector<double>& h, int k_lo, int k_hi, doubl
 // estimated (EstimateBlackLevel).
 std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* black_level,
                                std::array<double, 2>* black_range, bool black_given,
-                               double* z_bottom, double* z_top) {
+                               double* z_top) {
   const int K = s.num_knots;
   std::vector<double> w(K);
   for (int k = 0; k < K; ++k) w[k] = fit.counts[k] + 1e-6;
@@ -349,7 +335,6 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
   const double z_hi =
       std::min(static_cast<double>(k_hi) * s.max_value / (K - 1), s.saturation_limit);
   CheckSupportedRange(h, k_lo, k_hi, z_lo, z_hi, s);
-  *z_bottom = z_lo;
   *z_top = z_hi;
   *black_range = {*black_level, *black_level};
   if (!black_given) {
@@ -386,14 +371,13 @@ void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<
   if (!o.channel_black_level.empty()) result->black_level = o.channel_black_level;
   result->black_level_range.resize(result->channels);
   result->saturation_level.assign(result->channels, 0.0);
-  result->lowest_supported_value.assign(result->channels, 0.0);
   double rms = 0;
   std::vector<double> lo(result->channels), hi(result->channels);
   for (int c = 0; c < result->channels; ++c) {
     double z_top = 0;
     result->inverse_response.push_back(BuildTable(fits[c], setups[c], &result->black_level[c],
                                                   &result->black_level_range[c], black_given,
-                                                  &result->lowest_supported_value[c], &z_top));
+                                                  &z_top));
     result->saturation_level[c] = std::floor(z_top) + 1;
     rms += fits[c].rms * fits[c].rms;
     lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
@@ -422,9 +406,6 @@ void ResponseOptions::Check() const {
   }
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
   if (num_pixels < 50) throw InputError("at least 50 pixels are needed");
-  if (error_replicates < 0 || error_replicates == 1 || error_replicates > 1000) {
-    throw InputError("error model replicates must be 0 (none) or 2..1000");
-  }
   if (!(smoothness >= 0)) throw InputError("smoothness must be >= 0");
   if (!(exposure_tolerance > 0)) throw InputError("exposure tolerance must be > 0");
   if (!(saturation_margin >= 0 && saturation_margin < 0.5)) {
@@ -432,88 +413,15 @@ void ResponseOptions::Check() const {
   }
 }
 
-namespace {
-
-// Wall time of the calibration's stages (ResponseResult::timing).
-class StageClock {
- public:
-  explicit StageClock(ResponseTiming* timing) : timing_(timing) {}
-  void Lap(const char* stage) {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - last_).count();
-    timing_->stages.push_back({stage, s});
-    timing_->total_s += s;
-    last_ = now;
-  }
-
- private:
-  ResponseTiming* timing_;
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
-
-// Each channel's dark and saturation limits and its sampled pixels.
-void SetupChannels(const std::vector<ExposureFrame>& frames,
-                   const std::vector<std::vector<cv::Mat>>& planes, const Setup& s,
-                   const ResponseOptions& o, std::vector<Setup>* setups,
-                   std::vector<std::vector<cv::Point>>* pixels) {
-  const int channels = static_cast<int>(planes.size());
-  std::vector<double> listed;
-  for (const auto& f : frames) listed.push_back(f.exposure_s);
-  setups->assign(channels, s);
-  pixels->assign(channels, {});
-  const bool black_given = o.black_level || !o.channel_black_level.empty();
-  if (!o.channel_black_level.empty() &&
-      static_cast<int>(o.channel_black_level.size()) != channels) {
-    throw InputError(fmt::format("{} black levels for {}-channel frames",
-                                 o.channel_black_level.size(), channels));
-  }
-  for (int c = 0; c < channels; ++c) {
-    Setup& cs = (*setups)[c];
-    if (!o.channel_black_level.empty())
-      cs.dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
-    cs.darkest_value = DarkestValue(frames, c, s.bit_depth, &cs.darkest_piled);
-    if (!black_given && cs.darkest_piled) {
-      // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
-      // clipped noise, as those above a measured black level do.
-      cs.dark_limit = cs.darkest_value + 0.02 * s.max_value;
-    }
-    cs.saturation_limit = ChannelSaturation(planes[c], s, listed);
-    (*pixels)[c] = SamplePixels(planes[c], frames, cs, o.num_pixels);
-  }
-}
-
-// The error model of every channel over its supported values (response_error.cc).
-ResponseErrorModel ErrorModel(const std::vector<ExposureFrame>& frames,
-                              const std::vector<std::vector<cv::Mat>>& planes,
-                              const std::vector<bool>& free_time, const std::vector<Setup>& setups,
-                              const std::vector<std::vector<cv::Point>>& pixels,
-                              const std::vector<ChannelFit>& fits,
-                              const std::vector<ChannelFit>& stiff, const ResponseResult& result,
-                              const ResponseOptions& o) {
-  ResponseErrorModel m;
-  m.replicates = o.error_replicates;
-  m.stiffer_prior = kSmoothingSensitivityFactor;
-  m.method = "parametric bootstrap";
-  for (int c = 0; c < result.channels; ++c) {
-    m.channels.push_back(ChannelErrorModel(frames, free_time, setups[c], pixels[c], planes[c],
-                                           fits[c], stiff[c], result.lowest_supported_value[c],
-                                           result.saturation_level[c] - 1, o, c));
-  }
-  return m;
-}
-
-}  // namespace
-
 ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
                                  const ResponseOptions& o) {
   o.Check();
-  ResponseResult result;
-  StageClock clock(&result.timing);
   CheckSweep(input);
   std::vector<ExposureFrame> frames = input;
   const int bit_depth = ResolveBitDepth(o.bit_depth, "the bit depth option", &frames);
   Setup s = MakeSetup(o, bit_depth);
   CheckValueSpan(frames, s);
+  ResponseResult result;
   result.bit_depth = s.bit_depth;
   result.channels = frames[0].image.channels();
   result.regional_mapping_difference = RegionalMappingDifference(frames, bit_depth);
@@ -524,29 +432,39 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
         "so no single response exists; use manual mode or RAW",
         100 * result.regional_mapping_difference));
   }
-  clock.Lap("sweep checks");
   const auto planes = ChannelPlanes(frames, s, result.channels);
   ScreenFrames(frames, planes[0], &s, &result);
-  std::vector<Setup> setups;
-  std::vector<std::vector<cv::Point>> pixels;
-  SetupChannels(frames, planes, s, o, &setups, &pixels);
-  clock.Lap("pixel sample");
+
+  std::vector<double> listed;
+  for (const auto& f : frames) listed.push_back(f.exposure_s);
+  std::vector<Setup> setups(result.channels, s);
+  std::vector<std::vector<cv::Point>> pixels(result.channels);
+  const bool black_given = o.black_level || !o.channel_black_level.empty();
+  if (!o.channel_black_level.empty() &&
+      static_cast<int>(o.channel_black_level.size()) != result.channels) {
+    throw InputError(fmt::format("{} black levels for {}-channel frames",
+                                 o.channel_black_level.size(), result.channels));
+  }
+  for (int c = 0; c < result.channels; ++c) {
+    if (!o.channel_black_level.empty()) {
+      setups[c].dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
+    }
+    setups[c].darkest_value = DarkestValue(frames, c, bit_depth, &setups[c].darkest_piled);
+    if (!black_given && setups[c].darkest_piled) {
+      // The frames' own pedestal (EstimateBlackLevel): values on and just above it hold
+      // clipped noise, as those above a measured black level do.
+      setups[c].dark_limit = setups[c].darkest_value + 0.02 * s.max_value;
+    }
+    setups[c].saturation_limit = ChannelSaturation(planes[c], s, listed);
+    pixels[c] = SamplePixels(planes[c], frames, setups[c], o.num_pixels);
+  }
   std::vector<bool> free_time(frames.size(), false);
   const auto fits = FitWithTimeScreening(planes, frames, setups, pixels, o, &s, &free_time);
   ReportFrames(fits, free_time, frames, s, o, &result);
-  clock.Lap("fit");
   FinishResponse(frames, fits, setups, o, &result);
-  clock.Lap("self-check");
   for (auto& cs : setups) cs.usable = s.usable;
-  const std::vector<ChannelFit> stiff =
-      StifferFits(planes, frames, free_time, setups, pixels, fits, o);
-  result.smoothing_sensitivity = SmoothingSensitivity(setups, fits, stiff, result, o);
-  clock.Lap("smoothing sensitivity");
-  if (o.error_replicates > 0) {
-    result.error_model =
-        ErrorModel(frames, planes, free_time, setups, pixels, fits, stiff, result, o);
-    clock.Lap("error model");
-  }
+  result.smoothing_sensitivity =
+      SmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, result, o);
   return result;
 }
 

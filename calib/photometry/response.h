@@ -17,7 +17,6 @@
 #include <array>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -75,8 +74,6 @@ struct ResponseOptions {
   // mapping). Measured: 0.06-0.07 on the real sweeps, 0.03 on a synthetic one-curve sweep, 0.59
   // on a synthetic locally tone-mapped one.
   double max_regional_mapping_difference = 0.2;
-  // Simulated sweeps the error model refits (ResponseErrorModel); 0: no error model.
-  int error_replicates = 8;
   int threads = 0;
 
   void Check() const;
@@ -111,40 +108,6 @@ struct PairConsistency {
   static PairConsistency FromJson(const nlohmann::json& j, const std::string& source);
 };
 
-// The inverse response's error model (docs/photometric.md "Error model"): per channel, the
-// standard deviation of the error of ln X (X = the relative exposure the curve gives a value)
-// in bands of pixel value, and the length along the value axis over which that error is
-// correlated: a curve's error is one smooth function of the value, not independent per value.
-// The common offset of ln X (an exposure scale, which every radiance shares) is removed.
-// Estimated by a parametric bootstrap of the sweep: its own pixels and times, simulated with
-// the fitted curve and the pixel noise its residuals show, refitted (response_error.cc).
-struct ResponseErrorModel {
-  struct Channel {
-    std::vector<double> value_edges;  // bands + 1 pixel values, increasing
-    std::vector<double> sd;           // per band, ln units
-    double correlation_length = 0;    // pixel values
-  };
-  std::vector<Channel> channels;
-  int replicates = 0;        // simulated sweeps refitted
-  double stiffer_prior = 0;  // the smoothness factor of the simulated curve
-  std::string method;
-
-  bool empty() const { return channels.empty(); }
-  // The standard deviation at a value (linear between band centres; the end bands' beyond).
-  double Sd(int channel, double value) const;
-  // RMS of the band standard deviations over all channels (0 when empty).
-  double RmsSd() const;
-  nlohmann::json ToJson() const;
-  // InputError naming `source` on a malformed model.
-  static ResponseErrorModel FromJson(const nlohmann::json& j, const std::string& source);
-};
-
-// Wall time of a calibration and its stages (response.json `timing`).
-struct ResponseTiming {
-  double total_s = 0;
-  std::vector<std::pair<std::string, double>> stages;
-};
-
 struct ResponseResult {
   int bit_depth = 8;
   int channels = 1;
@@ -155,10 +118,6 @@ struct ResponseResult {
   // fit's noise, capped by the pedestal the darkest frame shows (response_black.cc).
   std::vector<std::array<double, 2>> black_level_range;
   std::vector<double> saturation_level;  // per channel: values at or above are saturated
-  // Per channel: the lowest value the sweep's data support. Below it the table is a straight
-  // line to the black level, an extrapolation: no radiance is read there (ToRadiance). Empty
-  // (older files, linear calibrations): black level + 0.5.
-  std::vector<double> lowest_supported_value;
   std::vector<std::vector<double>> inverse_response;  // [channel][value]: relative exposure
   std::vector<FrameExposureReport> frames;
   // The self-check over the whole returned range (black level to saturation level).
@@ -172,9 +131,6 @@ struct ResponseResult {
   // the sweep holds, which the self-check cannot see. NaN: not measured (older files,
   // smoothness 0).
   double smoothing_sensitivity = NAN;
-  // The curve's error per value band and its correlation (empty: not estimated, older files).
-  ResponseErrorModel error_model;
-  ResponseTiming timing;  // not read back from files
 
   // Relative exposure of a (possibly fractional) pixel value, linear between table entries.
   double Linearize(int channel, double value) const;
@@ -262,7 +218,6 @@ std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<Expo
 struct MethodConsistency {
   std::string method;
   PairConsistency consistency;
-  double seconds = 0;  // the method's own calibration (0 for gonio's, timed by ResponseResult)
 };
 std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<ExposureFrame>& frames,
                                                          const ResponseResult& result);

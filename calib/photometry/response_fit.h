@@ -15,7 +15,6 @@ namespace gonio {
 struct ChannelFit {
   std::vector<double> h;       // knots
   std::vector<double> ln_t;    // per frame
-  std::vector<double> ln_e;    // per sampled pixel (0 for a pixel never well exposed)
   std::vector<double> counts;  // observations per knot (for the isotonic weights)
   // Per frame: median over its pixels of h(Z) - ln t - ln E, with ln E from the pixel's other
   // frames (leave one out), ln units; NaN for a frame without such pixels.
@@ -40,7 +39,7 @@ struct LinearFitSpec {
   std::vector<bool> knot_fixed;       // per knot: held at its value in h
   std::vector<bool> frame_fixed;      // per frame: ln t held (frames without observations are)
   std::vector<double> smooth_weight;  // per knot (the first and last are unused)
-  double huber_scale = 0.05;          // ln units (kHuberScale)
+  double huber_scale = 0.05;          // ln units
   int max_iterations = 100;
   double tolerance = 1e-9;  // largest change of a knot or ln t between iterations, ln units
 };
@@ -53,9 +52,6 @@ void SolveResponseFit(const std::vector<KnotObservation>& obs, const LinearFitSp
                       std::vector<double>* h, std::vector<double>* ln_e, std::vector<double>* ln_t,
                       std::vector<double>* weights = nullptr, Eigen::MatrixXd* normal = nullptr);
 double HuberWeight(double residual, double scale);
-// The Huber loss's scale (ln units): misregistered edges and moving objects give a few
-// observations far off, which a square loss lets bend the curve.
-constexpr double kHuberScale = 0.05;
 
 struct Setup {
   int bit_depth, max_value, num_knots;
@@ -85,29 +81,6 @@ std::vector<std::vector<cv::Mat>> ChannelPlanes(const std::vector<ExposureFrame>
 // s->usable. InputError when fewer than two remain.
 void ScreenFrames(const std::vector<ExposureFrame>& frames, const std::vector<cv::Mat>& gray,
                   Setup* s, ResponseResult* result);
-
-// Where value z falls between knots: h(z) = (1 - a) h[k] + a h[k + 1].
-struct KnotPair {
-  int k;
-  double a;
-};
-KnotPair KnotsOf(const Setup& s, double z);
-// Whether the frame's mask allows pixel p.
-bool Usable(const ExposureFrame& f, const cv::Point& p);
-// The fit's weight of a value: a hat, 0 at the dark limit and at saturation, 1 midway.
-double HatWeight(const Setup& s, double z);
-// The observations of the sampled pixels in the usable frames with hat weight >= 0.05.
-std::vector<KnotObservation> CollectObservations(const std::vector<cv::Mat>& planes,
-                                                 const std::vector<ExposureFrame>& frames,
-                                                 const Setup& s,
-                                                 const std::vector<cv::Point>& pixels);
-// The fit of given observations of `num_pixels` pixels (FitChannel on the frames' own values;
-// the error model's on simulated ones), started from `start` when given.
-ChannelFit FitKnotObservations(const std::vector<KnotObservation>& obs, size_t num_pixels,
-                               const std::vector<ExposureFrame>& frames,
-                               const std::vector<bool>& free_time, bool times_unknown,
-                               const Setup& s, const ResponseOptions& o,
-                               const ChannelFit* start = nullptr);
 
 // One channel's fit (response.cc). The listed times of usable frames with `free_time` false are
 // held exactly; with `times_unknown` every time floats and h is held at two knots instead.
@@ -151,27 +124,15 @@ double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int b
 // penalty's scale), enough to straighten what only the prior holds up between data.
 constexpr double kSmoothingSensitivityFactor = 4.0;
 
-// Every channel refitted with the smoothness times kSmoothingSensitivityFactor, frames and times
-// as in `fits` (response_smoothing.cc).
-std::vector<ChannelFit> StifferFits(const std::vector<std::vector<cv::Mat>>& planes,
-                                    const std::vector<ExposureFrame>& frames,
-                                    const std::vector<bool>& free_time,
-                                    const std::vector<Setup>& setups,
-                                    const std::vector<std::vector<cv::Point>>& pixels,
-                                    const std::vector<ChannelFit>& fits, const ResponseOptions& o);
-
-// Relative change of the inverse response between `fits` and the `stiff` refits: per band of the
-// self-checked range (black + 2 % of the range to saturation, PairConsistency::kBands equal
-// parts) the median change, and the worst band (response_smoothing.cc); NaN with smoothness 0.
-double SmoothingSensitivity(const std::vector<Setup>& setups, const std::vector<ChannelFit>& fits,
-                            const std::vector<ChannelFit>& stiff, const ResponseResult& result,
+// Relative change of the inverse response when every channel is refitted with the smoothness
+// times kSmoothingSensitivityFactor, frames and times as in `fits`: per band of the self-checked
+// range (black + 2 % of the range to saturation, PairConsistency::kBands equal parts) the median
+// change, and the worst band (response_smoothing.cc); NaN with smoothness 0.
+double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
+                            const std::vector<ExposureFrame>& frames,
+                            const std::vector<bool>& free_time, const std::vector<Setup>& setups,
+                            const std::vector<std::vector<cv::Point>>& pixels,
+                            const std::vector<ChannelFit>& fits, const ResponseResult& result,
                             const ResponseOptions& o);
-
-// One channel's error model over the values [lo, hi] (response_error.cc): the sweep simulated
-// from the `stiff` refit's curve o.error_replicates times and refitted as `fit` was.
-ResponseErrorModel::Channel ChannelErrorModel(
-    const std::vector<ExposureFrame>& frames, const std::vector<bool>& free_time, const Setup& s,
-    const std::vector<cv::Point>& pixels, const std::vector<cv::Mat>& planes, const ChannelFit& fit,
-    const ChannelFit& stiff, double lo, double hi, const ResponseOptions& o, int channel);
 
 }  // namespace gonio

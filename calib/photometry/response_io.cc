@@ -224,26 +224,6 @@ std::string ResponseResult::Report() const {
         100 * smoothing_sensitivity,
         smoothing_sensitivity > 0.01 ? "; more exposures (third stops) would pin it" : "");
   }
-  for (size_t c = 0; c < error_model.channels.size(); ++c) {
-    const auto& m = error_model.channels[c];
-    const auto worst = std::max_element(m.sd.begin(), m.sd.end()) - m.sd.begin();
-    double sum = 0;
-    for (double v : m.sd) sum += v * v;
-    s << fmt::format(
-        "error model (channel {}): ln X's error {:.2f}% RMS over values {:.0f}..{:.0f}, largest "
-        "{:.2f}% at {:.0f}, correlated over {:.0f} values ({} simulated sweeps)\n",
-        c, 100 * std::sqrt(sum / m.sd.size()), m.value_edges.front(), m.value_edges.back(),
-        100 * m.sd[worst], 0.5 * (m.value_edges[worst] + m.value_edges[worst + 1]),
-        m.correlation_length, error_model.replicates);
-  }
-  if (!timing.stages.empty()) {
-    s << fmt::format("time: {:.2f} s (", timing.total_s);
-    for (size_t k = 0; k < timing.stages.size(); ++k) {
-      s << fmt::format("{}{} {:.2f}", k ? ", " : "", timing.stages[k].first,
-                       timing.stages[k].second);
-    }
-    s << ")\n";
-  }
   for (const auto& f : frames) {
     s << fmt::format(
         "  {:<20} listed {:>10.5g} s  used {:>10.5g} s  {}\n", f.file, f.listed_s, f.estimated_s,
@@ -253,16 +233,6 @@ std::string ResponseResult::Report() const {
   }
   return s.str();
 }
-
-namespace {
-
-nlohmann::json TimingJson(const ResponseTiming& t) {
-  nlohmann::json stages = nlohmann::json::object();
-  for (const auto& [name, seconds] : t.stages) stages[name] = seconds;
-  return {{"total_s", t.total_s}, {"stages_s", stages}};
-}
-
-}  // namespace
 
 nlohmann::json ResponseResult::ToJson() const {
   nlohmann::json fr = nlohmann::json::array();
@@ -287,10 +257,7 @@ nlohmann::json ResponseResult::ToJson() const {
           {"smoothing_sensitivity", std::isfinite(smoothing_sensitivity)
                                         ? nlohmann::json(smoothing_sensitivity)
                                         : nlohmann::json()},
-          {"rms_log_residual", rms_log_residual},
-          {"lowest_supported_value", lowest_supported_value},
-          {"timing", TimingJson(timing)},
-          {"error_model", error_model.empty() ? nlohmann::json() : error_model.ToJson()}};
+          {"rms_log_residual", rms_log_residual}};
 }
 
 ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::string& source) {
@@ -316,7 +283,6 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
     r.channels = static_cast<int>(r.inverse_response.size());
     r.saturation_level =
         j.value("saturation_level", std::vector<double>(r.channels, (1 << r.bit_depth) - 1.0));
-    r.lowest_supported_value = j.value("lowest_supported_value", std::vector<double>());
   } catch (const nlohmann::json::exception&) {
     throw InputError(source + ": needs bit_depth, black_level and inverse_response");
   }
@@ -333,22 +299,6 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
       throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
     }
     r.smoothing_sensitivity = v.get<double>();
-  }
-  // The error model is what gonio run propagates; a bad one must not reach the error bars.
-  if (j.contains("error_model") && !j["error_model"].is_null()) {
-    r.error_model = ResponseErrorModel::FromJson(j["error_model"], source);
-    if (static_cast<int>(r.error_model.channels.size()) != r.channels) {
-      throw InputError(source + ": error_model needs one entry per channel");
-    }
-  }
-  if (!r.lowest_supported_value.empty() &&
-      static_cast<int>(r.lowest_supported_value.size()) != r.channels) {
-    throw InputError(source + ": lowest_supported_value needs one value per channel");
-  }
-  for (double v : r.lowest_supported_value) {
-    if (!(v >= 0 && v <= (1 << r.bit_depth))) {
-      throw InputError(source + ": lowest_supported_value must lie in the value range");
-    }
   }
   if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
       static_cast<int>(r.black_level.size()) != r.channels ||

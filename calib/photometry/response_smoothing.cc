@@ -13,35 +13,21 @@
 
 namespace gonio {
 
-std::vector<ChannelFit> StifferFits(const std::vector<std::vector<cv::Mat>>& planes,
-                                    const std::vector<ExposureFrame>& frames,
-                                    const std::vector<bool>& free_time,
-                                    const std::vector<Setup>& setups,
-                                    const std::vector<std::vector<cv::Point>>& pixels,
-                                    const std::vector<ChannelFit>& fits, const ResponseOptions& o) {
-  ResponseOptions stiff = o;
-  stiff.smoothness = o.smoothness * kSmoothingSensitivityFactor;
-  std::vector<ChannelFit> out(fits.size());
-  ParallelFor(fits.size(), o.threads, [&](size_t b, size_t e) {
-    for (size_t c = b; c < e; ++c) {
-      out[c] = FitKnotObservations(CollectObservations(planes[c], frames, setups[c], pixels[c]),
-                                   pixels[c].size(), frames, free_time, false, setups[c], stiff,
-                                   &fits[c]);
-    }
-  });
-  return out;
-}
-
-double SmoothingSensitivity(const std::vector<Setup>& setups, const std::vector<ChannelFit>& fits,
-                            const std::vector<ChannelFit>& stiff, const ResponseResult& result,
+double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
+                            const std::vector<ExposureFrame>& frames,
+                            const std::vector<bool>& free_time, const std::vector<Setup>& setups,
+                            const std::vector<std::vector<cv::Point>>& pixels,
+                            const std::vector<ChannelFit>& fits, const ResponseResult& result,
                             const ResponseOptions& o) {
   // Without a prior there is nothing to compare against (knots without data stay where the
   // solver started); the result then says "not measured".
   if (!(o.smoothness > 0)) return NAN;
+  ResponseOptions stiff = o;
+  stiff.smoothness = o.smoothness * kSmoothingSensitivityFactor;
   double worst = 0;
   for (size_t c = 0; c < fits.size(); ++c) {
     const Setup& s = setups[c];
-    const ChannelFit& refit = stiff[c];
+    const ChannelFit refit = FitChannel(planes[c], frames, free_time, false, s, pixels[c], stiff);
     // Over the range the self-check covers, knots with data or without, in the self-check's
     // bands: per band the median change, so a band's figure is what its values typically
     // suffer (the last values above black, where ln X falls without bound, do not decide it);

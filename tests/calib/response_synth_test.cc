@@ -7,8 +7,6 @@
 #include <iostream>
 #include <random>
 #include <string>
-#include <utility>
-#include <vector>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -62,10 +60,6 @@ double TrueExposure(const synth::PhotometricChain& chain, const Camera& cam, dou
 struct TruthError {
   double relative = 0, absolute = 0;
   double lo = 0, hi = 0;
-  // The largest |e(z) - mean e| / sd(z) over [lo, hi], e = ln(ours / truth) and sd the
-  // response's own error model (calib/photometry/response.h ResponseErrorModel, which removes
-  // the common offset as this does); 0 without a model.
-  double worst_model_z = 0;
 };
 
 TruthError CompareWithTruth(const ResponseResult& r, const synth::Scene& scene, const Camera& cam) {
@@ -78,21 +72,10 @@ TruthError CompareWithTruth(const ResponseResult& r, const synth::Scene& scene, 
   e.hi = r.saturation_level[0] - 1;
   const double x_top = TrueExposure(chain, cam, e.hi);
   const int step = std::max(1, static_cast<int>(chain.max_value() / 1000));
-  std::vector<std::pair<int, double>> log_errors;
   for (int z = static_cast<int>(r.black_level[0]) + 1; z <= e.hi; z += step) {
     const double truth = TrueExposure(chain, cam, z), ours = scale * r.Linearize(0, z);
     e.absolute = std::max(e.absolute, std::abs(ours - truth) / x_top);
-    if (z >= e.lo) {
-      e.relative = std::max(e.relative, std::abs(ours / truth - 1));
-      log_errors.push_back({z, std::log(ours / truth)});
-    }
-  }
-  if (!r.error_model.empty() && !log_errors.empty()) {
-    double mean = 0;
-    for (const auto& [z, l] : log_errors) mean += l / log_errors.size();
-    for (const auto& [z, l] : log_errors) {
-      e.worst_model_z = std::max(e.worst_model_z, std::abs(l - mean) / r.error_model.Sd(0, z));
-    }
+    if (z >= e.lo) e.relative = std::max(e.relative, std::abs(ours / truth - 1));
   }
   return e;
 }
@@ -114,20 +97,15 @@ ResponseResult CalibrateRendered(const Camera& cam, TruthError* error) {
       100 * error->absolute, r.black_level[0], cam.black_level,
       100 * r.consistency.worst_band_bias);
   for (const auto& f : r.frames) EXPECT_TRUE(f.consistent) << f.file << "\n" << r.Report();
-  // The response's error model must not claim far better than the curve is: the board scene's
-  // few radiances in whole stops leave the curve to the smoothing between them, which the band
-  // bias alone did not see (0.2-0.7 % against 3.8-4.3 % worst). Its standard deviation at each
-  // value against the error there (less the common offset, which no radiance ratio sees): the
-  // largest of about a thousand correlated values, so within 4 sd.
+  // The response's share of photometric.json's relative_accuracy (the fit's noise floor) must
+  // not claim far better than it is: the board scene's few radiances in whole stops leave the
+  // curve to the smoothing between them, which the band bias alone did not see (0.2-0.7 %
+  // against 3.8-4.3 % worst). A 1-sigma figure against a worst error: within a factor 3.
   const double accuracy = PhotometricCalibration::CombinedAccuracy(r, 0.0);
-  std::cout << fmt::format(
-      "smoothing sensitivity {:.2f}%, accuracy {:.2f}%, worst error / model sd {:.2f}\n",
-      100 * r.smoothing_sensitivity, 100 * accuracy, error->worst_model_z);
+  std::cout << fmt::format("smoothing sensitivity {:.2f}%, accuracy {:.2f}%\n",
+                           100 * r.smoothing_sensitivity, 100 * accuracy);
   EXPECT_GT(r.smoothing_sensitivity, std::abs(r.consistency.worst_band_bias));
-  EXPECT_FALSE(r.error_model.empty());
-  EXPECT_LT(error->worst_model_z, 4.0);
-  // ... and not far worse: an error bar ten times too wide is a defect too.
-  EXPECT_GT(error->worst_model_z, 0.4);
+  EXPECT_GT(3 * accuracy, error->relative);
   // What response.json holds is what a reader gets back, accuracy included.
   const ResponseResult back = ResponseResult::FromJson(r.ToJson(), "response.json");
   EXPECT_DOUBLE_EQ(back.smoothing_sensitivity, r.smoothing_sensitivity);
