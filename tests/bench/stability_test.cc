@@ -249,8 +249,13 @@ TEST(BenchReferenceLoops, IndependentLoopsComputeTheRegistryFormulas) {
   for (const auto& r : loops) {
     EXPECT_TRUE(HasVectorisedBatch(r.model)) << r.model;
     EXPECT_GT(r.batch, 0u);
-    // Measured 2e-16 .. 5e-16 (reordered operations, libmvec within 4 ulp).
-    EXPECT_LT(r.max_rel_diff, 1e-14) << r.model;
+    // Measured 2e-16 .. 5e-16 for oren-nayar, its qualitative form and minnaert (reordered
+    // operations, libmvec within 4 ulp); 5e-14 .. 8e-13 for the eleven written from other
+    // forms of the same formulas (Torrance-Sparrow's normaliser by Simpson's rule, Li-Torrance
+    // as Cook-Torrance with Beckmann, Fujii as MaterialX writes it).
+    const bool same_form =
+        r.model == "oren-nayar" || r.model == "oren-nayar-qualitative" || r.model == "minnaert";
+    EXPECT_LT(r.max_rel_diff, same_form ? 1e-14 : 2e-12) << r.model;
     EXPECT_GT(r.ns_reference, 0) << r.model;
     EXPECT_GT(r.ns_registry, 0) << r.model;
     EXPECT_GT(r.ns_scalar, 0) << r.model;

@@ -3,10 +3,12 @@
 // shading is re-done independently: angles from a tangent frame, the model through the
 // registry), and bad texture specifications refused naming the key.
 #include <cmath>
+#include <cstdio>
 #include <functional>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "common/float_tiff.h"
@@ -84,9 +86,17 @@ TEST(TextureTest, RenderedPixelIsTheModelAtTheTruthMaps) {
     // The pixel centre's ray meets the board at the footprint's centre.
     const Eigen::Vector3d p(-pose.t.x() + (u - 639.5) / 1100 * 0.45,
                             -pose.t.y() + (v - 479.5) / 1100 * 0.45, 0.0);
-    const int i = static_cast<int>(std::lround((p.x() - x0) / texel));
-    const int j = static_cast<int>(std::lround((p.y() - y0) / texel));
-    const cv::Vec3f nt = normal.at<cv::Vec3f>(j, i);
+    // The truth maps between their texel centres, bilinearly (the renderer's relief and
+    // texture are continuous).
+    const cv::Point2f at(static_cast<float>((p.x() - x0) / texel),
+                         static_cast<float>((p.y() - y0) / texel));
+    cv::Mat patch;
+    cv::getRectSubPix(normal, {1, 1}, at, patch);
+    const cv::Vec3f nt = patch.at<cv::Vec3f>(0, 0);
+    cv::getRectSubPix(albedo, {1, 1}, at, patch);
+    const cv::Vec3f rho = patch.at<cv::Vec3f>(0, 0);
+    cv::getRectSubPix(sigma, {1, 1}, at, patch);
+    const double sig = patch.at<float>(0, 0);
     const Eigen::Vector3d n = Eigen::Vector3d(nt[0], -nt[1], -nt[2]).normalized();  // board frame
     const Eigen::Vector3d to_l = s.light.position - p, to_v = -pose.t - p;
     const Eigen::Vector3d l = to_l.normalized(), view = to_v.normalized();
@@ -97,16 +107,17 @@ TEST(TextureTest, RenderedPixelIsTheModelAtTheTruthMaps) {
     for (int c = 0; c < 3; ++c) {
       double f = 0;
       const std::string reason = EvaluateChecked(
-          "oren-nayar", {albedo.at<cv::Vec3f>(j, i)[c], sigma.at<float>(j, i)}, a, &f);
+          "oren-nayar", {rho[c], sig}, a, &f);
       ASSERT_TRUE(reason.empty()) << reason;
       const double expected = scale * f * n.dot(l) / to_l.squaredNorm();
       const double got = frame.at<cv::Vec<uint16_t, 3>>(v, u)[2 - c];  // B, G, R in the file
       worst = std::max(worst, std::abs(got / expected - 1));
     }
   }
-  // The truth maps are sampled at their nearest 0.25 mm texel: the texture moves by about
-  // 0.2% over that.
-  EXPECT_LT(worst, 0.005);
+  // Measured 1.4e-4 (16-bit rounding and the bilinear reading of the maps); at the nearest
+  // texel instead it was 1.5%: the relief's normal turns that much over a 0.25 mm texel.
+  std::printf("worst relative difference %.2e\n", worst);
+  EXPECT_LT(worst, 5e-4);
 }
 
 TEST(TextureTest, BadTextureSpecsAreRefused) {
