@@ -63,10 +63,11 @@ void PrintJson(const nlohmann::json& j) {
 }
 
 void CheckOutputIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {
-  if (std::filesystem::is_directory(out)) {
+  CheckOutputFolderIsNotInput(out, inputs);  // the name's length first, as every output's
+  std::error_code ec;
+  if (std::filesystem::is_directory(out, ec)) {
     throw InputError("--out: " + out + " is a folder; give the name of the file to write");
   }
-  CheckOutputFolderIsNotInput(out, inputs);
 }
 
 void CheckOutputFolderIsNotInput(const std::string& out, const std::vector<std::string>& inputs) {

@@ -2,6 +2,8 @@
 // p_in_board.
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -20,5 +22,10 @@ struct Rigid3d {
 // JSON layout used in every file: {"R": [[r00,r01,r02],[..],[..]], "t": [x, y, z]} (metres).
 nlohmann::json ToJson(const Rigid3d& T);
 Rigid3d RigidFromJson(const nlohmann::json& j);
+
+// Signed distance of p from a polygon's boundary (its vertices in order, convex or not):
+// positive inside, by the even-odd rule; extraction and the maps' texel mask use it.
+double SignedDistanceInPolygon(const std::vector<Eigen::Vector2d>& polygon,
+                               const Eigen::Vector2d& p);
 
 }  // namespace gonio

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "common/error.h"
+#include "common/geometry.h"
 #include "common/io.h"
 #include "common/log.h"
 #include "common/parallel.h"
@@ -17,24 +18,6 @@
 
 namespace gonio {
 namespace {
-
-// Signed distance of p from a convex-or-not polygon's boundary: positive inside.
-double InsideDistance(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {
-  bool inside = false;
-  double dmin = INFINITY;
-  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
-    const Eigen::Vector2d& a = poly[i];
-    const Eigen::Vector2d& b = poly[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
-      inside = !inside;
-    }
-    const Eigen::Vector2d ab = b - a;
-    const double t = std::clamp((p - a).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
-    dmin = std::min(dmin, (a + t * ab - p).norm());
-  }
-  return inside ? dmin : -dmin;
-}
 
 // Pixel counts left out, shared by the worker threads of one frame.
 struct Counters {
@@ -174,7 +157,7 @@ bool HiddenBySample(const FrameGeometry& g, const std::vector<Eigen::Vector2d>& 
   constexpr int kSteps = 8;
   for (int k = 0; k <= kSteps; ++k) {
     const Eigen::Vector3d q = p + (height * k / kSteps / -to_camera.z()) * to_camera;
-    if (InsideDistance(sample, Eigen::Vector2d(q.x(), q.y())) > -margin) return true;
+    if (SignedDistanceInPolygon(sample, Eigen::Vector2d(q.x(), q.y())) > -margin) return true;
   }
   return false;
 }
@@ -190,7 +173,7 @@ int PixelRegion(const PatchContext<Region>& ctx, const FrameGeometry& g, int u, 
   for (size_t k = 0; k < ctx.regions->size(); ++k) {
     const Region& r = (*ctx.regions)[k];
     if (!PlanePoint(g, dir, r.z, p)) continue;
-    if (InsideDistance(*r.polygon, Eigen::Vector2d(p->x(), p->y())) <= g.margin) continue;
+    if (SignedDistanceInPolygon(*r.polygon, Eigen::Vector2d(p->x(), p->y())) <= g.margin) continue;
     if (k > 0 && ctx.sample_height > 0 &&
         HiddenBySample(g, *(*ctx.regions)[0].polygon, *p, ctx.sample_height, g.margin)) {
       *hidden = true;
@@ -225,7 +208,7 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
       if (kind < 0 || (region_kind >= 0 && kind != region_kind)) return false;
       region_kind = kind;
       for (const auto& t : *ctx.tags) {
-        if (InsideDistance(t, q) > -g.margin) {
+        if (SignedDistanceInPolygon(t, q) > -g.margin) {
           ++count->tag;
           return false;
         }

@@ -7,29 +7,12 @@
 #include <opencv2/core.hpp>
 
 #include "common/error.h"
+#include "common/geometry.h"
 #include "common/math.h"
 #include "common/parallel.h"
 
 namespace gonio {
 namespace {
-
-// Signed distance of p from a polygon's boundary, positive inside (even-odd rule).
-double InsidePolygon(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vector2d& p) {
-  bool inside = false;
-  double dmin = INFINITY;
-  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
-    const Eigen::Vector2d& a = poly[i];
-    const Eigen::Vector2d& b = poly[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
-      inside = !inside;
-    }
-    const Eigen::Vector2d ab = b - a;
-    const double t = std::clamp((p - a).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
-    dmin = std::min(dmin, (a + t * ab - p).norm());
-  }
-  return inside ? dmin : -dmin;
-}
 
 // The radiance images of one frame, and per pixel the shot-noise basis L / (t g V): shot
 // noise in exposure units is proportional to the exposure X = L t g V, so its variance in
@@ -125,7 +108,7 @@ TexelGrid GridOver(const std::vector<Eigen::Vector2d>& region, double texel, dou
   g.origin = 0.5 * (lo + hi) - 0.5 * texel * Eigen::Vector2d(g.width - 1, g.height - 1);
   mask->assign(g.size(), 0);
   for (size_t k = 0; k < g.size(); ++k) {
-    (*mask)[k] = InsidePolygon(region, g.Centre(k).head<2>()) > margin;
+    (*mask)[k] = SignedDistanceInPolygon(region, g.Centre(k).head<2>()) > margin;
   }
   return g;
 }
