@@ -314,6 +314,7 @@ void MapsOptions::Check() const {
   if (!(relative_noise_floor >= 0 && relative_noise_floor < 1)) {
     throw InputError("--noise-floor: not a fraction in [0, 1)");
   }
+  if (!(max_chi2_per_residual > 0)) throw InputError("max_chi2_per_residual must be > 0");
   if (hold_out && *hold_out < 0) throw InputError("--hold-out: must be a view index >= 0");
   if (registration_rounds < 0 || registration_rounds > 5) {
     throw InputError("--registration-rounds: must be in [0, 5]");
@@ -364,6 +365,16 @@ MapsResult SolveMaps(TexelData data, const MapsLamp& lamp_start, const MapsOptio
                              data.grid.texel);
   r.views = ViewResiduals(data, r.fit);
   for (auto& v : r.views) v.registration_rms_m = r.registration[v.view].rms_m;
+  const double chi2_per_residual = r.fit.residuals ? r.fit.chi2 / r.fit.residuals : 0.0;
+  if (chi2_per_residual > o.max_chi2_per_residual) {
+    r.warnings.push_back(fmt::format(
+        "the maps do not explain the views: chi2 per residual {:.2f}, above the {:.1f} of maps "
+        "that hold the data; the maps and their standard deviations are not a measurement (a "
+        "material the model does not hold, edges between materials, a misregistered view, or a "
+        "calibration error)",
+        chi2_per_residual, o.max_chi2_per_residual));
+    spdlog::warn("{}", r.warnings.back());
+  }
   if (o.hold_out) r.held_out = PredictHeldOut(data, r.fit, *o.hold_out, held);
   if (!r.fit.lamp.absolute()) {
     r.assumptions.push_back(

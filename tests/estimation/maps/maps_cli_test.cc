@@ -53,6 +53,7 @@ TEST(MapsCli, TexturedSessionOneMaterial) {
   std::printf("%s\n%s\n", r.out.c_str(), c.Report().c_str());
   const nlohmann::json maps = ReadJsonFile(out / "maps.json");
   EXPECT_EQ(maps["roughness"]["mode"], "one for the sample");
+  EXPECT_EQ(maps["warnings"].size(), 0u) << maps["warnings"].dump();  // chi2/n 0.86: explained
   EXPECT_EQ(c.materials_found, 1);
   EXPECT_LT(c.albedo_rel_rms, 0.01);
   EXPECT_LT(c.normal_rms_deg, 2.0);
@@ -70,11 +71,11 @@ TEST(MapsCli, TexturedSessionOneMaterial) {
   EXPECT_TRUE(fs::exists(out / "views" / "00_frame_0000_residual.tiff"));
 }
 
-// DISABLED: an open defect of issue 27, not a passing test. Measured 2026-12-01 at the merge of
-// the maps work: the three clusters are found (agreement 1.000) but chi2/n is 3.8 and the maps
-// are wrong with confident error bars (albedo 5.3% RMS, z 7.9; normal 2.8 deg; roughness
-// 3.3 deg, z 33) and no warning. Enable it when the per-cluster roughness fit is fixed.
-TEST(MapsCli, DISABLED_ThreeMaterialsGetOneRoughnessEach) {
+// Three materials: right, or a warning that says the maps are not a measurement. Measured
+// 2026-12-01: the three clusters are found (agreement 1.000) but chi2/n is 3.8 and the maps are
+// off (albedo 5.3% RMS, z 7.9; normal 2.8 deg; roughness 3.3 deg, z 33), so the warning must be
+// there; the accuracy targets are asserted once no warning is given (an open defect of issue 27).
+TEST(MapsCli, ThreeMaterialsGetOneRoughnessEachOrAreWarned) {
   TempDir dir;
   const fs::path session = RenderSession(dir, "textured-3mat", "session");
   const fs::path out = dir.path() / "maps";
@@ -88,9 +89,17 @@ TEST(MapsCli, DISABLED_ThreeMaterialsGetOneRoughnessEach) {
   EXPECT_EQ(maps["roughness"]["mode"], "one per material cluster");
   EXPECT_EQ(c.materials_found, 3);
   EXPECT_GT(c.material_agreement, 0.97);
-  EXPECT_LT(c.albedo_rel_rms, 0.01);
-  EXPECT_LT(c.normal_rms_deg, 2.0);
-  EXPECT_LT(c.roughness_rms_deg, 1.0);
+  bool warned = false;
+  for (const auto& w : maps["warnings"]) {
+    warned |= w.get<std::string>().find("do not explain the views") != std::string::npos;
+  }
+  if (warned) {
+    EXPECT_NE(r.err.find("do not explain the views"), std::string::npos) << r.err;
+  } else {
+    EXPECT_LT(c.albedo_rel_rms, 0.01);
+    EXPECT_LT(c.normal_rms_deg, 2.0);
+    EXPECT_LT(c.roughness_rms_deg, 1.0);
+  }
 }
 
 // MaterialGAN's rectified layout rendered from the textured sample under a flash beside the
