@@ -342,7 +342,10 @@ std::vector<ReferenceLoopResult> RunReferenceLoops(const BenchSizes& s) {
     // Interleave the three so machine load drifts hit all alike; keep the best of 3 medians.
     for (auto& run : runs) *run.first = 1e300;
     for (int round = 0; round < 3; ++round) {
-      for (auto& [ns, pass] : runs) {
+      for (auto& run : runs) {
+        // Not a structured binding: clang 14 (the sanitizer tree) cannot capture one.
+        double* ns = run.first;
+        const auto& pass = run.second;
         size_t batch = 0;
         *ns = std::min(*ns, TimeNsPerEval([&](size_t n) { RunBlocked(n, pass); }, s, &batch));
         r.batch = std::max(r.batch, batch);

@@ -38,7 +38,7 @@ done
 "$gonio" -v 0 locate --session "$work/session" --camera "$work/session/camera.cameramodel" \
   --out "$work/poses.json" > /dev/null
 "$gonio" -v 0 extract --session "$work/session" --camera "$work/session/camera.cameramodel" \
-  --poses "$work/poses.json" --patch 8 --out "$work/observations.csv" > /dev/null
+  --poses "$work/poses.json" --assume-linear --patch 8 --out "$work/observations.csv" > /dev/null
 # Keep the seed small: the header and the first rows.
 head -n 40 "$work/observations.csv" > "$out/observations/observations.csv"
 
