@@ -28,95 +28,58 @@ struct BenchArgs {
   int threads = 0;
 };
 
-void RunBench(const BenchArgs& args) {
-  bench::BenchOptions opt;
-  opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
-  opt.threads = args.threads;
-  opt.Check();
-  if (args.coverage) {
-    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
-    // The user's chain through this very executable, as a user runs it.
-    const bench::CoverageReport rep = bench::RunCoverageBench(
-        opt, bench::CoveragePlanFor(opt), std::filesystem::read_symlink("/proc/self/exe"), work);
-    bench::WriteCoverageOutputs(args.out, rep);
-    std::filesystem::remove_all(work);
-    nlohmann::json j = rep.ToJson();
+// A bench that renders into OUT/work: run it there, write its outputs into OUT, remove the
+// work folder and print the report's JSON (without its per-run rows when `runs_in_file_only`).
+template <typename RunFn, typename WriteFn>
+void RunInWorkFolder(const std::string& out, RunFn run, WriteFn write,
+                     bool runs_in_file_only = false) {
+  const std::filesystem::path work = std::filesystem::path(out) / "work";
+  const auto rep = run(work);
+  write(out, rep);
+  std::filesystem::remove_all(work);
+  nlohmann::json j = rep.ToJson();
+  if (runs_in_file_only) {
     j.erase("runs");
-    j["out"] = args.out;
-    PrintJson(j);
-    return;
+    j["out"] = out;
   }
-  if (args.pipeline) {
-    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
-    // The user chain runs this executable's commands as separate processes.
-    const bench::PipelineBenchReport rep =
-        bench::RunPipelineBench(opt, work, std::filesystem::read_symlink("/proc/self/exe"));
-    bench::WritePipelineBenchOutputs(args.out, rep);
-    std::filesystem::remove_all(work);
-    PrintJson(rep.ToJson());
-    return;
-  }
-  if (args.tags) {
-    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
-    const bench::TagBenchReport rep =
-        bench::RunTagBench(opt, work,
-                           args.apriltag_ref.empty() ? bench::DefaultAprilTagRefDir()
-                                                     : std::filesystem::path(args.apriltag_ref));
-    bench::WriteTagBenchOutputs(args.out, rep);
-    std::filesystem::remove_all(work);
-    PrintJson(rep.ToJson());
-    return;
-  }
-  if (args.maps) {
-    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
-    const bench::MapsBenchReport rep = bench::RunMapsBench(opt, work);
-    bench::WriteMapsBenchOutputs(args.out, rep);
-    std::filesystem::remove_all(work);
-    PrintJson(rep.ToJson());
-    return;
-  }
-  if (args.plan) {
-    const std::filesystem::path work = std::filesystem::path(args.out) / "work";
-    const bench::PlanBenchReport rep = bench::RunPlanBench(opt, work);
-    bench::WritePlanBenchOutputs(args.out, rep);
-    std::filesystem::remove_all(work);
-    PrintJson(rep.ToJson());
-    return;
-  }
-  if (args.sfs) {
-    const bench::SfsBenchReport rep = bench::RunSfsBench(opt);
-    bench::WriteSfsBenchOutputs(args.out, rep);
-    nlohmann::json j = rep.ToJson();
-    // The summary: the default and lambert errors per scene; every row is in sfs_bench.json.
-    nlohmann::json summary;
-    for (const auto& r : rep.rows) {
-      if (r.kind == "speed" && (r.config == "default" || r.config == "lambert") &&
-          r.error.empty()) {
-        summary[r.scene][r.config + "_mean_normal_error_deg"] = r.mean_normal_error_deg;
-        summary[r.scene][r.config + "_seconds"] = r.seconds;
-      }
+  PrintJson(j);
+}
+
+void RunSfs(const BenchArgs& args, const bench::BenchOptions& opt) {
+  const bench::SfsBenchReport rep = bench::RunSfsBench(opt);
+  bench::WriteSfsBenchOutputs(args.out, rep);
+  nlohmann::json j = rep.ToJson();
+  // The summary: the default and lambert errors per scene; every row is in sfs_bench.json.
+  nlohmann::json summary;
+  for (const auto& r : rep.rows) {
+    if (r.kind == "speed" && (r.config == "default" || r.config == "lambert") && r.error.empty()) {
+      summary[r.scene][r.config + "_mean_normal_error_deg"] = r.mean_normal_error_deg;
+      summary[r.scene][r.config + "_seconds"] = r.seconds;
     }
-    j.erase("rows");
-    j["scenes"] = summary;
-    j["out"] = args.out;
-    PrintJson(j);
-    return;
   }
+  j.erase("rows");
+  j["scenes"] = summary;
+  j["out"] = args.out;
+  PrintJson(j);
+}
+
+void RunStability(const BenchArgs& args, const bench::BenchOptions& opt) {
+  const bench::StabilityReport rep =
+      bench::RunStabilitySweeps(bench::SizesFor(opt), {bench::JointFitStabilityHook()});
+  bench::WriteStabilityOutputs(args.out, opt, rep);
+  nlohmann::json j = rep.ToJson();
+  j.erase("cells");
+  PrintJson(j);
+  if (rep.nonfinite_escaped > 0) {
+    throw NumericalError(std::to_string(rep.nonfinite_escaped) +
+                         " non-finite values passed the checks (see " + args.out +
+                         "/stability.json)");
+  }
+}
+
+// The default bench: evaluation speed and accuracy, the reference loops, fits, tabulation.
+void RunEvaluation(const BenchArgs& args, const bench::BenchOptions& opt) {
   const bench::BenchSizes sizes = bench::SizesFor(opt);
-  if (args.stability) {
-    const bench::StabilityReport rep =
-        bench::RunStabilitySweeps(sizes, {bench::JointFitStabilityHook()});
-    bench::WriteStabilityOutputs(args.out, opt, rep);
-    nlohmann::json j = rep.ToJson();
-    j.erase("cells");
-    PrintJson(j);
-    if (rep.nonfinite_escaped > 0) {
-      throw NumericalError(std::to_string(rep.nonfinite_escaped) +
-                           " non-finite values passed the checks (see " + args.out +
-                           "/stability.json)");
-    }
-    return;
-  }
   const auto eval = bench::RunEvaluationBench(sizes, opt.threads);
   const auto loops = bench::RunReferenceLoops(sizes);
   const auto fits = args.evaluation ? std::vector<bench::FitRow>{} : bench::RunFittingBench(sizes);
@@ -134,6 +97,48 @@ void RunBench(const BenchArgs& args) {
              {"models", eval.size()},
              {"fits", fits.size()},
              {"ratio_registry_over_reference_loop", ratios}});
+}
+
+void RunBench(const BenchArgs& args) {
+  bench::BenchOptions opt;
+  opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
+  opt.threads = args.threads;
+  opt.Check();
+  // The user chain runs this very executable's commands as separate processes.
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+  if (args.coverage) {
+    RunInWorkFolder(
+        args.out,
+        [&](const auto& work) {
+          return bench::RunCoverageBench(opt, bench::CoveragePlanFor(opt), self, work);
+        },
+        bench::WriteCoverageOutputs, /*runs_in_file_only=*/true);
+  } else if (args.pipeline) {
+    RunInWorkFolder(
+        args.out, [&](const auto& work) { return bench::RunPipelineBench(opt, work, self); },
+        bench::WritePipelineBenchOutputs);
+  } else if (args.tags) {
+    const std::filesystem::path ref = args.apriltag_ref.empty()
+                                          ? bench::DefaultAprilTagRefDir()
+                                          : std::filesystem::path(args.apriltag_ref);
+    RunInWorkFolder(
+        args.out, [&](const auto& work) { return bench::RunTagBench(opt, work, ref); },
+        bench::WriteTagBenchOutputs);
+  } else if (args.maps) {
+    RunInWorkFolder(
+        args.out, [&](const auto& work) { return bench::RunMapsBench(opt, work); },
+        bench::WriteMapsBenchOutputs);
+  } else if (args.plan) {
+    RunInWorkFolder(
+        args.out, [&](const auto& work) { return bench::RunPlanBench(opt, work); },
+        bench::WritePlanBenchOutputs);
+  } else if (args.sfs) {
+    RunSfs(args, opt);
+  } else if (args.stability) {
+    RunStability(args, opt);
+  } else {
+    RunEvaluation(args, opt);
+  }
 }
 
 }  // namespace

@@ -197,6 +197,60 @@ nlohmann::json RunTimings::ToJson() const {
           {"maps_s", maps_s}};
 }
 
+namespace {
+
+// The board pose of every frame; skipped frames and, for a given camera model, frames its
+// model does not fit are warnings (a calibrated model fits by construction).
+void LocateFrames(const RunInputs& in, const RunOptions& o,
+                  const std::vector<BoardObservation>& detections, RunResult* r) {
+  r->poses = LocateObservations(r->camera, in.board, detections, o.pose);
+  if (r->poses.frames.empty()) {
+    throw InputError(in.session.dir.string() + ": the board was found in no frame");
+  }
+  for (const auto& s : r->poses.skipped) {
+    r->warnings.push_back(
+        {WarningCause::kFrameSkipped, fmt::format("frame {} skipped: {}", s.file, s.reason), {}});
+    spdlog::warn("{}", r->warnings.back().message);
+  }
+  if (!in.camera) return;
+  const auto off = CheckReprojection(r->poses, r->camera, in.camera_source);
+  if (off.empty()) return;
+  r->warnings.push_back(
+      {WarningCause::kReprojection,
+       fmt::format("frames whose board does not fit the camera model (reprojection error above "
+                   "{:.1f} px: blur, a bent board, a misdetected tag?): {}",
+                   ReprojectionCheck::LimitPx(r->camera), fmt::join(off, ", ")),
+       {}});
+  spdlog::warn("{}", r->warnings.back().message);
+}
+
+// The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the
+// selected model keep the nuisance terms the selection chose, and the calibration's error is
+// propagated after the checks (it widens error bars, it moves no residual).
+void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptions& fit_options,
+                   RunResult* r) {
+  CheckedFit checked = FitChecked(r->observations, fit_options, in.session.dir.string(), o.checks);
+  r->fit = std::move(checked.fit);
+  r->checks = std::move(checked.checks);
+  PropagateCalibration(in, o, checked.options, r);
+}
+
+// The fit's own warnings, the residuals' structure and the checks' warnings.
+void CheckResiduals(const RunOptions& o, RunResult* r) {
+  AddFitWarnings(r->fit.final_fit, &r->warnings);
+  r->checks.structure = FindResidualStructure(r->fit.final_fit, r->observations, r->noise_floor,
+                                              {r->camera.intrinsics[2], r->camera.intrinsics[3]},
+                                              0.5 * std::hypot(r->camera.width, r->camera.height),
+                                              o.checks.structure);
+  spdlog::info("{}", r->checks.structure.Report());
+  for (const auto& w : r->checks.Warnings(r->fit.final_fit)) {
+    r->warnings.push_back(w);
+    spdlog::warn("{}", w.message);
+  }
+}
+
+}  // namespace
+
 RunResult Run(const RunInputs& in, const RunOptions& o) {
   o.Check();
   RunResult r;
@@ -213,27 +267,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   r.camera = CameraFor(in, o, detections, &r);
   r.timings.calibrate_s = clock.Lap();
 
-  r.poses = LocateObservations(r.camera, in.board, detections, o.pose);
-  if (r.poses.frames.empty()) {
-    throw InputError(in.session.dir.string() + ": the board was found in no frame");
-  }
-  for (const auto& s : r.poses.skipped) {
-    r.warnings.push_back(
-        {WarningCause::kFrameSkipped, fmt::format("frame {} skipped: {}", s.file, s.reason), {}});
-    spdlog::warn("{}", r.warnings.back().message);
-  }
-  if (in.camera) {  // a given model must fit the session (a calibrated one does by construction)
-    const auto off = CheckReprojection(r.poses, r.camera, in.camera_source);
-    if (!off.empty()) {
-      r.warnings.push_back(
-          {WarningCause::kReprojection,
-           fmt::format("frames whose board does not fit the camera model (reprojection error "
-                       "above {:.1f} px: blur, a bent board, a misdetected tag?): {}",
-                       ReprojectionCheck::LimitPx(r.camera), fmt::join(off, ", ")),
-           {}});
-      spdlog::warn("{}", r.warnings.back().message);
-    }
-  }
+  LocateFrames(in, o, detections, &r);
   r.timings.locate_s = clock.Lap();
 
   spdlog::info("[2/4] extracting observations (patch {} px)", o.extract.patch);
@@ -246,24 +280,9 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   const JointFitOptions fit_options = FitOptionsFor(in, o, &r);
   spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
-  // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the
-  // selected model keep the nuisance terms the selection chose, and the calibration's error is
-  // propagated after the checks (it widens error bars, it moves no residual).
-  CheckedFit checked = FitChecked(r.observations, fit_options, in.session.dir.string(), o.checks);
-  r.fit = std::move(checked.fit);
-  r.checks = std::move(checked.checks);
-  PropagateCalibration(in, o, checked.options, &r);
+  FitWithChecks(in, o, fit_options, &r);
   r.timings.fit_s = clock.Lap();
-  AddFitWarnings(r.fit.final_fit, &r.warnings);
-  r.checks.structure =
-      FindResidualStructure(r.fit.final_fit, r.observations, r.noise_floor,
-                            {r.camera.intrinsics[2], r.camera.intrinsics[3]},
-                            0.5 * std::hypot(r.camera.width, r.camera.height), o.checks.structure);
-  spdlog::info("{}", r.checks.structure.Report());
-  for (const auto& w : r.checks.Warnings(r.fit.final_fit)) {
-    r.warnings.push_back(w);
-    spdlog::warn("{}", w.message);
-  }
+  CheckResiduals(o, &r);
   if (o.maps) {
     spdlog::info("[4/4] per-texel maps of the sample (docs/maps.md)");
     const MapsSessionInputs maps_in{in.session, in.board, r.camera, in.photometric, in.assumptions};
