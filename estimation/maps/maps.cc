@@ -6,10 +6,10 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/geometry/detect.h"
 #include "common/error.h"
+#include "common/image_io.h"
 #include "common/log.h"
 #include "common/option_words.h"
 #include "estimation/extract/extract.h"
@@ -408,8 +408,7 @@ MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::
     }
   } else if (assume_linear) {
     if (in.session.frames.empty()) throw InputError(session_dir.string() + ": no frames");
-    const cv::Mat first = cv::imread(in.session.FramePath(0).string(), cv::IMREAD_UNCHANGED);
-    if (first.empty()) throw InputError(in.session.FramePath(0).string() + ": cannot be read");
+    const cv::Mat first = ReadImage(in.session.FramePath(0), ImageExpectation());
     const int bits =
         in.session.bit_depth > 0 ? in.session.bit_depth : (first.depth() == CV_8U ? 8 : 16);
     in.photometric =
@@ -424,28 +423,76 @@ MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::
   return in;
 }
 
+namespace {
+
+// Every frame of the session, decoded once through the one image reader (common/image_io.h),
+// checked against the session and the calibrations as extraction checks them.
+std::vector<cv::Mat> ReadFrames(const MapsSessionInputs& in) {
+  const Session& session = in.session;
+  const ImageExpectation expect = FrameExpectation(
+      session, in.photometric, "the photometric calibration", &in.camera, "the camera");
+  std::vector<cv::Mat> frames(session.frames.size());
+  Progress progress("maps: reading frames", frames.size());
+  for (size_t i = 0; i < frames.size(); ++i) {
+    frames[i] = ReadImage(session.FramePath(i), expect);
+    progress.Step();
+  }
+  progress.Done();
+  return frames;
+}
+
+// The board pose of every frame, when the caller (gonio run) has none.
+SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat>& frames) {
+  std::vector<BoardObservation> detections;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    detections.push_back(DetectBoard(GreyForDetection(frames[i], in.session.bit_depth), in.board,
+                                     PoseOptions().detector, in.session.frames[i].file));
+  }
+  return LocateObservations(in.camera, in.board, detections, PoseOptions());
+}
+
+// The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
+JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
+                          const std::vector<cv::Mat>& frames,
+                          const std::vector<TexelSampler::Pose>& sampler_poses,
+                          const std::vector<size_t>& frame_of) {
+  const Session& session = in.session;
+  ExtractOptions eo;
+  eo.patch = 4;
+  eo.threads = o.threads;
+  ObservationExtractor extractor(session.frames, in.camera, in.board, in.photometric, eo);
+  for (size_t k = 0; k < sampler_poses.size(); ++k) {
+    extractor.AddFrame(frame_of[k], frames[frame_of[k]], sampler_poses[k].cam_from_board,
+                       session.FramePath(frame_of[k]).string());
+  }
+  ObservationSet obs = extractor.Finish(session.dir.string());
+  JointFitOptions jo;
+  jo.light_frame = o.light_frame;
+  jo.white_albedo = o.white_albedo;
+  jo.threads = o.threads;
+  // A deterministic subsample, as the joint fit's final fit takes (30000 observations).
+  const size_t stride = std::max<size_t>(1, obs.observations.size() / 30000);
+  std::vector<Observation> kept;
+  for (size_t i = 0; i < obs.observations.size(); i += stride) kept.push_back(obs.observations[i]);
+  obs.observations = std::move(kept);
+  const MapsModel maps_model = o.ResolvedModel(o.white_albedo.has_value());
+  const std::string model =
+      maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
+  spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
+               obs.observations.size());
+  return FitJoint(model, obs, InitialLight(obs, jo), jo);
+}
+
+}  // namespace
+
 MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
                            const SessionPoses* poses_in, const JointFitResult* uniform_in) {
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
   const Session& session = in.session;
-  std::vector<cv::Mat> frames(session.frames.size());
-  Progress progress("maps: reading frames", frames.size());
-  for (size_t i = 0; i < frames.size(); ++i) {
-    frames[i] = cv::imread(session.FramePath(i).string(), cv::IMREAD_UNCHANGED);
-    if (frames[i].empty()) throw InputError(session.FramePath(i).string() + ": cannot be read");
-    progress.Step();
-  }
-  progress.Done();
+  const std::vector<cv::Mat> frames = ReadFrames(in);
   SessionPoses located;
-  if (!poses_in) {
-    std::vector<BoardObservation> detections;
-    for (size_t i = 0; i < frames.size(); ++i) {
-      detections.push_back(DetectBoard(GreyForDetection(frames[i], session.bit_depth), in.board,
-                                       PoseOptions().detector, session.frames[i].file));
-    }
-    located = LocateObservations(in.camera, in.board, detections, PoseOptions());
-  }
+  if (!poses_in) located = LocateFrames(in, frames);
   const SessionPoses& poses = poses_in ? *poses_in : located;
   if (poses.frames.empty()) throw InputError(session.dir.string() + ": the board is in no frame");
   std::vector<TexelSampler::Pose> sampler_poses;
@@ -470,32 +517,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   } else if (uniform_in) {
     uniform = *uniform_in;
   } else {
-    // The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
-    ExtractOptions eo;
-    eo.patch = 4;
-    eo.threads = o.threads;
-    ObservationExtractor extractor(session.frames, in.camera, in.board, in.photometric, eo);
-    for (size_t k = 0; k < sampler_poses.size(); ++k) {
-      extractor.AddFrame(frame_of[k], frames[frame_of[k]], sampler_poses[k].cam_from_board,
-                         session.FramePath(frame_of[k]).string());
-    }
-    ObservationSet obs = extractor.Finish(session.dir.string());
-    JointFitOptions jo;
-    jo.light_frame = o.light_frame;
-    jo.white_albedo = o.white_albedo;
-    jo.threads = o.threads;
-    // A deterministic subsample, as the joint fit's final fit takes (30000 observations).
-    const size_t stride = std::max<size_t>(1, obs.observations.size() / 30000);
-    std::vector<Observation> kept;
-    for (size_t i = 0; i < obs.observations.size(); i += stride)
-      kept.push_back(obs.observations[i]);
-    obs.observations = std::move(kept);
-    const MapsModel maps_model = o.ResolvedModel(o.white_albedo.has_value());
-    const std::string model =
-        maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
-    spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
-                 obs.observations.size());
-    uniform = FitJoint(model, obs, InitialLight(obs, jo), jo);
+    uniform = UniformFit(in, o, frames, sampler_poses, frame_of);
   }
   if (uniform) {
     lamp.position = uniform->light_position;
