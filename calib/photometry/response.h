@@ -215,12 +215,16 @@ std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<Expo
 // gonio's result and OpenCV's Debevec and Robertson, all on the frames gonio used at the times it
 // used (re-timed where it re-timed), checked on the same pixels: values in [5 %, 95 %] of the
 // range and inside gonio's black..saturation range. 8-bit frames only (InputError otherwise).
+// Each method's calibration time is measured here for OpenCV's; gonio's is the caller's
+// (`gonio_calibrate_s`, the time CalibrateResponse took), so the three are comparable.
 struct MethodConsistency {
   std::string method;
   PairConsistency consistency;
+  double calibrate_s = 0;  // wall time of the method's calibration alone
 };
 std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<ExposureFrame>& frames,
-                                                         const ResponseResult& result);
+                                                         const ResponseResult& result,
+                                                         double gonio_calibrate_s);
 
 // Non-stationary processing check: for each pair of neighbouring frames (by listed time), the
 // whole image's value-to-value mapping (median longer-exposure value per bin of the shorter's)

@@ -2,6 +2,7 @@
 // OpenCV implements them for comparison, and the non-stationary processing check
 // (calib/photometry/response.h; the metric is described in docs/photometric.md).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -239,7 +240,8 @@ std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<Expo
 }
 
 std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<ExposureFrame>& frames,
-                                                         const ResponseResult& result) {
+                                                         const ResponseResult& result,
+                                                         double gonio_calibrate_s) {
   std::vector<ExposureFrame> used_frames;
   std::vector<double> times;
   for (size_t j = 0; j < frames.size(); ++j) {
@@ -257,13 +259,21 @@ std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<Expos
   std::vector<MethodConsistency> out;
   std::vector<std::vector<double>> ours;
   for (const auto& t : result.inverse_response) ours.push_back(t);
-  out.push_back({"gonio", MeasurePairConsistency(used_frames, times, all, ours, lo, hi)});
-  out.push_back({"OpenCV Debevec",
-                 MeasurePairConsistency(used_frames, times, all,
-                                        DebevecInverseResponse(used_frames, times), lo, hi)});
+  out.push_back(
+      {"gonio", MeasurePairConsistency(used_frames, times, all, ours, lo, hi), gonio_calibrate_s});
+  using Clock = std::chrono::steady_clock;
+  const auto seconds_since = [](Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+  };
+  Clock::time_point t0 = Clock::now();
+  const std::vector<std::vector<double>> debevec = DebevecInverseResponse(used_frames, times);
+  out.push_back({"OpenCV Debevec", MeasurePairConsistency(used_frames, times, all, debevec, lo, hi),
+                 seconds_since(t0)});
+  t0 = Clock::now();
+  const std::vector<std::vector<double>> robertson = RobertsonInverseResponse(used_frames, times);
   out.push_back({"OpenCV Robertson",
-                 MeasurePairConsistency(used_frames, times, all,
-                                        RobertsonInverseResponse(used_frames, times), lo, hi)});
+                 MeasurePairConsistency(used_frames, times, all, robertson, lo, hi),
+                 seconds_since(t0)});
   return out;
 }
 

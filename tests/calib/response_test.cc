@@ -55,7 +55,7 @@ std::vector<MethodConsistency> Compare(const std::string& sweep, bool mask_blue,
   frames.erase(frames.begin(), frames.begin() + first);
   if (mask_blue) MaskColour(cv::Scalar(255, 0, 0), &frames);
   const ResponseResult r = CalibrateResponse(frames, {});
-  const auto methods = CompareWithClassicMethods(frames, r);
+  const auto methods = CompareWithClassicMethods(frames, r, 0.0);
   for (const auto& m : methods) {
     std::cout << sweep << (first ? " (trusted frames)" : "") << ": " << m.method << " median pair "
               << 100 * m.consistency.median_pair << " %, worst pair "
@@ -249,7 +249,8 @@ TEST(ResponseCli, RealSweepWritesJsonAndPlot) {
   GONIO_REQUIRE_TEST_DATA();
   testing::TempDir dir;
   const auto out = dir.path() / "response.json";
-  const auto r = RunGonio("photometric response --sweep " + SweepDir() + " --out " + out.string());
+  const auto r = RunGonio("photometric response --compare-opencv --sweep " + SweepDir() +
+                          " --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = ReadJsonFile(out);
   EXPECT_EQ(j["bit_depth"], 8);
@@ -257,6 +258,11 @@ TEST(ResponseCli, RealSweepWritesJsonAndPlot) {
   EXPECT_EQ(j["inverse_response"][0].size(), 256u);
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "response.png"));
   EXPECT_NE(r.out.find("Debevec"), std::string::npos);
+  // Each method's own calibration time, so that gonio's can be compared with OpenCV's.
+  ASSERT_EQ(j.at("comparison").size(), 3u) << j.at("comparison");
+  for (const auto& m : j.at("comparison")) EXPECT_GT(m.at("calibrate_s").get<double>(), 0.0) << m;
+  EXPECT_DOUBLE_EQ(j.at("comparison")[0].at("calibrate_s").get<double>(),
+                   j.at("calibrate_s").get<double>());
 }
 
 TEST(ResponseCli, BadSweepsExitTwo) {
@@ -287,6 +293,21 @@ TEST(ResponseCli, BadSweepsExitTwo) {
                (dir.path() / "sat.txt").string() + " --out " + (dir.path() / "r.json").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("saturated everywhere"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "r.json"));
+  // OpenCV's methods read 8 bits: asking for them on a 12-bit sweep is refused before the work.
+  cv::Mat ramp(20, 20, CV_16UC1);
+  for (int y = 0; y < ramp.rows; ++y) {
+    for (int x = 0; x < ramp.cols; ++x) ramp.at<uint16_t>(y, x) = 100 + 4 * (20 * y + x);
+  }
+  cv::imwrite((dir.path() / "d1.png").string(), ramp);
+  cv::imwrite((dir.path() / "d2.png").string(), 2 * ramp);
+  std::ofstream(dir.path() / "deep.txt") << "d1.png 1\nd2.png 2\n";
+  r = RunGonio("photometric response --compare-opencv --bit-depth 12 --sweep " +
+               dir.path().string() + " --list " + (dir.path() / "deep.txt").string() + " --out " +
+               (dir.path() / "r.json").string());
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("--compare-opencv"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "r.json"));
 }
 
