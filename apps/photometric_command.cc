@@ -255,36 +255,40 @@ void RunVignette(VignetteArgs& args) {
   r.map.convertTo(vis, CV_8U, 255.0 / 0.5, -255.0);
   cv::applyColorMap(vis, vis, cv::COLORMAP_VIRIDIS);
   WriteImage(fs::path(args.out).replace_extension(".png"), vis);
-  nlohmann::json j = {{"format", "gonio-vignette"},
-                      {"version", 1},
-                      {"map", fs::path(args.out).filename().string()},
-                      {"model", r.model_used},
-                      {"radial",
-                       {{"coefficients", r.radial},
-                        {"center", {camera.intrinsics[2], camera.intrinsics[3]}},
-                        {"radius_px", 0.5 * std::hypot(camera.width, camera.height)}}},
-                      {"coverage", r.coverage},
-                      {"frames_used", r.frames_used},
-                      {"poses", r.poses},
-                      {"samples", r.samples},
-                      {"rms_relative_residual", r.rms_relative_residual},
-                      {"map_vs_radial_rms", r.map_vs_radial_rms},
-                      {"flat_field", flat_field},
-                      {"lamp_test",
-                       {{"run", r.lamp_test.run},
-                        {"camera_lamp_exponent", r.lamp_test.exponent},
-                        {"camera_lamp_exponent_stddev", r.lamp_test.exponent_stddev},
-                        {"unexplained_rms", r.lamp_test.unexplained_rms},
-                        {"detectable", r.lamp_test.detectable},
-                        {"partly_camera_fixed", r.lamp_test.partly_camera_fixed}}},
-                      {"note", r.note}};
+  nlohmann::json j = {
+      {"format", "gonio-vignette"},
+      {"version", 1},
+      {"map", fs::path(args.out).filename().string()},
+      {"model", r.model_used},
+      {"radial",
+       {{"coefficients", r.radial},
+        {"center", {camera.intrinsics[2], camera.intrinsics[3]}},
+        {"radius_px", 0.5 * std::hypot(camera.width, camera.height)}}},
+      {"coverage", r.coverage},
+      {"frames_used", r.frames_used},
+      {"poses", r.poses},
+      {"samples", r.samples},
+      {"rms_relative_residual", r.rms_relative_residual},
+      {"map_error_rms",
+       std::isfinite(r.map_error_rms) ? nlohmann::json(r.map_error_rms) : nlohmann::json()},
+      {"map_error_note", r.map_error_note},
+      {"map_vs_radial_rms", r.map_vs_radial_rms},
+      {"flat_field", flat_field},
+      {"lamp_test",
+       {{"run", r.lamp_test.run},
+        {"camera_lamp_exponent", r.lamp_test.exponent},
+        {"camera_lamp_exponent_stddev", r.lamp_test.exponent_stddev},
+        {"unexplained_rms", r.lamp_test.unexplained_rms},
+        {"detectable", r.lamp_test.detectable},
+        {"partly_camera_fixed", r.lamp_test.partly_camera_fixed}}},
+      {"note", r.note}};
   WriteJsonAtomically(fs::path(args.out).replace_extension(".json"), j);
   if (!args.photometric_out.empty()) {
     const fs::path out(args.photometric_out);
     if (out.has_parent_path()) EnsureDirectory(out.parent_path());
     calib.vignette = r.map;
     calib.relative_accuracy =
-        PhotometricCalibration::CombinedAccuracy(calib.response, r.rms_relative_residual);
+        PhotometricCalibration::CombinedAccuracy(calib.response, r.Accuracy());
     calib.Write(args.photometric_out);
   }
   std::cout << r.Report();

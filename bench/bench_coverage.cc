@@ -139,17 +139,6 @@ synth::Scene SweepScene(const std::string& sweep, const synth::Scene& session) {
   return s;
 }
 
-// A tag-free flat field has no pose to locate; the vignetting needs distinct poses only (the
-// target's brightness is one constant), so the renderer's are written as a poses file.
-fs::path FlatPoses(const fs::path& flat, const fs::path& out) {
-  json poses = {{"format", "gonio-poses"}, {"frames", json::array()}};
-  for (const auto& f : ReadJsonFile(flat / "truth.json").at("frames")) {
-    poses["frames"].push_back({{"file", f.at("file")}, {"cam_from_board", f.at("cam_from_board")}});
-  }
-  WriteJsonAtomically(out, poses);
-  return out;
-}
-
 Eigen::Vector3d Vec3(const json& j) {
   return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()};
 }
@@ -231,7 +220,7 @@ std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePla
     if (kind.flash) {
       vignette_session = dir / "flat";
       chain.Render("flat", SameCamera("flat-field", scene), vignette_session);
-      vignette_poses = FlatPoses(vignette_session, cal / "flat_poses.json");
+      vignette_poses.clear();  // a tag-free flat field has no poses to locate (docs/photometric.md)
     } else {
       chain.Step("locate", {"locate", "--session", session.string(), "--camera", camera.string(),
                             "--out", vignette_poses.string()});
@@ -251,12 +240,23 @@ std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePla
       EnsureDirectory(sc);
       chain.Step("response-" + r.sweep, {"photometric", "response", "--sweep", sweep_dir.string(),
                                          "--out", (sc / "response.json").string()});
-      chain.Step("vignette-" + r.sweep,
-                 {"photometric", "vignette", "--session", vignette_session.string(), "--camera",
-                  camera.string(), "--board", (vignette_session / "board.json").string(), "--poses",
-                  vignette_poses.string(), "--response", (sc / "response.json").string(), "--out",
-                  (sc / "vignette.tiff").string(), "--photometric-out",
-                  (sc / "photometric.json").string()});
+      std::vector<std::string> vignette = {"photometric",
+                                           "vignette",
+                                           "--session",
+                                           vignette_session.string(),
+                                           "--camera",
+                                           camera.string(),
+                                           "--board",
+                                           (vignette_session / "board.json").string(),
+                                           "--response",
+                                           (sc / "response.json").string(),
+                                           "--out",
+                                           (sc / "vignette.tiff").string(),
+                                           "--photometric-out",
+                                           (sc / "photometric.json").string()};
+      if (!vignette_poses.empty())
+        vignette.insert(vignette.end(), {"--poses", vignette_poses.string()});
+      chain.Step("vignette-" + r.sweep, vignette);
       std::vector<std::string> args = {"run",
                                        "--session",
                                        session.string(),

@@ -126,8 +126,7 @@ PhotometricCalibration CalibrateVignetting(const Session& session, const Board& 
   *vignette =
       CalibrateVignette(camera, PaperRegion::FromBoard(board), p, frames, VignetteOptions{});
   p.vignette = vignette->map;
-  p.relative_accuracy =
-      PhotometricCalibration::CombinedAccuracy(response, vignette->rms_relative_residual);
+  p.relative_accuracy = PhotometricCalibration::CombinedAccuracy(response, vignette->Accuracy());
   return p;
 }
 
@@ -162,12 +161,13 @@ void CalibrateLikeAUser(const fs::path& session_dir, const fs::path& sweep_dir, 
       "camera: mrcal from {} frames, RMS reprojection {:.3f} px, projection uncertainty {:.3f} "
       "px at the centre\nresponse: {}-bit, black level {:.1f} ({}), pair consistency {:.2f}% "
       "(median pair), worst band bias {:.2f}%\nvignetting: {} model, RMS relative residual "
-      "{:.2f}%\nthe calibration's relative accuracy (the fit's noise floor): {:.2f}%\n",
+      "{:.2f}%, its own error {:.3f}% (split halves)\nthe calibration's relative accuracy (the "
+      "fit's noise floor): {:.2f}%\n",
       cal.num_views, cal.rms_px, cal.uncertainty_centre_px, response.bit_depth,
       response.black_level.empty() ? 0.0 : response.black_level[0],
       BlackLevelSourceName(response.black_level_source), 100 * response.consistency.median_pair,
       100 * response.consistency.worst_band_bias, vignette.model_used,
-      100 * vignette.rms_relative_residual, 100 * *p.relative_accuracy);
+      100 * vignette.rms_relative_residual, 100 * vignette.Accuracy(), 100 * *p.relative_accuracy);
 }
 
 // fit.json's final fit against truth.json: the true model's parameters when it was selected,

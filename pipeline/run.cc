@@ -149,7 +149,13 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   if (!accuracy || o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
   const ResponseResult& response = in.photometric.response;
   CalibrationErrorModel e;
-  e.response_ratio_error = std::min(PhotometricCalibration::ResponseFieldRms(response), *accuracy);
+  // The response's error where the observations are: their raw values' bands.
+  std::vector<double> values;
+  for (const auto& obs : r->observations.observations) {
+    values.insert(values.end(), obs.value.begin(), obs.value.end());
+  }
+  e.response_ratio_error =
+      std::min(PhotometricCalibration::ResponseFieldRmsAt(response, values), *accuracy);
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
   // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
   // are in the noise floor but are no smooth field.

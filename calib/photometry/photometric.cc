@@ -91,6 +91,21 @@ double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) 
   return n > 0 ? std::min(std::sqrt(sum / n), 0.99) : ResponseAccuracy(response);
 }
 
+double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response,
+                                                  const std::vector<double>& values) {
+  const PairConsistency& c = response.consistency;
+  const int bands = static_cast<int>(c.band_bias.size());
+  const double width = (c.range_hi - c.range_lo) / std::max(bands, 1);
+  if (values.empty() || bands == 0 || !(width > 0)) return ResponseFieldRms(response);
+  double sum = 0;
+  for (double z : values) {
+    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, bands - 1);
+    const double bias = std::isfinite(c.band_bias[b]) ? c.band_bias[b] : ResponseAccuracy(response);
+    sum += bias * bias;
+  }
+  return std::min(std::sqrt(sum / values.size()), 0.99);
+}
+
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
   const double s = response.smoothing_sensitivity;
   return std::isfinite(s) ? std::min(s, 0.99) : 0.0;

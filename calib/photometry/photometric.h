@@ -40,6 +40,13 @@ struct PhotometricCalibration {
   // draws, whose modes have an RMS of 1. The worst band (ResponseAccuracy) is the largest of
   // eight noisy figures. Without bands: ResponseAccuracy.
   static double ResponseFieldRms(const ResponseResult& response);
+  // The same where the data are: the RMS of the band biases of the bands that hold `values`
+  // (raw pixel values of the observations, one per observation and channel), so a band the
+  // fit never reads (the dark end, where the black level's error sits) does not set the
+  // field. A band without a bias figure counts as the worst band. Without values:
+  // ResponseFieldRms.
+  static double ResponseFieldRmsAt(const ResponseResult& response,
+                                   const std::vector<double>& values);
   // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.

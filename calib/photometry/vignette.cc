@@ -565,12 +565,25 @@ std::string VignetteResult::Report() const {
                    radial[2]);
   if (model_used == "map") s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
   s += "\n";
+  s += std::isfinite(map_error_rms)
+           ? fmt::format(
+                 "V's own error: split halves {:.3f}% RMS, stated as {:.3f}% (twice: the "
+                 "halves cannot see what they share)\n",
+                 100 * map_error_rms, 100 * Accuracy())
+           : fmt::format(
+                 "V's own error not measured ({}): the samples' residual {:.2f}% stands "
+                 "for it\n",
+                 map_error_note, 100 * rms_relative_residual);
   if (!note.empty()) s += note + "\n";
   s += lamp_test.Report() + "\n";
   double vmin = 0, vmax = 0;
   if (!map.empty()) cv::minMaxLoc(map, &vmin, &vmax);
   s += fmt::format("V ranges over [{:.3f}, {:.3f}]\n", vmin, vmax);
   return s;
+}
+
+double VignetteResult::Accuracy() const {
+  return std::isfinite(map_error_rms) ? 2 * map_error_rms : rms_relative_residual;
 }
 
 VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& paper,
@@ -584,13 +597,23 @@ VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& p
   PhotometricCalibration linear = response_only;
   linear.vignette = cv::Mat();
   const PixelGrid grid = SamplePixelRays(camera, options);
-  SampleSet set;
-  {
-    const auto per_frame = ReadPaperPixels(frames, linear, paper, grid, options);
-    for (const auto& v : per_frame) result.frames_used += !v.empty();
-    set = BinOnTextureGrid(per_frame, grid, paper, options);
+  const auto per_frame = ReadPaperPixels(frames, linear, paper, grid, options);
+  for (const auto& v : per_frame) result.frames_used += !v.empty();
+  SolveVignette(camera, grid, BinOnTextureGrid(per_frame, grid, paper, options), options, true,
+                &result);
+  // Alternate frames with paper in view, so each half sees the board from several poses.
+  std::array<std::vector<std::vector<PaperPixel>>, 2> halves;
+  for (const auto& v : per_frame) {
+    if (!v.empty()) halves[(halves[0].size() + halves[1].size()) % 2].push_back(v);
   }
-  SolveVignette(camera, grid, std::move(set), options, true, &result);
+  if (halves[1].size() < 2) {
+    result.map_error_note = "split halves: fewer than 4 frames with paper in view";
+    return result;
+  }
+  MeasureMapError(camera, grid,
+                  {BinOnTextureGrid(halves[0], grid, paper, options),
+                   BinOnTextureGrid(halves[1], grid, paper, options)},
+                  options, &result);
   return result;
 }
 }  // namespace gonio

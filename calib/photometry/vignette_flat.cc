@@ -36,6 +36,30 @@ std::vector<Sample> FlatFieldSamples(const VignetteFrame& f, int frame,
   return out;
 }
 
+// Split halves of a flat field (vignette_accuracy.cc): alternate frames with usable pixels,
+// each frame its own texture cell, renumbered within its half.
+void MeasureFlatFieldError(const CameraModel& camera, const PixelGrid& grid,
+                           const std::vector<std::vector<Sample>>& per_frame,
+                           const VignetteOptions& options, VignetteResult* result) {
+  std::array<SampleSet, 2> halves;
+  for (auto& h : halves) h.cell_count.assign(grid.gw * grid.gh, 0);
+  for (const auto& v : per_frame) {
+    if (v.empty()) continue;
+    SampleSet& h = halves[(halves[0].texture_cells + halves[1].texture_cells) % 2];
+    for (Sample s : v) {
+      s.acell = static_cast<int32_t>(h.texture_cells);
+      h.samples.push_back(s);
+      ++h.cell_count[grid.pixels[s.ray].vcell];
+    }
+    ++h.texture_cells;
+  }
+  if (halves[1].texture_cells == 0) {
+    result->map_error_note = "split halves: one flat-field frame with usable pixels";
+    return;
+  }
+  MeasureMapError(camera, grid, std::move(halves), options, result);
+}
+
 }  // namespace
 
 VignetteResult CalibrateFlatFieldVignette(const CameraModel& camera,
@@ -81,6 +105,7 @@ VignetteResult CalibrateFlatFieldVignette(const CameraModel& camera,
   result.poses = 0;  // not known: no poses
   result.lamp_test.run = false;
   SolveVignette(camera, grid, std::move(set), options, false, &result);
+  MeasureFlatFieldError(camera, grid, per_frame, options, &result);
   return result;
 }
 

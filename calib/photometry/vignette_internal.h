@@ -2,6 +2,7 @@
 // (vignette.cc) and a flat field without poses (vignette_flat.cc). Not part of the interface.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -50,5 +51,14 @@ struct SampleSet {
 // but frames_used and poses.
 void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
                    const VignetteOptions& options, bool test_lamp, VignetteResult* result);
+
+// V's own error by split halves (docs/photometric.md "Vignetting accuracy"): `halves` are the
+// samples of alternate frames; each is solved alone, and since each half's error has twice the
+// variance of the whole fit's, the whole fit's relative error is RMS(V_a / V_b - 1) / 2 over
+// the image within result->covered_radius. Sets result->map_error_rms, or leaves it NaN with
+// result->map_error_note when a half cannot be solved.
+void MeasureMapError(const CameraModel& camera, const PixelGrid& grid,
+                     std::array<SampleSet, 2> halves, const VignetteOptions& options,
+                     VignetteResult* result);
 
 }  // namespace gonio::vignette_internal

@@ -35,6 +35,7 @@ struct FrameGeometry {
 // The radiance, variance and validity images of one frame.
 struct FrameImages {
   cv::Mat radiance, variance, valid;
+  cv::Mat values;  // the raw pixel values, CV_32F with the frame's channels
 };
 
 // Tag squares grown by one module of the tag's white border: those pixels are never sample.
@@ -193,8 +194,10 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
                   int u, int v, Counters* count, Observation* o) {
   const int C = ctx.channels, P = ctx.patch;
   Eigen::Vector3d sum_p = Eigen::Vector3d::Zero();
-  std::vector<double> sum(C, 0.0), sum_sq(C, 0.0), sum_var(C, 0.0);
+  std::vector<double> sum(C, 0.0), sum_sq(C, 0.0), sum_var(C, 0.0), sum_value(C, 0.0);
   int n = 0, region_kind = -1;
+  // The raw values, where they map one to one onto the radiance's pixels and channels.
+  const bool has_values = im.values.size() == im.radiance.size() && im.values.channels() == C;
   for (int dv = 0; dv < P; ++dv) {
     for (int du = 0; du < P; ++du) {
       Eigen::Vector3d p;
@@ -219,7 +222,9 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
         return false;
       }
       const float* V = im.variance.ptr<float>(v + dv) + (u + du) * C;
+      const float* Z = has_values ? im.values.ptr<float>(v + dv) + (u + du) * C : nullptr;
       for (int c = 0; c < C; ++c) {
+        if (Z) sum_value[c] += Z[c];
         sum[c] += L[c];
         sum_sq[c] += static_cast<double>(L[c]) * L[c];
         sum_var[c] += V[c];
@@ -240,6 +245,7 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
   for (int c = 0; c < C; ++c) {
     const double mean = sum[c] / n;
     o->radiance.push_back(mean);
+    if (has_values) o->value.push_back(sum_value[c] / n);
     const double scatter = n > 1 ? std::max(0.0, sum_sq[c] / n - mean * mean) * n / (n - 1) : 0.0;
     o->variance.push_back(std::max(sum_var[c] / n, scatter) / n);
   }
@@ -307,6 +313,9 @@ void ObservationExtractor::AddFrame(size_t f, const cv::Mat& raw, const Rigid3d&
   FrameImages im;
   photometric_.ToRadiance(raw, frames_[f].exposure_s, frames_[f].gain, &im.radiance, &im.variance,
                           &im.valid);
+  // The values the radiances come from: the response's error is a function of the value (with
+  // a lamp-off frame subtracted, the lamp-on frame's).
+  raw.convertTo(im.values, CV_MAKETYPE(CV_32F, raw.channels()));
   if (lamp_off) {
     SubtractLampOff(photometric_, *lamp_off, frames_[f], &im);
     ++lamp_off_frames_;

@@ -21,6 +21,10 @@ struct Observation {
   int num_pixels = 1;
   std::vector<double> radiance;  // per channel, linear relative units
   std::vector<double> variance;  // per channel
+  // Per channel: the mean raw pixel value the radiance was read from (extraction only; empty
+  // when read from observations.csv). The response's error depends on it
+  // (estimation/joint/calibration_error.h).
+  std::vector<double> value;
 };
 
 struct ObservationSet {

@@ -133,6 +133,29 @@ TEST(PhotometricSynthetic, ToRadianceOfPaperEqualsTruthRadiance) {
             << ", spread " << spread << "\n";
 }
 
+// The response's error field where the data are (PhotometricCalibration::ResponseFieldRmsAt):
+// the RMS of the band biases of the bands the values fall in, worked by hand on eight bands of
+// 100 values each over [0, 800).
+TEST(PhotometricAccuracy, ResponseFieldIsTheBandBiasWhereTheValuesAre) {
+  ResponseResult r;
+  r.consistency.range_lo = 0;
+  r.consistency.range_hi = 800;
+  r.consistency.band_bias = {-0.004, 0.001, 0.001, 0.001, NAN, 0.002, 0.001, 0.001};
+  r.consistency.worst_band_bias = 0.004;
+  // Every band's figure: the whole-range RMS, which the dark band dominates.
+  const double all = PhotometricCalibration::ResponseFieldRms(r);
+  EXPECT_NEAR(all, std::sqrt((16 + 1 + 1 + 1 + 4 + 1 + 1) / 7.0) * 1e-3, 1e-12);
+  // Mid-range values only (bands 1 and 5): sqrt((1 + 4) / 2) per mille.
+  EXPECT_NEAR(PhotometricCalibration::ResponseFieldRmsAt(r, {150, 550}), std::sqrt(2.5) * 1e-3,
+              1e-12);
+  // A band without a figure counts as the worst band; values outside the range as the end bands.
+  EXPECT_NEAR(PhotometricCalibration::ResponseFieldRmsAt(r, {450}), 0.004, 1e-12);
+  EXPECT_NEAR(PhotometricCalibration::ResponseFieldRmsAt(r, {-20, 900}),
+              std::sqrt((16 + 1) / 2.0) * 1e-3, 1e-12);
+  // No values (observations read from a file): the whole-range figure.
+  EXPECT_DOUBLE_EQ(PhotometricCalibration::ResponseFieldRmsAt(r, {}), all);
+}
+
 // photometric.json's noise terms and vignette name with a wrong type or sign are bad input
 // naming the file and key (found with the fuzz target, docs/testing.md).
 TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {

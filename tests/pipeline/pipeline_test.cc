@@ -2,6 +2,7 @@
 // same Run() that `gonio run` and `gonio demo` call.
 // Tolerances are stated per test; each is justified by the noise of the render and the
 // measured figures recorded in docs/pipeline.md.
+#include <cmath>
 #include <fstream>
 #include <iterator>
 
@@ -90,6 +91,17 @@ TEST(Pipeline, DefaultPresetRecoversMaterialAndLamp) {
   EXPECT_TRUE(r.run.checks.Measured()) << r.run.Report();
   EXPECT_TRUE(r.run.checks.inconsistent_frames.empty()) << r.run.Report();
   EXPECT_EQ(r.run.frames_decoded, 24u);
+  // Every observation carries the raw values its radiance was read from, within the camera's
+  // range: the response's error is a function of them (estimation/joint/calibration_error.h).
+  const double max_value = std::ldexp(1.0, scene.photometric.bit_depth) - 1;
+  ASSERT_FALSE(r.run.observations.observations.empty());
+  for (const auto& obs : r.run.observations.observations) {
+    ASSERT_EQ(obs.value.size(), obs.radiance.size());
+    for (double z : obs.value) {
+      EXPECT_GE(z, 0.0);
+      EXPECT_LE(z, max_value);
+    }
+  }
 }
 
 // A glossy sample: tson (albedo 0.5, sigma 20 deg, ks 0.3, sigma_s 0.15 rad). The generating

@@ -1,0 +1,75 @@
+// How accurate the fitted vignetting V is (docs/photometric.md "Vignetting accuracy").
+//
+// The samples' residual about V C (VignetteResult::rms_relative_residual) is each pixel's
+// scatter: shot and read noise, the paper's grain. V is fitted to thousands of samples per
+// radius, so its own error is far smaller, and it is V's error that moves a fit (a smooth field
+// over every frame, estimation/joint/calibration_error.h). It is measured here from the data by
+// split halves: alternate frames form two sets, each fitted alone with the same options. Each
+// half has half the data, so its error variance is twice the whole fit's, and the difference of
+// the two halves has four times it: the whole fit's relative error is RMS(V_a / V_b - 1) / 2.
+// What both halves share (a paper that is not white, a model that cannot follow the optics)
+// does not show; the radial-vs-map spread is the report's figure for that.
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "calib/photometry/vignette_internal.h"
+#include "common/error.h"
+
+namespace gonio::vignette_internal {
+
+namespace {
+
+// RMS of a / b - 1 over the pixels (every 4th row and column) within `radius` half-diagonals
+// of the principal point; NaN when no pixel qualifies.
+double RmsRelativeDifference(const cv::Mat& a, const cv::Mat& b, const CameraModel& camera,
+                             double radius) {
+  const double cx = camera.intrinsics[2], cy = camera.intrinsics[3];
+  const double half_diagonal = 0.5 * std::hypot(camera.width, camera.height);
+  double sum = 0;
+  size_t n = 0;
+  for (int y = 0; y < a.rows; y += 4) {
+    for (int x = 0; x < a.cols; x += 4) {
+      if (std::hypot(x - cx, y - cy) > radius * half_diagonal) continue;
+      const double va = a.at<float>(y, x), vb = b.at<float>(y, x);
+      if (!(va > 0) || !(vb > 0)) continue;
+      sum += (va / vb - 1) * (va / vb - 1);
+      ++n;
+    }
+  }
+  return n > 0 ? std::sqrt(sum / n) : std::nan("");
+}
+
+}  // namespace
+
+void MeasureMapError(const CameraModel& camera, const PixelGrid& grid,
+                     std::array<SampleSet, 2> halves, const VignetteOptions& options,
+                     VignetteResult* result) {
+  std::array<VignetteResult, 2> half;
+  for (int h = 0; h < 2; ++h) {
+    if (halves[h].samples.empty()) {
+      result->map_error_note = "split halves: one half has no usable sample";
+      return;
+    }
+    VignetteOptions o = options;
+    o.model = result->model_used;  // both halves in the whole fit's model
+    o.min_coverage = 0;            // a half covers less; the model is already chosen
+    try {
+      SolveVignette(camera, grid, std::move(halves[h]), o, false, &half[h]);
+    } catch (const std::runtime_error& e) {  // InputError, NumericalError
+      result->map_error_note =
+          fmt::format("split halves: half {} could not be fitted: {}", h + 1, e.what());
+      return;
+    }
+  }
+  const double rms =
+      RmsRelativeDifference(half[0].map, half[1].map, camera, result->covered_radius);
+  if (!std::isfinite(rms)) {
+    result->map_error_note = "split halves: no pixel where both halves' V is positive";
+    return;
+  }
+  result->map_error_rms = 0.5 * rms;
+}
+
+}  // namespace gonio::vignette_internal
