@@ -139,7 +139,15 @@ TEST(MapsCli, RunWithMapsAndExportTextures) {
                           out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ASSERT_TRUE(fs::exists(out / "maps" / "maps.json"));
-  EXPECT_TRUE(fs::exists(out / "fit.json"));
+  ASSERT_TRUE(fs::exists(out / "fit.json"));
+  // The maps' warnings are the run's (cause "maps"), before its results on the console.
+  const nlohmann::json maps_warnings = ReadJsonFile(out / "maps" / "maps.json")["warnings"];
+  const nlohmann::json run_warnings = ReadJsonFile(out / "fit.json")["checks"]["warnings"];
+  for (const auto& w : maps_warnings) {
+    bool lifted = false;
+    for (const auto& rw : run_warnings) lifted |= rw["message"] == w;
+    EXPECT_TRUE(lifted) << w;
+  }
   for (const std::string& format : {"blender", "materialx", "mitsuba"}) {
     const fs::path file = dir.path() / ("export." + format);
     const auto e = RunGonio("export --maps " + (out / "maps").string() + " --format " + format +
