@@ -50,6 +50,9 @@ cv::Mat ReadMap(const fs::path& path) { return ReadFloatTiff(path); }
 nlohmann::json MapsTruthComparison::ToJson() const {
   return {{"texels", texels},
           {"interior_texels", interior},
+          {"edge_texels", edge},
+          {"edge_albedo_rel_rms", edge_albedo_rel_rms},
+          {"edge_albedo_rms_z", edge_albedo_rms_z},
           {"albedo_rel_rms", albedo_rel_rms},
           {"albedo_rel_rms_all", albedo_rel_rms_all},
           {"albedo_rms_z", albedo_rms_z},
@@ -69,10 +72,12 @@ std::string MapsTruthComparison::Report() const {
   return fmt::format(
       "against truth ({} interior of {} texels): albedo {:.3f}% RMS (z {:.2f}; all texels "
       "{:.3f}%), normal {:.3f} deg RMS (z {:.2f}; all {:.3f}), roughness {:.4f} ({:.3f} deg, z "
-      "{:.2f}), materials {} of {} (agreement {:.3f})",
+      "{:.2f}), materials {} of {} (agreement {:.3f}); {} edge texels: albedo {:.3f}% RMS (z "
+      "{:.2f})",
       interior, texels, 100 * albedo_rel_rms, albedo_rms_z, 100 * albedo_rel_rms_all,
       normal_rms_deg, normal_rms_z, normal_rms_deg_all, roughness_rms, roughness_rms_deg,
-      roughness_rms_z, materials_found, materials_true, material_agreement);
+      roughness_rms_z, materials_found, materials_true, material_agreement, edge,
+      100 * edge_albedo_rel_rms, edge_albedo_rms_z);
 }
 
 MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::path& truth_dir,
@@ -113,6 +118,9 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
   const cv::Mat sd_rough = has_rough ? ReadMap(maps_dir / "sd_roughness.tiff") : cv::Mat();
   const cv::Mat mask = cv::imread((maps_dir / "mask.png").string(), cv::IMREAD_GRAYSCALE);
   if (mask.empty()) throw InputError((maps_dir / "mask.png").string() + ": cannot be read");
+  const cv::Mat edges = fs::exists(maps_dir / "edges.png")
+                            ? cv::imread((maps_dir / "edges.png").string(), cv::IMREAD_GRAYSCALE)
+                            : cv::Mat(mask.size(), CV_8U, cv::Scalar(0));
   const int C = albedo.channels();
   MapsTruthComparison r;
   r.materials_found = maps["clusters"]["k"].get<int>();
@@ -120,7 +128,7 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
   struct Texel {
     double x, y;
     int i, j;
-    bool interior;
+    bool interior, edge;
   };
   std::vector<Texel> texels;
   const double band = o.edge_band_m;
@@ -134,7 +142,8 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
         const double a = k * kPi / 4;
         interior = t_mat.At(x + band * std::cos(a), y + band * std::sin(a), 0, true) == m0;
       }
-      texels.push_back({x, y, i, j, interior});
+      const bool edge = edges.at<uint8_t>(j, i) > 0;
+      texels.push_back({x, y, i, j, interior && !edge, interior && edge});
     }
   }
   // Albedo scale per channel (least squares of fitted on true) when asked.
@@ -148,6 +157,7 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
     r.albedo_scale[c] = den > 0 ? num / den : 1.0;
   }
   double a2 = 0, a2_all = 0, az2 = 0, n2 = 0, n2_all = 0, nz2 = 0, r2 = 0, rz2 = 0;
+  double ea2 = 0, eaz2 = 0;
   size_t na = 0, na_all = 0;
   std::map<std::pair<int, int>, size_t> confusion;
   for (const auto& t : texels) {
@@ -170,6 +180,11 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
     a2_all += ae2;
     na_all += C;
     n2_all += angle * angle;
+    if (t.edge) {
+      ++r.edge;
+      ea2 += ae2;
+      eaz2 += az;
+    }
     if (!t.interior) continue;
     ++r.interior;
     a2 += ae2;
@@ -189,6 +204,8 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
   }
   r.albedo_rel_rms = Rms(a2, na);
   r.albedo_rel_rms_all = Rms(a2_all, na_all);
+  r.edge_albedo_rel_rms = Rms(ea2, r.edge * C);
+  r.edge_albedo_rms_z = Rms(eaz2, r.edge * C);
   r.albedo_rms_z = Rms(az2, na);
   r.normal_rms_deg = Rms(n2, r.interior);
   r.normal_rms_deg_all = Rms(n2_all, r.texels);

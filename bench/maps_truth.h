@@ -12,8 +12,9 @@
 namespace gonio::bench {
 
 struct MapsTruthOptions {
-  // Texels closer than this to a material edge of the truth (metres) are left out of the
-  // interior figures: their pixels mix two materials.
+  // Texels closer than this to a material edge of the truth (metres), and the texels the maps
+  // say mix two materials (edges.png), are left out of the interior figures: their pixels mix
+  // two materials.
   double edge_band_m = 0.001;
   // Compare the albedo after one least-squares scale per channel (maps whose albedo is
   // relative: no white reference, or a rectified capture's unknown flash power).
@@ -22,6 +23,10 @@ struct MapsTruthOptions {
 
 struct MapsTruthComparison {
   size_t texels = 0, interior = 0;
+  // Texels the maps call material edges (edges.png) that the truth's band leaves in: their
+  // RMS relative albedo error and RMS z (is their scaled standard deviation honest?).
+  size_t edge = 0;
+  double edge_albedo_rel_rms = 0, edge_albedo_rms_z = 0;
   // Interior texels: RMS relative albedo error over texels and channels, RMS normal angle
   // error (deg), RMS roughness error (the model's unit; in deg for sigma), their RMS z
   // (error / reported sd), and the materials found against the truth's count.

@@ -200,6 +200,8 @@ std::string ToString(WarningCause cause) {
       return "fit";
     case WarningCause::kNotExplained:
       return "not-explained";
+    case WarningCause::kMaps:
+      return "maps";
     case WarningCause::kAtBound:
       return "at-bound";
     case WarningCause::kInconsistentFrames:

@@ -30,6 +30,7 @@ void CheckBitDepths(int session_bit_depth, const ResponseResult& response,
 // In order of severity: the console, the report and fit.json list warnings in this order.
 enum class WarningCause {
   kNotExplained,        // no candidate explains the data
+  kMaps,                // the per-texel maps' own (maps that do not explain the views)
   kInconsistentFrames,  // frames that disagree with the fitted scene
   kAtBound,             // a parameter on its registry bound
   kResponse,            // the response calibration limits the result

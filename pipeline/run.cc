@@ -297,11 +297,20 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     mo.white_albedo = o.fit.white_albedo;
     mo.threads = mo.sampling.threads = o.fit.threads;
     r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit);
+    AddMapsWarnings(*r.maps, &r.warnings);
     r.timings.maps_s = clock.Lap();
   }
   std::stable_sort(r.warnings.begin(), r.warnings.end(),
                    [](const RunWarning& a, const RunWarning& b) { return a.cause < b.cause; });
   return r;
+}
+
+void AddMapsWarnings(const MapsResult& maps, std::vector<RunWarning>* warnings) {
+  for (const std::string& w : maps.warnings) {
+    const bool given = std::any_of(warnings->begin(), warnings->end(),
+                                   [&](const RunWarning& r) { return r.message == w; });
+    if (!given) warnings->push_back({WarningCause::kMaps, w, {"maps"}});
+  }
 }
 
 std::string RunResult::WarningLines() const {

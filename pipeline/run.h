@@ -130,6 +130,12 @@ RunResult Run(const RunInputs& inputs, const RunOptions& options);
 // does not hold a previous run's fit.json (which a new run replaces as a whole).
 void CheckRunOutput(const std::filesystem::path& out, const RunInputs& inputs);
 
+// The maps' warnings (`--maps`: maps that do not explain the views, a relative albedo) as run
+// warnings of cause kMaps touching "maps", so the console, the report and fit.json `checks`
+// give them first with the run's own; one the run already gives (a skipped frame) is not
+// repeated.
+void AddMapsWarnings(const MapsResult& maps, std::vector<RunWarning>* warnings);
+
 // Writes every output into a temporary sibling of `out` and renames it to `out` (replacing a
 // previous run's folder), so `out` is either the old run or the new one, never a mix.
 void WriteRunOutputs(const RunResult& result, const RunInputs& inputs,

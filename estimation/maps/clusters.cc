@@ -286,4 +286,30 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
   }
 }
 
+std::vector<uint8_t> MaterialEdges(const std::vector<int>& label, int width, int height,
+                                   double reach) {
+  std::vector<uint8_t> edge(label.size(), 0);
+  const double r = reach + 0.5;
+  const int ri = static_cast<int>(std::ceil(r));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const int own = label[static_cast<size_t>(y) * width + x];
+      if (own < 0) continue;
+      bool mixed = false;
+      for (int dy = -ri; dy <= ri && !mixed; ++dy) {
+        for (int dx = -ri; dx <= ri && !mixed; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= width || yy >= height || dx * dx + dy * dy >= r * r) {
+            continue;
+          }
+          const int other = label[static_cast<size_t>(yy) * width + xx];
+          mixed = other >= 0 && other != own;
+        }
+      }
+      edge[static_cast<size_t>(y) * width + x] = mixed;
+    }
+  }
+  return edge;
+}
+
 }  // namespace gonio

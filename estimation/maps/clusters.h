@@ -59,4 +59,11 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
                              const std::vector<size_t>& texel_of_row, int width, int height,
                              double jump_ratio, ClusterResult* clusters);
 
+// The texels whose samples mix two materials: a fitted texel (label >= 0, row-major grid of
+// `width` x `height`) with a texel of another cluster whose centre is nearer than `reach` +
+// half a texel (in texels; the material edge lies between the two centres, at least half a
+// texel from the other's). 1 where mixed.
+std::vector<uint8_t> MaterialEdges(const std::vector<int>& label, int width, int height,
+                                   double reach);
+
 }  // namespace gonio

@@ -72,8 +72,8 @@ struct MapsOptions {
   int registration_rounds = 1;
   // The selected maps' chi2 per residual above which they do not explain the views: warned,
   // and the maps and their standard deviations are not a measurement (docs/maps.md "Checks").
-  // Measured: 0.86 on the one-material textured preset, 3.8 on textured-3mat, whose maps are
-  // then off by 5 to 33 of their standard deviations.
+  // Measured: 0.86 on the one-material textured preset, 0.86 on textured-3mat (3.8 when its
+  // edge texels and a lamp placed with one roughness for three materials were in the figure).
   double max_chi2_per_residual = 2.0;
   int threads = 0;
   void Check() const;  // InputError naming the option

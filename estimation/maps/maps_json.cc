@@ -137,6 +137,11 @@ json MapsResult::ToJson() const {
       {"residuals",
        {{"chi2_per_residual", fit.residuals ? fit.chi2 / fit.residuals : 0.0},
         {"residuals", fit.residuals},
+        {"edges",
+         {{"texels", fit.edge_texels},
+          {"residuals", fit.edge_residuals},
+          {"chi2_per_residual", fit.edge_residuals ? fit.edge_chi2 / fit.edge_residuals : 0.0},
+          {"reach_m", data.reach_m}}},
         {"views", views_json}}},
       {"grid",
        {{"texel_m", data.grid.texel},
@@ -208,6 +213,13 @@ std::string MapsResult::Report() const {
   }
   s += fmt::format("residuals: chi2 per residual {:.3f} over {} residuals\n",
                    fit.residuals ? fit.chi2 / fit.residuals : 0.0, fit.residuals);
+  if (fit.edge_texels > 0) {
+    s += fmt::format(
+        "material edges: {} texels mix two materials (chi2 per residual {:.1f}; not in the "
+        "shared values or the figure above, their standard deviations scaled by their misfit; "
+        "edges.png)\n",
+        fit.edge_texels, fit.edge_residuals ? fit.edge_chi2 / fit.edge_residuals : 0.0);
+  }
   if (held_out) {
     s += fmt::format("held-out view {} ({}): relative RMSE {:.4f} over {} texels\n", held_out->view,
                      held_out->name, held_out->relative_rmse, held_out->texels);

@@ -142,6 +142,7 @@ MapsResult MapsFromRectified(const fs::path& dir, const MapsOptions& o) {
   data.grid.origin = Eigen::Vector2d::Constant((0.5 / n - 0.5) * side);
   data.grid.plane_z = 0;
   data.mask.assign(data.grid.size(), 1);
+  data.reach_m = data.grid.texel;  // a rectified pixel mixes its neighbours (a resampled view)
   MapsLamp lamp;
   lamp.frame = MapsLamp::Frame::kPerView;
   lamp.intensity = 1;  // the flash power: in the albedo's scale (docs/maps.md)

@@ -153,6 +153,7 @@ TexelSampler::TexelSampler(const CameraModel& camera, const Board& board,
   const double texel = options.texel_m > 0 ? options.texel_m : footprint;
   const double margin = options.edge_margin_px * footprint + 0.5 * texel;
   data_.grid = GridOver(region, texel, plane_z, margin, &data_.mask);
+  data_.reach_m = margin;
   data_.channels = photometric.response.channels;
   if (data_.channels != 1 && data_.channels != 3) {
     throw InputError("maps: the photometric calibration has " + std::to_string(data_.channels) +

@@ -78,6 +78,11 @@ struct TexelData {
   std::vector<TexelView> views;
   std::vector<ViewSamples> samples;  // per view
   std::vector<WhiteSample> white;
+  // How far from a texel's centre its samples reach on the sample (the interpolation's support
+  // in pixels at the median view and half a texel): a texel nearer than this to another
+  // material mixes both (MaterialEdges), as a texel nearer to the region's edge would mix
+  // sample and paper.
+  double reach_m = 0;
   size_t masked_texels() const;
 };
 

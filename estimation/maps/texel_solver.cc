@@ -42,6 +42,7 @@ struct Pass {
   double intensity = 1;
   NoiseModel noise;
   const std::vector<int>* cluster = nullptr;
+  const std::vector<uint8_t>* edge = nullptr;  // per texel, or empty: TexelFit::edge
   std::vector<double> cluster_r;
   bool lamp_cols = false, intensity_col = false;  // shared columns besides a shared roughness
   double inv_slope_var = 0, inv_r_var = 0;
@@ -52,6 +53,8 @@ struct Pass {
   int S() const { return (shared_r() ? 1 : 0) + (lamp_cols ? 3 : 0) + (intensity_col ? 1 : 0); }
   int K() const { return shared_r() ? static_cast<int>(cluster_r.size()) : 0; }
   int GlobalShared() const { return K() + (lamp_cols ? 3 : 0) + (intensity_col ? 1 : 0); }
+  // Whether texel t enters the shared parameters' system, chi2 and the BIC (not an edge).
+  bool Shares(size_t t) const { return !edge || edge->empty() || !(*edge)[t]; }
   double RoughnessOf(size_t t, const State& x) const {
     if (!info.has_roughness) return 0.0;
     return per_texel_r() ? x.r : cluster_r[(*cluster)[t]];
@@ -406,7 +409,7 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
             Ht.bottomRightCorner(S, S) - Ht.topRightCorner(P, S).transpose() * AiB;
         const LocalVector gred = gt.tail(S) - AiB.transpose() * gt.head(P);
         SharedIndex(s, t, &map);
-        for (int a = 0; a < S; ++a) {
+        for (int a = 0; a < S && s.Shares(t); ++a) {
           gl(map[a]) += gred(a);
           for (int c = 0; c < S; ++c) Hl(map[a], map[c]) += red(a, c);
         }
@@ -517,7 +520,7 @@ void RunFit(const TexelData& data, Pass& s, const TexelFit* start, const MapsLam
     });
     fit->fitted = std::move(ok);
     double total = 0;
-    for (size_t t = 0; t < n; ++t) total += fit->fitted[t] ? cost[t] : 0.0;
+    for (size_t t = 0; t < n; ++t) total += fit->fitted[t] && s.Shares(t) ? cost[t] : 0.0;
     Eigen::MatrixXd Hw = Eigen::MatrixXd::Zero(s.GlobalShared() + 4, s.GlobalShared() + 4);
     Eigen::VectorXd gw = Eigen::VectorXd::Zero(s.GlobalShared() + 4);
     return total + WhiteSystem(s, lamp, -1, -1, &Hw, &gw);
@@ -600,19 +603,33 @@ void RunFit(const TexelData& data, Pass& s, const TexelFit* start, const MapsLam
   fit->p.assign(n, 0.f);
   fit->q.assign(n, 0.f);
   fit->r.assign(n, 0.f);
-  fit->chi2 = 0;
-  fit->residuals = 0;
+  fit->chi2 = fit->edge_chi2 = 0;
+  fit->residuals = fit->edge_residuals = fit->edge_texels = 0;
   size_t fitted = 0;
   for (size_t t = 0; t < n; ++t) {
     if (!fit->fitted[t]) continue;
-    ++fitted;
     for (int k = 0; k < cm; ++k) fit->w[t * cm + k] = static_cast<float>(x[t].w[k]);
     fit->p[t] = static_cast<float>(x[t].p);
     fit->q[t] = static_cast<float>(x[t].q);
     fit->r[t] = static_cast<float>(s.RoughnessOf(t, x[t]));
     size_t nr = 0;
-    fit->chi2 += TexelCost<Basis>(s, t, x[t], &nr);
-    fit->residuals += nr;
+    const double chi2 = TexelCost<Basis>(s, t, x[t], &nr);
+    if (s.Shares(t)) {
+      ++fitted;
+      fit->chi2 += chi2;
+      fit->residuals += nr;
+      continue;
+    }
+    ++fit->edge_texels;
+    fit->edge_chi2 += chi2;
+    fit->edge_residuals += nr;
+    // A texel whose samples mix two materials is not described by one material's model: its
+    // misfit, not its noise, bounds what it measures, so its standard deviations carry it.
+    const double birge =
+        std::sqrt(std::max(1.0, chi2 / std::max(1.0, static_cast<double>(nr) - s.P())));
+    for (int k = 0; k < cm; ++k) fit->sd_w[t * cm + k] *= static_cast<float>(birge);
+    fit->sd_normal_deg[t] *= static_cast<float>(birge);
+    fit->sd_r[t] *= static_cast<float>(birge);
   }
   fit->cluster_r = s.cluster_r;
   fit->lamp = lamp;
@@ -625,7 +642,7 @@ void RunFit(const TexelData& data, Pass& s, const TexelFit* start, const MapsLam
 
 TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<int>& clusters,
                    int k, const MapsLamp& lamp, const NoiseModel& noise, const TexelFit* start,
-                   const TexelSolveOptions& o) {
+                   const TexelSolveOptions& o, const std::vector<uint8_t>& edge) {
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
   TexelFit fit;
@@ -650,6 +667,8 @@ TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<
   s.cluster = use_clusters ? &clusters : &one;
   fit.clusters = use_clusters ? k : 1;
   fit.cluster = *s.cluster;
+  fit.edge = edge;
+  s.edge = &fit.edge;
   const int n_r = fit.clusters;
   s.cluster_r.assign(n_r, s.info.roughness_start);
   if (start && static_cast<int>(start->cluster_r.size()) == n_r &&
@@ -696,7 +715,7 @@ NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floo
       if (vs.valid.empty()) continue;
       const std::vector<float> pred = PredictView(data, fit, v);
       for (size_t t = 0; t < data.grid.size(); ++t) {
-        if (!vs.valid[t] || !fit.fitted[t]) continue;
+        if (!vs.valid[t] || !fit.fitted[t] || (!fit.edge.empty() && fit.edge[t])) continue;
         for (int c = 0; c < C; ++c) {
           const size_t i = t * C + c;
           if (!(pred[i] > 0)) continue;
@@ -753,6 +772,7 @@ Pass PassOf(const TexelData& data, const TexelFit& fit, const TexelSolveOptions&
   s.inv_slope_var = 1.0 / std::pow(std::tan(DegToRad(o.normal_prior_deg)), 2);
   s.inv_r_var = 1.0 / (o.roughness_prior * o.roughness_prior);
   s.cluster = &fit.cluster;
+  s.edge = &fit.edge;
   s.cluster_r = fit.cluster_r;
   SetLamp(data, fit.lamp, &s);
   return s;

@@ -65,8 +65,8 @@ struct TexelSolveOptions {
   double roughness_prior = 0.25;  // per-texel roughness prior sd (the model's unit)
   double huber_k = 3;
   int max_texel_iterations = 12;
-  int outer_iterations = 4;  // shared-parameter updates per fit
-  size_t min_views = 4;      // a texel seen in fewer views is not fitted
+  int outer_iterations = 12;  // shared-parameter updates per fit
+  size_t min_views = 4;       // a texel seen in fewer views is not fitted
   int threads = 0;
   void Check() const;  // InputError naming the option
 };
@@ -81,14 +81,21 @@ struct TexelFit {
   std::vector<uint8_t> fitted;
   std::vector<int> cluster;  // per texel (0 .. clusters-1), -1 where not fitted
   int clusters = 1;
+  // Per texel (empty: none): 1 where the texel's samples mix two materials (MaterialEdges).
+  // Such a texel is solved given the shared values but enters neither their system, the
+  // noise model, chi2 nor the BIC; its standard deviations are scaled by the square root of
+  // its own chi2 per degree of freedom where that exceeds 1.
+  std::vector<uint8_t> edge;
   std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters
   // Standard deviations: per channel parameter, of the normal's direction (RMS angle, deg),
   // of the roughness.
   std::vector<float> sd_w, sd_normal_deg, sd_r;
   MapsLamp lamp;
   NoiseModel noise;
-  double chi2 = 0;  // sum of the robust loss of the residuals (z^2 inside 3 sigma)
+  double chi2 = 0;  // sum of the robust loss of the residuals (z^2 inside 3 sigma), no edge
   size_t residuals = 0, parameters = 0;
+  double edge_chi2 = 0;  // the same over the edge texels
+  size_t edge_residuals = 0, edge_texels = 0;
   double bic = 0;  // chi2 + parameters ln(residuals)
   int outer_iterations = 0;
   double seconds = 0;
@@ -97,13 +104,14 @@ struct TexelFit {
 // The fit of every texel in `mode` (kClusters: `clusters` per texel in [0, k)), from `start`
 // (its per-texel values and lamp) when given, else from a flat sample at the model's start
 // roughness and the given lamp. The shared parameters are updated `outer_iterations` times.
+// edge: per texel (empty: none), the texels whose samples mix materials (TexelFit::edge).
 TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<int>& clusters,
                    int k, const MapsLamp& lamp, const NoiseModel& noise, const TexelFit* start,
-                   const TexelSolveOptions& options);
+                   const TexelSolveOptions& options, const std::vector<uint8_t>& edge = {});
 
 // The noise model fitted to the fit's residuals (per channel, read and shot scales by
 // weighted least squares on the squared residuals, corrected for the parameters each texel
-// fits; residuals beyond 4 sigma left out).
+// fits; residuals beyond 4 sigma and the fit's edge texels left out).
 NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floor,
                          const TexelSolveOptions& options);
 

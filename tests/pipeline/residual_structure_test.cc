@@ -9,6 +9,7 @@
 #include "common/math.h"
 #include "pipeline/checks.h"
 #include "pipeline/residual_structure.h"
+#include "pipeline/run.h"
 #include "tests/estimation/synthetic_observations.h"
 
 namespace gonio {
@@ -140,6 +141,21 @@ TEST(RunWarnings, TouchedResultsListEachCauseOnce) {
   EXPECT_EQ(t["light"], nlohmann::json({"residual-view"}));
   EXPECT_FALSE(t.contains("frame"));
   EXPECT_EQ(w[0].ToJson()["cause"], "at-bound");
+}
+
+// `gonio run --maps`: the maps' warnings become run warnings touching the maps, the frames the
+// run already names skipped are not repeated.
+TEST(RunWarnings, MapsWarningsAreRunWarnings) {
+  std::vector<RunWarning> w = {{WarningCause::kFrameSkipped, "frame a.png skipped: no tags", {}}};
+  MapsResult maps;
+  maps.warnings = {"frame a.png skipped: no tags", "the maps do not explain the views: ..."};
+  AddMapsWarnings(maps, &w);
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_EQ(w[1].cause, WarningCause::kMaps);
+  EXPECT_EQ(w[1].message, maps.warnings[1]);
+  EXPECT_EQ(w[1].touches, std::vector<std::string>{"maps"});
+  EXPECT_EQ(w[1].ToJson()["cause"], "maps");
+  EXPECT_EQ(TouchedResults(w)["maps"], nlohmann::json({"maps"}));
 }
 
 }  // namespace

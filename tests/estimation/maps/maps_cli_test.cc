@@ -71,11 +71,13 @@ TEST(MapsCli, TexturedSessionOneMaterial) {
   EXPECT_TRUE(fs::exists(out / "views" / "00_frame_0000_residual.tiff"));
 }
 
-// Three materials: right, or a warning that says the maps are not a measurement. Measured
-// 2026-12-01: the three clusters are found (agreement 1.000) but chi2/n is 3.8 and the maps are
-// off (albedo 5.3% RMS, z 7.9; normal 2.8 deg; roughness 3.3 deg, z 33), so the warning must be
-// there; the accuracy targets are asserted once no warning is given (an open defect of issue 27).
-TEST(MapsCli, ThreeMaterialsGetOneRoughnessEachOrAreWarned) {
+// Three materials (oren-nayar, sigma 15, 30 and 45 deg in Voronoi cells of about 25 mm): each
+// cluster gets its own roughness, the lamp is placed with them, and the texels whose samples
+// mix two materials (edges.png) are left out of the shared values and carry their misfit in
+// their standard deviations. Measured 2026-12-02: albedo 0.80% RMS (z 1.05), normal 1.14 deg
+// (z 1.02), roughness 0.30 deg (z 1.74) over the texels inside the materials; chi2/n 0.86;
+// 2169 of 7569 texels on edges, 1339 of them outside the truth's 1 mm band (albedo 1.9%, z 1.33).
+TEST(MapsCli, ThreeMaterialsGetOneRoughnessEach) {
   TempDir dir;
   const fs::path session = RenderSession(dir, "textured-3mat", "session");
   const fs::path out = dir.path() / "maps";
@@ -87,19 +89,19 @@ TEST(MapsCli, ThreeMaterialsGetOneRoughnessEachOrAreWarned) {
   std::printf("%s\n%s\n", r.out.c_str(), c.Report().c_str());
   const nlohmann::json maps = ReadJsonFile(out / "maps.json");
   EXPECT_EQ(maps["roughness"]["mode"], "one per material cluster");
+  EXPECT_EQ(maps["warnings"].size(), 0u) << maps["warnings"].dump();
   EXPECT_EQ(c.materials_found, 3);
   EXPECT_GT(c.material_agreement, 0.97);
-  bool warned = false;
-  for (const auto& w : maps["warnings"]) {
-    warned |= w.get<std::string>().find("do not explain the views") != std::string::npos;
-  }
-  if (warned) {
-    EXPECT_NE(r.err.find("do not explain the views"), std::string::npos) << r.err;
-  } else {
-    EXPECT_LT(c.albedo_rel_rms, 0.01);
-    EXPECT_LT(c.normal_rms_deg, 2.0);
-    EXPECT_LT(c.roughness_rms_deg, 1.0);
-  }
+  EXPECT_LT(c.albedo_rel_rms, 0.01);
+  EXPECT_LT(c.normal_rms_deg, 1.5);
+  EXPECT_LT(c.roughness_rms_deg, 0.6);
+  EXPECT_GT(c.albedo_rms_z, 0.6);
+  EXPECT_LT(c.albedo_rms_z, 1.6);
+  EXPECT_GT(c.normal_rms_z, 0.6);
+  EXPECT_LT(c.normal_rms_z, 1.6);
+  // Edges: a band of about the samples' reach each side (2.8 mm here), not the sample.
+  EXPECT_LT(c.edge, c.interior / 2);
+  EXPECT_LT(c.edge_albedo_rms_z, 1.6);  // their scaled standard deviations hold their error
 }
 
 // MaterialGAN's rectified layout rendered from the textured sample under a flash beside the
@@ -137,7 +139,15 @@ TEST(MapsCli, RunWithMapsAndExportTextures) {
                           out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ASSERT_TRUE(fs::exists(out / "maps" / "maps.json"));
-  EXPECT_TRUE(fs::exists(out / "fit.json"));
+  ASSERT_TRUE(fs::exists(out / "fit.json"));
+  // The maps' warnings are the run's (cause "maps"), before its results on the console.
+  const nlohmann::json maps_warnings = ReadJsonFile(out / "maps" / "maps.json")["warnings"];
+  const nlohmann::json run_warnings = ReadJsonFile(out / "fit.json")["checks"]["warnings"];
+  for (const auto& w : maps_warnings) {
+    bool lifted = false;
+    for (const auto& rw : run_warnings) lifted |= rw["message"] == w;
+    EXPECT_TRUE(lifted) << w;
+  }
   for (const std::string& format : {"blender", "materialx", "mitsuba"}) {
     const fs::path file = dir.path() / ("export." + format);
     const auto e = RunGonio("export --maps " + (out / "maps").string() + " --format " + format +
