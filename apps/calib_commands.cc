@@ -15,7 +15,6 @@
 #include "calib/geometry/locate.h"
 #include "common/error.h"
 #include "common/io.h"
-#include "common/log.h"
 
 namespace fs = std::filesystem;
 
@@ -62,30 +61,15 @@ void RunDetect(const DetectArgs& a) {
   inputs.push_back(a.board);
   if (!a.corners_vnl.empty()) CheckOutputIsNotInput(a.corners_vnl, inputs);
   if (!a.json_out.empty()) CheckOutputIsNotInput(a.json_out, inputs);
-  nlohmann::json result;
-  std::vector<BoardObservation> observations;
-  for (const auto& image : a.images) {
-    BoardObservation obs;
-    const cv::Mat grey = ReadGreyImage(image);
-    nlohmann::json j = DetectionJson(grey, image, args.detector, board ? &*board : nullptr, &obs);
-    if (board && !board->is_chessboard()) {
-      spdlog::info("{}: {} board tags found ({} not on the board)", image, obs.tag_ids.size(),
-                   obs.foreign_tag_ids.size());
-    }
-    observations.push_back(obs);
-    if (a.images.size() == 1) {
-      result = j;
-    } else {
-      result.push_back({{"image", image}, {"detections", j}});
-    }
+  const ImagesDetection d = DetectImages(a.images, args.detector, board ? &*board : nullptr);
+  if (!a.corners_vnl.empty()) {
+    WriteTextAtomically(a.corners_vnl, ToCornersVnl(*board, d.observations));
   }
-  if (!a.corners_vnl.empty())
-    WriteTextAtomically(a.corners_vnl, ToCornersVnl(*board, observations));
   if (a.json_out.empty()) {
-    PrintJson(result);
+    PrintJson(d.json);
   } else {
     WriteTextAtomically(
-        a.json_out, result.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+        a.json_out, d.json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
 }
 

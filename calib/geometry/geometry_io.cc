@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "common/error.h"
 #include "common/io.h"
@@ -116,6 +117,27 @@ nlohmann::json DetectionJson(const cv::Mat& grey, const std::string& image,
   }
   if (board) *obs = DetectBoard(grey, *board, opt, image);
   return out;
+}
+
+ImagesDetection DetectImages(const std::vector<std::string>& images,
+                             const AprilTagOptions& detector, const Board* board) {
+  ImagesDetection d;
+  for (const auto& image : images) {
+    BoardObservation obs;
+    const cv::Mat grey = ReadGreyImage(image);
+    nlohmann::json j = DetectionJson(grey, image, detector, board, &obs);
+    if (board && !board->is_chessboard()) {
+      spdlog::info("{}: {} board tags found ({} not on the board)", image, obs.tag_ids.size(),
+                   obs.foreign_tag_ids.size());
+    }
+    d.observations.push_back(obs);
+    if (images.size() == 1) {
+      d.json = j;
+    } else {
+      d.json.push_back({{"image", image}, {"detections", j}});
+    }
+  }
+  return d;
 }
 
 Board ReadSessionBoard(const fs::path& session_dir, const std::string& board_path) {

@@ -49,6 +49,15 @@ nlohmann::json DetectionJson(const cv::Mat& grey, const std::string& image,
                              const AprilTagOptions& detector, const Board* board,
                              BoardObservation* obs);
 
+// `gonio detect` over images: the JSON of one image (DetectionJson) or, for several, a list
+// of {"image", "detections"}, and every image's board detection (empty without `board`).
+struct ImagesDetection {
+  nlohmann::json json;
+  std::vector<BoardObservation> observations;
+};
+ImagesDetection DetectImages(const std::vector<std::string>& images,
+                             const AprilTagOptions& detector, const Board* board);
+
 // `board_path` when not empty, else the board file session.json names (relative to the
 // session folder). InputError when the session names none.
 Board ReadSessionBoard(const std::filesystem::path& session_dir, const std::string& board_path);
