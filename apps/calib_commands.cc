@@ -1,6 +1,4 @@
 // gonio detect / calibrate / locate: targets, geometric calibration, board pose per frame.
-#include <glob.h>
-
 #include <algorithm>
 #include <iostream>
 #include <optional>
@@ -13,10 +11,10 @@
 #include "apps/commands.h"
 #include "calib/geometry/calibrate.h"
 #include "calib/geometry/detect.h"
+#include "calib/geometry/geometry_io.h"
 #include "calib/geometry/locate.h"
 #include "common/error.h"
 #include "common/io.h"
-#include "common/log.h"
 
 namespace fs = std::filesystem;
 
@@ -41,55 +39,12 @@ void AddDetectorOptions(CLI::App* cmd, AprilTagOptions* opt) {
       ->capture_default_str();
 }
 
-std::vector<std::string> ExpandGlob(const std::string& pattern) {
-  glob_t g{};
-  std::vector<std::string> files;
-  if (glob(pattern.c_str(), 0, nullptr, &g) == 0) {
-    for (size_t i = 0; i < g.gl_pathc; ++i) files.emplace_back(g.gl_pathv[i]);
-  }
-  globfree(&g);
-  if (files.empty()) throw InputError("--images '" + pattern + "': no file matches");
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
-nlohmann::json Pixel(const Eigen::Vector2d& p) { return {p.x(), p.y()}; }
-
 // ---------------------------------------------------------------------------------------
 struct DetectArgs {
   std::vector<std::string> images;
   std::string board, family, json_out, corners_vnl;
   AprilTagOptions detector;
 };
-
-nlohmann::json DetectOne(const cv::Mat& grey, const std::string& image, const DetectArgs& a,
-                         const Board* board, BoardObservation* obs) {
-  if (board && board->is_chessboard()) {
-    *obs = DetectBoard(grey, *board, a.detector, image);
-    if (obs->pixels.empty()) {
-      throw InputError(fmt::format("{}: no {}x{} chessboard found", image, board->inner_columns(),
-                                   board->inner_rows()));
-    }
-    nlohmann::json corners = nlohmann::json::array();
-    for (const auto& p : obs->pixels) corners.push_back(Pixel(p));
-    return {{"inner_corners", {board->inner_columns(), board->inner_rows()}}, {"corners", corners}};
-  }
-  AprilTagOptions opt = a.detector;
-  if (board) opt.family = board->family();
-  const auto tags = DetectAprilTags(grey, opt);
-  if (tags.empty()) throw InputError(image + ": no " + opt.family + " tags found");
-  nlohmann::json out = nlohmann::json::array();
-  for (const auto& t : tags) {
-    nlohmann::json corners = nlohmann::json::array();
-    for (const auto& c : t.corners) corners.push_back(Pixel(c));
-    out.push_back({{"id", t.id},
-                   {"corners", corners},
-                   {"decision_margin", t.decision_margin},
-                   {"hamming", t.hamming}});
-  }
-  if (board) *obs = DetectBoard(grey, *board, opt, image);
-  return out;
-}
 
 void RunDetect(const DetectArgs& a) {
   a.detector.Check();
@@ -106,30 +61,15 @@ void RunDetect(const DetectArgs& a) {
   inputs.push_back(a.board);
   if (!a.corners_vnl.empty()) CheckOutputIsNotInput(a.corners_vnl, inputs);
   if (!a.json_out.empty()) CheckOutputIsNotInput(a.json_out, inputs);
-  nlohmann::json result;
-  std::vector<BoardObservation> observations;
-  for (const auto& image : a.images) {
-    BoardObservation obs;
-    const cv::Mat grey = ReadGreyImage(image);
-    nlohmann::json j = DetectOne(grey, image, args, board ? &*board : nullptr, &obs);
-    if (board && !board->is_chessboard()) {
-      spdlog::info("{}: {} board tags found ({} not on the board)", image, obs.tag_ids.size(),
-                   obs.foreign_tag_ids.size());
-    }
-    observations.push_back(obs);
-    if (a.images.size() == 1) {
-      result = j;
-    } else {
-      result.push_back({{"image", image}, {"detections", j}});
-    }
+  const ImagesDetection d = DetectImages(a.images, args.detector, board ? &*board : nullptr);
+  if (!a.corners_vnl.empty()) {
+    WriteTextAtomically(a.corners_vnl, ToCornersVnl(*board, d.observations));
   }
-  if (!a.corners_vnl.empty())
-    WriteTextAtomically(a.corners_vnl, ToCornersVnl(*board, observations));
   if (a.json_out.empty()) {
-    PrintJson(result);
+    PrintJson(d.json);
   } else {
     WriteTextAtomically(
-        a.json_out, result.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+        a.json_out, d.json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
 }
 
@@ -156,53 +96,18 @@ void RunCalibrate(const CalibrateArgs& a) {
     throw InputError("calibrate: give exactly one of --images GLOB and --corners corners.vnl");
   }
   const Board board = Board::Read(a.board);
-  std::vector<BoardObservation> views;
-  int width = 0, height = 0;
   CheckOutputIsNotInput(a.out, {a.board, a.corners});
   if (!a.report_json.empty()) CheckOutputIsNotInput(a.report_json, {a.board, a.corners, a.out});
+  CalibrationViews v;
   if (!a.images.empty()) {
-    std::vector<std::string> files;
-    for (const auto& pattern : a.images) {
-      for (auto& f : ExpandGlob(pattern)) files.push_back(f);
-    }
+    const std::vector<std::string> files = ExpandImageGlobs(a.images);
     CheckOutputIsNotInput(a.out, files);
-    Progress progress("detect", files.size());
-    for (const auto& f : files) {
-      const cv::Mat grey = ReadGreyImage(f);
-      if (width == 0) {
-        width = grey.cols;
-        height = grey.rows;
-      } else if (grey.cols != width || grey.rows != height) {
-        throw InputError(fmt::format("{}: image is {}x{}, the first image is {}x{}", f, grey.cols,
-                                     grey.rows, width, height));
-      }
-      views.push_back(DetectBoard(grey, board, a.detector, f));
-      progress.Step();
-    }
-    progress.Done();
+    v = DetectCalibrationViews(files, board, a.detector);
   } else {
-    views = ReadCornersVnl(a.corners, board);
-    if (a.imagersize.size() == 2) {
-      width = a.imagersize[0];
-      height = a.imagersize[1];
-    } else {
-      // mrcal's convention: image names are relative to the corners file's folder.
-      fs::path first = views.front().image;
-      if (!fs::exists(first)) first = fs::path(a.corners).parent_path() / first;
-      if (!fs::exists(first)) {
-        throw InputError(a.corners + ": images not found next to it; give --imagersize W H");
-      }
-      const cv::Mat grey = ReadGreyImage(first);
-      width = grey.cols;
-      height = grey.rows;
-    }
+    v = ReadCalibrationCorners(a.corners, board, a.imagersize);
   }
-  const CalibrationResult result = Calibrate(board, views, width, height, options);
-  if (result.solver == "mrcal") {
-    WriteTextAtomically(a.out, CameraModel::CalibrationRmsLine(result.rms_px) + result.model_text);
-  } else {
-    result.camera.Write(a.out, "cv::calibrateCamera, RMS " + std::to_string(result.rms_px) + " px");
-  }
+  const CalibrationResult result = Calibrate(board, v.views, v.width, v.height, options);
+  WriteCalibratedModel(result, a.out);
   for (const auto& line : {result.Report()}) std::cerr << line;
   nlohmann::json j = result.ToJson();
   j["model"] = a.out;
@@ -221,15 +126,7 @@ void RunLocate(const LocateArgs& a) {
   CheckOutputIsNotInput(a.out,
                         {(fs::path(a.session) / "session.json").string(), a.camera, a.board});
   const CameraModel camera = CameraModel::Read(a.camera);
-  std::string board_path = a.board;
-  if (board_path.empty()) {
-    const nlohmann::json session = ReadJsonFile(fs::path(a.session) / "session.json");
-    if (!session.contains("board") || !session["board"].is_string()) {
-      throw InputError(a.session + "/session.json: no 'board'; give --board BOARD.json");
-    }
-    board_path = (fs::path(a.session) / session["board"].get<std::string>()).string();
-  }
-  const Board board = Board::Read(board_path);
+  const Board board = ReadSessionBoard(a.session, a.board);
   const SessionPoses poses = LocateSession(a.session, camera, board, a.options);
   if (poses.frames.empty()) {
     throw InputError(fmt::format("{}: no frame gave a board pose (first reason: {})", a.session,
@@ -242,10 +139,7 @@ void RunLocate(const LocateArgs& a) {
         "{:.1f} px): {}",
         ReprojectionCheck::LimitPx(camera), fmt::join(off, ", "));
   }
-  nlohmann::json j = poses.ToJson();
-  j["camera"] = a.camera;
-  j["board"] = board.ToJson();
-  WriteJsonAtomically(a.out, j);
+  WriteSessionPoses(poses, a.camera, board, a.out);
   double worst_rms = 0;
   for (const auto& f : poses.frames) worst_rms = std::max(worst_rms, f.pose.rms_px);
   spdlog::info("locate: {} frames posed, {} skipped, worst frame RMS {:.3f} px -> {}",

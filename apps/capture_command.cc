@@ -1,7 +1,6 @@
 // gonio capture: list cameras, take exposure brackets from a V4L2 or libcamera camera, or
 // import photos or a video, into a session folder (docs/formats.md, docs/capture.md).
 #include <algorithm>
-#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -13,15 +12,15 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
-#include "calib/photometry/photometric.h"
 #include "capture/bracket.h"
+#include "capture/cameras.h"
 #include "capture/file_sources.h"
 #include "capture/libcamera_source.h"
 #include "capture/raw_file.h"
 #include "capture/session_writer.h"
-#include "capture/v4l2_source.h"
 #include "common/error.h"
 #include "common/log.h"
+#include "pipeline/photometric_run.h"
 
 namespace fs = std::filesystem;
 
@@ -37,31 +36,6 @@ struct CaptureArgs {
   bool interactive = false;
   std::string from_folder, exposures_from, from_video, board, out;
 };
-
-nlohmann::json ListDevices() {
-  nlohmann::json devices = nlohmann::json::array();
-  nlohmann::json skipped = nlohmann::json::array();
-  for (const std::string& node : ListVideoNodes()) {
-    try {
-      const V4l2DeviceInfo info = QueryV4l2Device(node);
-      if (info.is_capture) {
-        devices.push_back(info.ToJson());
-      } else {
-        skipped.push_back({{"device", node}, {"reason", info.not_capture_reason}});
-      }
-    } catch (const InputError& e) {
-      skipped.push_back({{"device", node}, {"reason", e.what()}});
-    }
-  }
-  if (HaveLibcamera()) {
-    try {
-      for (const auto& camera : ListLibcameraCameras()) devices.push_back(camera);
-    } catch (const InputError& e) {
-      spdlog::warn("{}", e.what());
-    }
-  }
-  return {{"devices", devices}, {"skipped", skipped}, {"libcamera", HaveLibcamera()}};
-}
 
 bool HaveDisplay() {
   for (const char* var : {"DISPLAY", "WAYLAND_DISPLAY"}) {
@@ -122,26 +96,14 @@ void RunFromCamera(const CaptureArgs& args) {
   options.brackets = args.frames;
   if (!args.gain.empty()) options.gain = ParseNumber(args.gain, "--gain");
   options.Check();
-  const FormatRequest format = ParseFormatRequest(args.format);
-
-  std::unique_ptr<FrameSource> source;
-  if (args.backend == "v4l2") {
-    V4l2Source::Options o;
-    o.device = args.device;
-    o.format = format;
-    o.buffers = args.buffers;
-    o.longest_exposure_s =
-        *std::max_element(options.exposures_s.begin(), options.exposures_s.end());
-    source = std::make_unique<V4l2Source>(o);
-  } else if (args.backend == "libcamera") {
-    LibcameraSource::Options o;
-    o.camera = args.device;
-    o.format = format;
-    o.buffers = args.buffers;
-    source = std::make_unique<LibcameraSource>(o);
-  } else {
-    throw InputError("--backend: '" + args.backend + "' is not v4l2 or libcamera");
-  }
+  CameraRequest request;
+  request.format = ParseFormatRequest(args.format);
+  request.backend = ParseCaptureBackend(args.backend);
+  request.device = args.device;
+  request.buffers = args.buffers;
+  request.longest_exposure_s =
+      *std::max_element(options.exposures_s.begin(), options.exposures_s.end());
+  const std::unique_ptr<FrameSource> source = OpenCamera(request);
   SessionWriter writer(args.out, source->Id(), source->GainUnit(), args.board);
   const BeforeBracket wait = args.interactive ? Interactive(*source, options) : BeforeBracket();
   CaptureBrackets(*source, options, writer, wait);
@@ -152,114 +114,20 @@ void RunFromCamera(const CaptureArgs& args) {
   Summarize(writer);
 }
 
-// What a photo says about its exposure: LibRaw's metadata for RAW files, EXIF otherwise.
-ExifExposure PhotoExposure(const Photo& photo) {
-  if (!photo.raw) return ReadExif(photo.file);
-  const RawMetadata raw = ReadRawMetadata(photo.file);
-  ExifExposure e;
-  e.exposure_s = raw.exposure_s;
-  e.iso = raw.iso;
-  e.time_s = raw.time_s;
-  e.model = raw.make.empty() ? raw.model : raw.make + " " + raw.model;
-  return e;
-}
-
-// RAW frames are linear and use the whole 16-bit range, so they need no response curve; a
-// folder mixing them with JPEGs (tone-mapped) would need one for some frames and not others.
-bool AllRaw(const std::vector<Photo>& photos, const fs::path& dir) {
-  const auto raws =
-      std::count_if(photos.begin(), photos.end(), [](const Photo& p) { return p.raw; });
-  if (raws != 0 && raws != static_cast<long>(photos.size())) {
-    throw InputError(dir.string() +
-                     ": mixes RAW files with other photos; import them as separate sessions");
-  }
-  return raws > 0;
-}
-
-// The photometric calibration of a RAW session: linear, black level 0 (already subtracted),
-// saturated at 65535. Read noise: one raw DN plus the raw quantization, in the 16-bit units
-// the frames were scaled to (the sensor's true read noise is not in the file).
-void WriteRawPhotometric(const fs::path& first_raw, const fs::path& session_dir) {
-  const RawMetadata m = ReadRawMetadata(first_raw);
-  PhotometricCalibration p =
-      PhotometricCalibration::Linear(16, m.channels, 0.0, BlackLevelSource::kRawMetadata);
-  p.read_noise_dn = 65535.0 / (m.white_level - m.black_level) * std::sqrt(1.0 + 1.0 / 12.0);
-  p.Write(session_dir / "photometric.json");
-}
-
-// The photos of --exposures-from EXIF: every image or RAW file of the folder, each with its
-// own exposure; `model` gets the first photo's camera.
-std::vector<FolderFrame> FramesFromExif(const fs::path& dir, std::string* gain_unit,
-                                        std::string* model) {
-  const auto photos = ListImages(dir);
-  if (photos.empty()) {
-    throw InputError(dir.string() +
-                     ": holds no .jpg, .png, .tif or camera RAW file (any file LibRaw reads)");
-  }
-  AllRaw(photos, dir);
-  std::vector<ExifExposure> exif;
-  for (const auto& photo : photos) {
-    exif.push_back(PhotoExposure(photo));
-    if (!exif.back().exposure_s) {
-      throw InputError(photo.file.string() +
-                       ": has no EXIF ExposureTime (give --exposures-from LIST.txt)");
-    }
-  }
-  // ISO becomes the gain only when every photo states it; otherwise gains are unknown and
-  // taken as equal.
-  const bool all_iso = std::all_of(exif.begin(), exif.end(),
-                                   [](const ExifExposure& e) { return e.iso.has_value(); });
-  if (all_iso) *gain_unit = Session::kGainIso100;
-  const bool all_time = std::all_of(exif.begin(), exif.end(),
-                                    [](const ExifExposure& e) { return e.time_s.has_value(); });
-  std::vector<FolderFrame> frames;
-  for (size_t i = 0; i < photos.size(); ++i) {
-    frames.push_back({photos[i].file, *exif[i].exposure_s, all_iso ? *exif[i].iso / 100.0 : 1.0,
-                      all_time ? *exif[i].time_s : 0.0, photos[i].raw});
-  }
-  *model = exif.front().model;
-  return frames;
-}
-
-// The photos of an exposure list, each classified as an image or a RAW file.
-std::vector<FolderFrame> FramesFromList(const fs::path& dir, const std::string& list_arg) {
-  fs::path list = list_arg;
-  if (!fs::exists(list) && fs::exists(dir / list)) list = dir / list;
-  std::vector<FolderFrame> frames;
-  for (const auto& e : ReadExposureList(list, dir)) {
-    const auto photo = ClassifyPhoto(e.file);
-    if (!photo) {
-      throw InputError(list.string() + ": " + e.file.string() +
-                       " is neither an image (.jpg .png .tif) nor a camera RAW file LibRaw "
-                       "reads");
-    }
-    frames.push_back({e.file, e.exposure_s, 1.0, 0.0, photo->raw});
-  }
-  return frames;
-}
-
 void RunFromFolder(const CaptureArgs& args) {
   if (args.exposures_from.empty()) {
     throw InputError("--from-folder needs --exposures-from EXIF or --exposures-from LIST.txt");
   }
-  const fs::path dir = args.from_folder;
-  if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a folder");
-  std::string gain_unit = Session::kGainAnalogue;
-  std::string model;
-  const std::vector<FolderFrame> frames =
-      args.exposures_from == "EXIF" || args.exposures_from == "exif"
-          ? FramesFromExif(dir, &gain_unit, &model)
-          : FramesFromList(dir, args.exposures_from);
-  std::vector<Photo> photos;
-  for (const auto& f : frames) photos.push_back({f.file, f.raw});
-  const bool raw = AllRaw(photos, dir);
-  const std::string id = std::string(raw ? "raw:" : "folder:") +
-                         (model.empty() ? fs::absolute(dir).filename().string() : model);
-  FolderSource source(id, gain_unit, frames);
+  const FolderImport in = PlanFolderImport(args.from_folder, args.exposures_from);
+  FolderSource source(in.id, in.gain_unit, in.frames);
   SessionWriter writer(args.out, source.Id(), source.GainUnit(), args.board);
-  if (raw) writer.SetBitDepth(16);
-  CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size, frames.size());
-  if (raw) WriteRawPhotometric(frames.front().file, writer.work_dir());
+  if (in.raw) writer.SetBitDepth(16);
+  CopyFrames(source, writer, args.bracket_size < 0 ? 1 : args.bracket_size, in.frames.size());
+  if (in.raw) {
+    const RawMetadata m = ReadRawMetadata(in.frames.front().file);
+    RawFramesCalibration(m.channels, m.white_level, m.black_level)
+        .Write(writer.work_dir() / "photometric.json");
+  }
   writer.Commit();
   Summarize(writer);
 }
@@ -286,7 +154,7 @@ void Run(const CaptureArgs& args) {
         "--from-video");
   }
   if (args.list_devices) {
-    const nlohmann::json list = ListDevices();
+    const nlohmann::json list = ListCameras();
     PrintJson(list);
     if (list["devices"].empty()) {
       std::cerr << "gonio: no camera found (no V4L2 capture node under /dev/video*"

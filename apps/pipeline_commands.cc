@@ -1,15 +1,12 @@
 // gonio extract / fit / run / demo: from photographs to material.
-#include <chrono>
 #include <filesystem>
 #include <iostream>
-#include <sstream>
 
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
-#include "calib/photometry/vignette.h"
+#include "apps/fit_args.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "estimation/extract/extract.h"
@@ -17,6 +14,7 @@
 #include "pipeline/demo.h"
 #include "pipeline/plan.h"
 #include "pipeline/run.h"
+#include "pipeline/steps.h"
 
 namespace fs = std::filesystem;
 
@@ -35,118 +33,20 @@ void RunExtract(const ExtractArgs& a) {
   ExtractOptions o;
   o.patch = a.patch;
   o.threads = a.threads;
-  const Session session = ReadSession(a.session);
-  const Board board =
-      Board::Read(a.board.empty() ? (fs::path(a.session) / "board.json").string() : a.board);
-  std::map<std::string, Rigid3d> poses;
-  for (const auto& [file, pose] : ReadPoses(a.poses)) poses[file] = pose;
-  RunInputs in;  // the photometric calibration found the way `gonio run` finds it
-  const PhotometricCalibration photometric =
-      LoadPhotometricFor(session, a.photometric, a.assume_linear, &in);
-  ObservationSet set =
-      ExtractObservations(a.session, CameraModel::Read(a.camera), board, poses, photometric, o);
-  set.assumptions = in.assumptions;  // e.g. --assume-linear, carried to gonio fit
+  const ObservationSet set = ExtractSessionObservations(
+      {a.session, a.camera, a.photometric, a.poses, a.board, a.assume_linear}, o);
   WriteObservations(a.out, set);
   std::cout << fmt::format("{} observations -> {}\n", set.observations.size(), a.out);
-}
-
-// The joint-fit options `gonio fit` and `gonio run` share: one set of flags, one mapping.
-struct FitArgs {
-  std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
-  std::string robust = "huber", white_albedo, noise_floor, ambient = "auto", sample_height = "auto";
-  bool grey = false, fit_sample_height = false;
-  int threads = 0;
-};
-
-void AddFitArgs(CLI::App* cmd, FitArgs* a) {
-  cmd->add_option("--models", a->models,
-                  "auto (staged search), all (every candidate), or a comma-separated list")
-      ->capture_default_str();
-  cmd->add_option("--criterion", a->criterion, "bic, aic or cv")->capture_default_str();
-  cmd->add_option("--light-frame", a->light_frame, "board (camera moves) or camera (board moves)")
-      ->capture_default_str();
-  cmd->add_option("--light-init", a->light_init, "X,Y,Z start in the light frame, metres");
-  cmd->add_option("--white-albedo", a->white_albedo, "Known albedo of the white reference");
-  cmd->add_flag("--grey", a->grey, "One albedo for all channels");
-  cmd->add_option("--noise-floor", a->noise_floor,
-                  "Relative calibration uncertainty in each radiance, e.g. 0.01 (default: "
-                  "photometric.json's relative_accuracy for run, else 0.01)");
-  cmd->add_option("--sample-height", a->sample_height,
-                  "A correction to board.json's sample_height_m: none, fit, or auto (fitted "
-                  "when the criterion says the data need it); docs/pipeline.md")
-      ->capture_default_str();
-  cmd->add_flag("--fit-sample-height", a->fit_sample_height, "The same as --sample-height fit");
-  cmd->add_option("--robust", a->robust, "none, huber or cauchy")->capture_default_str();
-  cmd->add_option("--ambient", a->ambient,
-                  "The room's light when the session has no lamp-off frames: none, fit (a "
-                  "constant per channel on the sample and on the white reference) or auto "
-                  "(fitted when the criterion says the data need it; lamp-off frames are "
-                  "better); docs/pipeline.md")
-      ->capture_default_str();
-  cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
-}
-
-JointFitOptions ToJointFitOptions(const FitArgs& a) {
-  JointFitOptions o;
-  o.exhaustive = a.models == "all";
-  if (a.models != "auto" && a.models != "all") o.candidates = SplitComma(a.models);
-  if (a.models != "auto" && a.models != "all" && o.candidates.empty()) {
-    throw InputError("--models: empty list (give auto or comma-separated model names)");
-  }
-  o.criterion = ParseCriterion(a.criterion, "--criterion");
-  o.light_frame = ParseLightFrame(a.light_frame, "--light-frame");
-  if (!a.light_init.empty()) o.light_init = ParseVector3(a.light_init, "--light-init");
-  if (!a.white_albedo.empty()) {
-    const double w = ParseNumber(a.white_albedo, "--white-albedo");
-    if (!(w > 0 && w <= 1)) {
-      throw InputError("--white-albedo: " + a.white_albedo + " is not an albedo in (0, 1]");
-    }
-    o.white_albedo = w;
-  }
-  if (!a.noise_floor.empty()) {
-    const double f = ParseNumber(a.noise_floor, "--noise-floor");
-    if (!(f >= 0 && f < 1)) {
-      throw InputError("--noise-floor: " + a.noise_floor + " is not a fraction in [0, 1)");
-    }
-    o.relative_noise_floor = f;
-  }
-  o.per_channel = !a.grey;
-  o.sample_height = ParseNuisanceTerm(a.sample_height, "--sample-height");
-  if (a.fit_sample_height) {
-    if (a.sample_height != "auto" && a.sample_height != "fit") {
-      throw InputError("--fit-sample-height contradicts --sample-height " + a.sample_height);
-    }
-    o.sample_height = NuisanceTerm::kFit;
-  }
-  o.robust_loss = ParseRobustLoss(a.robust, "--robust");
-  o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
-  o.threads = a.threads;
-  o.Check();
-  return o;
 }
 
 void RunFit(const FitArgs& a, const std::string& observations, const std::string& out) {
   const JointFitOptions o = ToJointFitOptions(a);
   const std::vector<std::string> files = SplitComma(observations);
   CheckOutputIsNotInput(out, files);
-  std::vector<ObservationSet> sets;
-  for (const auto& f : files) sets.push_back(ReadObservations(f));
-  const ObservationSet data = MergeObservations(sets);
-  // The checks gonio run makes (pipeline/checks.h), on the same terms.
-  CheckedFit r;
-  try {
-    r = FitChecked(data, o, observations, FitChecksOptions());
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    if (what.rfind(observations, 0) == 0) throw;
-    throw InputError(observations + ": " + what);  // the fit's own words lack the file
-  }
-  nlohmann::json j = r.fit.ToJson();
-  j["observations"] = observations;
-  j["assumptions"] = data.assumptions;
-  j["checks"] = r.checks.ToJson();
-  WriteJsonAtomically(out, j);
-  for (const auto& a : data.assumptions) std::cout << "ASSUMED: " << a << "\n";
+  const FitOfFiles f = FitObservationFiles(files, observations, o);
+  WriteFitOfFiles(f, observations, out);
+  const CheckedFit& r = f.checked;
+  for (const auto& a : f.data.assumptions) std::cout << "ASSUMED: " << a << "\n";
   if (!r.checks.Measured()) std::cout << "NOT A MEASUREMENT (see the warnings below)\n";
   std::cout << r.fit.Report();
   for (const auto& w : r.checks.Warnings(r.fit.final_fit))

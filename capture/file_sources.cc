@@ -207,4 +207,99 @@ std::optional<CapturedFrame> VideoFileSource::Grab() {
   return frame;
 }
 
+namespace {
+
+// What a photo says about its exposure: LibRaw's metadata for RAW files, EXIF otherwise.
+ExifExposure PhotoExposure(const Photo& photo) {
+  if (!photo.raw) return ReadExif(photo.file);
+  const RawMetadata raw = ReadRawMetadata(photo.file);
+  ExifExposure e;
+  e.exposure_s = raw.exposure_s;
+  e.iso = raw.iso;
+  e.time_s = raw.time_s;
+  e.model = raw.make.empty() ? raw.model : raw.make + " " + raw.model;
+  return e;
+}
+
+// RAW frames are linear and use the whole 16-bit range, so they need no response curve; a
+// folder mixing them with JPEGs (tone-mapped) would need one for some frames and not others.
+bool AllRaw(const std::vector<Photo>& photos, const fs::path& dir) {
+  const auto raws =
+      std::count_if(photos.begin(), photos.end(), [](const Photo& p) { return p.raw; });
+  if (raws != 0 && raws != static_cast<long>(photos.size())) {
+    throw InputError(dir.string() +
+                     ": mixes RAW files with other photos; import them as separate sessions");
+  }
+  return raws > 0;
+}
+
+// The photos of --exposures-from EXIF: every image or RAW file of the folder, each with its
+// own exposure; `model` gets the first photo's camera.
+std::vector<FolderFrame> FramesFromExif(const fs::path& dir, std::string* gain_unit,
+                                        std::string* model) {
+  const auto photos = ListImages(dir);
+  if (photos.empty()) {
+    throw InputError(dir.string() +
+                     ": holds no .jpg, .png, .tif or camera RAW file (any file LibRaw reads)");
+  }
+  AllRaw(photos, dir);
+  std::vector<ExifExposure> exif;
+  for (const auto& photo : photos) {
+    exif.push_back(PhotoExposure(photo));
+    if (!exif.back().exposure_s) {
+      throw InputError(photo.file.string() +
+                       ": has no EXIF ExposureTime (give --exposures-from LIST.txt)");
+    }
+  }
+  // ISO becomes the gain only when every photo states it; otherwise gains are unknown and
+  // taken as equal.
+  const bool all_iso = std::all_of(exif.begin(), exif.end(),
+                                   [](const ExifExposure& e) { return e.iso.has_value(); });
+  if (all_iso) *gain_unit = Session::kGainIso100;
+  const bool all_time = std::all_of(exif.begin(), exif.end(),
+                                    [](const ExifExposure& e) { return e.time_s.has_value(); });
+  std::vector<FolderFrame> frames;
+  for (size_t i = 0; i < photos.size(); ++i) {
+    frames.push_back({photos[i].file, *exif[i].exposure_s, all_iso ? *exif[i].iso / 100.0 : 1.0,
+                      all_time ? *exif[i].time_s : 0.0, photos[i].raw});
+  }
+  *model = exif.front().model;
+  return frames;
+}
+
+// The photos of an exposure list, each classified as an image or a RAW file.
+std::vector<FolderFrame> FramesFromList(const fs::path& dir, const std::string& list_arg) {
+  fs::path list = list_arg;
+  if (!fs::exists(list) && fs::exists(dir / list)) list = dir / list;
+  std::vector<FolderFrame> frames;
+  for (const auto& e : ReadExposureList(list, dir)) {
+    const auto photo = ClassifyPhoto(e.file);
+    if (!photo) {
+      throw InputError(list.string() + ": " + e.file.string() +
+                       " is neither an image (.jpg .png .tif) nor a camera RAW file LibRaw "
+                       "reads");
+    }
+    frames.push_back({e.file, e.exposure_s, 1.0, 0.0, photo->raw});
+  }
+  return frames;
+}
+
+}  // namespace
+
+FolderImport PlanFolderImport(const fs::path& dir, const std::string& exposures_from) {
+  if (!fs::is_directory(dir)) throw InputError(dir.string() + ": not a folder");
+  FolderImport in;
+  in.gain_unit = Session::kGainAnalogue;
+  std::string model;
+  in.frames = exposures_from == "EXIF" || exposures_from == "exif"
+                  ? FramesFromExif(dir, &in.gain_unit, &model)
+                  : FramesFromList(dir, exposures_from);
+  std::vector<Photo> photos;
+  for (const auto& f : in.frames) photos.push_back({f.file, f.raw});
+  in.raw = AllRaw(photos, dir);
+  in.id = std::string(in.raw ? "raw:" : "folder:") +
+          (model.empty() ? fs::absolute(dir).filename().string() : model);
+  return in;
+}
+
 }  // namespace gonio::capture

@@ -77,6 +77,21 @@ class FolderSource : public FrameSource {
   size_t next_ = 0;
 };
 
+// A folder of photos to import (gonio capture --from-folder): the frames with their
+// exposures, the source's id and gain unit, and whether every frame is a camera RAW file
+// (linear 16-bit frames, which need no response curve).
+struct FolderImport {
+  std::vector<FolderFrame> frames;
+  std::string id, gain_unit;
+  bool raw = false;
+};
+
+// exposures_from: "EXIF" (or "exif"), each photo's own metadata (LibRaw's for RAW files), with
+// ISO as the gain only when every photo states it; else an exposure list (FILE EXPOSURE_S per
+// line, looked up in `dir` when not found as given). InputError naming the folder or file when
+// `dir` is not a folder, holds no photo, lacks an exposure or mixes RAW files with others.
+FolderImport PlanFolderImport(const std::filesystem::path& dir, const std::string& exposures_from);
+
 // A video file decoded by OpenCV. Frame k was taken at exposures_s[k % n] (a recording of a
 // repeated bracket, or one exposure for a plain recording); gain is taken as 1.
 class VideoFileSource : public FrameSource {

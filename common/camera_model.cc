@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iomanip>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <utility>
@@ -89,10 +90,11 @@ Eigen::Vector3d CameraModel::Unproject(const Eigen::Vector2d& pixel) const {
   return {xy.x(), xy.y(), 1.0};
 }
 
-CameraModel CameraModel::Read(const std::filesystem::path& path) {
-  std::string text = ReadTextFile(path);
-  // mrcal writes a Python dict literal: drop comments, single -> double quotes, drop trailing
-  // commas, and it is JSON.
+namespace {
+
+// mrcal writes a Python dict literal: drop comments, single -> double quotes, drop trailing
+// commas, and it is JSON.
+std::string PythonDictAsJson(const std::string& text) {
   std::string cleaned;
   bool in_string = false;
   char quote = 0;
@@ -119,13 +121,12 @@ CameraModel CameraModel::Read(const std::filesystem::path& path) {
       cleaned += c;
     }
   }
-  cleaned = std::regex_replace(cleaned, std::regex(",(\\s*[\\]\\}])"), "$1");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(cleaned);
-  } catch (const nlohmann::json::exception&) {  // syntax, or a number out of range (1e999)
-    throw InputError(path.string() + ": not a readable mrcal .cameramodel");
-  }
+  return std::regex_replace(cleaned, std::regex(",(\\s*[\\]\\}])"), "$1");
+}
+
+// The lens model, intrinsics, size and (when there are six values) extrinsics of the parsed
+// file, unchecked.
+CameraModel ModelFromJson(const nlohmann::json& j, const std::filesystem::path& path) {
   CameraModel m;
   try {
     const std::string lens_model = j.at("lensmodel").get<std::string>();
@@ -152,9 +153,14 @@ CameraModel CameraModel::Read(const std::filesystem::path& path) {
   } catch (const nlohmann::json::exception&) {
     throw InputError(path.string() + ": .cameramodel lacks lensmodel, intrinsics or imagersize");
   }
-  if (static_cast<int>(m.intrinsics.size()) != NumIntrinsics(m.lens_model)) {
+  return m;
+}
+
+void CheckModel(const CameraModel& m, const std::filesystem::path& path) {
+  const int n = CameraModel::NumIntrinsics(m.lens_model);
+  if (static_cast<int>(m.intrinsics.size()) != n) {
     throw InputError(path.string() + ": " + LensModelName(m.lens_model) + " needs " +
-                     std::to_string(NumIntrinsics(m.lens_model)) + " intrinsics, file has " +
+                     std::to_string(n) + " intrinsics, file has " +
                      std::to_string(m.intrinsics.size()));
   }
   // A focal length <= 0 mirrors or collapses every projection (poses come out mirrored, or
@@ -170,15 +176,34 @@ CameraModel CameraModel::Read(const std::filesystem::path& path) {
   if (!m.cam_from_ref.R.allFinite() || !m.cam_from_ref.t.allFinite()) {
     throw InputError(path.string() + ": extrinsics are not finite");
   }
+}
+
+// The RMS of the comment line CalibrationRmsLine writes, when the file has one with a finite
+// positive number.
+std::optional<double> CalibrationRmsOf(const std::string& text) {
   std::smatch rms;
   if (std::regex_search(text, rms, std::regex(kRmsPattern))) {
     const std::string number = rms[1];
     char* end = nullptr;
     const double v = std::strtod(number.c_str(), &end);
-    if (end == number.c_str() + number.size() && std::isfinite(v) && v > 0) {
-      m.calibration_rms_px = v;
-    }
+    if (end == number.c_str() + number.size() && std::isfinite(v) && v > 0) return v;
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+CameraModel CameraModel::Read(const std::filesystem::path& path) {
+  const std::string text = ReadTextFile(path);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(PythonDictAsJson(text));
+  } catch (const nlohmann::json::exception&) {  // syntax, or a number out of range (1e999)
+    throw InputError(path.string() + ": not a readable mrcal .cameramodel");
+  }
+  CameraModel m = ModelFromJson(j, path);
+  CheckModel(m, path);
+  m.calibration_rms_px = CalibrationRmsOf(text);
   return m;
 }
 

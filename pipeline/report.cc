@@ -256,13 +256,10 @@ std::string WarnedCell(const std::vector<RunWarning>& warnings, const std::strin
   return list.empty() ? "<td></td>" : "<td style='color:#b00'>warning " + list + "</td>";
 }
 
-}  // namespace
-
-void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
-                 const std::vector<std::string>& notes, const std::vector<RunWarning>& warnings,
-                 const std::filesystem::path& dir) {
-  EnsureDirectory(dir);
-  const JointFitResult& f = fit.final_fit;
+// The report's figures: BRDF against theta_r, the polar plot at the mean incidence of a
+// sample of the observations, the per-frame values, residuals and the geometry sketch.
+void WriteReportPlots(const JointFitResult& f, const ObservationSet& data, const Board& board,
+                      const std::filesystem::path& dir) {
   BrdfPlot(f, data, dir / "brdf_vs_theta_r.png");
   double mean_ti = 0;
   size_t n = 0;
@@ -278,24 +275,12 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   FramePlot(f, dir / "frames.png");
   ResidualMontage(f, data, dir / "residuals.png");
   GeometrySketch(f, data, board, dir / "geometry.png");
+}
 
+// The parameters with their standard deviations and warnings, the lamp, the intensity and the
+// ambient terms, as an HTML table.
+std::string ParameterTable(const JointFitResult& f, const std::vector<RunWarning>& warnings) {
   std::ostringstream h;
-  h << "<!doctype html><html><head><meta charset='utf-8'><title>gonio report</title>"
-       "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:"
-       "collapse}td,th{border:1px solid #ccc;padding:3px "
-       "8px;text-align:right}</style></head><body>";
-  h << "<h1>gonio: " << Escape(f.material.model) << "</h1>";
-  for (const auto& a : notes) {
-    h << "<p style='color:#b00;border:2px solid #b00;padding:6px'>" << Escape(a) << "</p>";
-  }
-  h << WarningBox(warnings);
-  h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
-  // What the geometry could measure: a lamp beside the lens sees the backscatter diagonal only.
-  const ObservedAngles angles = ObservedAnglesOf(f, data);
-  h << "<p" << (angles.backscatter_only ? " style='color:#b00'" : "") << "><b>Observed:</b>";
-  std::istringstream angle_lines(angles.Report());
-  for (std::string line; std::getline(angle_lines, line);) h << " " << Escape(line) << "<br>";
-  h << "</p>";
   h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th>"
        "<th>touched by</th></tr>";
   for (size_t k = 0; k < f.material.params.size(); ++k) {
@@ -315,7 +300,12 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
                    f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined",
                    WarnedCell(warnings, "intensity"));
   h << AmbientRows(f) << "</table>";
-  if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
+  return h.str();
+}
+
+// Every candidate model's fit and criteria, the selected one in bold, as an HTML table.
+std::string ModelComparisonTable(const JointSelectionResult& fit) {
+  std::ostringstream h;
   h << "<h2>Model comparison</h2><table><tr><th>model</th><th>k</th><th>rel_rms</th><th>AIC</th>"
        "<th>BIC</th><th>CV rms (held-out frames)</th><th>undetermined</th></tr>";
   for (size_t k = 0; k < fit.selection.candidates.size(); ++k) {
@@ -330,6 +320,38 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
         c.cv_rms ? fmt::format("{:.4g}", *c.cv_rms) : std::string("-"), und);
   }
   h << "</table>";
+  return h.str();
+}
+
+}  // namespace
+
+void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
+                 const std::vector<std::string>& notes, const std::vector<RunWarning>& warnings,
+                 const std::filesystem::path& dir) {
+  EnsureDirectory(dir);
+  const JointFitResult& f = fit.final_fit;
+  WriteReportPlots(f, data, board, dir);
+
+  std::ostringstream h;
+  h << "<!doctype html><html><head><meta charset='utf-8'><title>gonio report</title>"
+       "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:"
+       "collapse}td,th{border:1px solid #ccc;padding:3px "
+       "8px;text-align:right}</style></head><body>";
+  h << "<h1>gonio: " << Escape(f.material.model) << "</h1>";
+  for (const auto& a : notes) {
+    h << "<p style='color:#b00;border:2px solid #b00;padding:6px'>" << Escape(a) << "</p>";
+  }
+  h << WarningBox(warnings);
+  h << "<p><b>Selection:</b> " << Escape(fit.selection.reason) << "</p>";
+  // What the geometry could measure: a lamp beside the lens sees the backscatter diagonal only.
+  const ObservedAngles angles = ObservedAnglesOf(f, data);
+  h << "<p" << (angles.backscatter_only ? " style='color:#b00'" : "") << "><b>Observed:</b>";
+  std::istringstream angle_lines(angles.Report());
+  for (std::string line; std::getline(angle_lines, line);) h << " " << Escape(line) << "<br>";
+  h << "</p>";
+  h << ParameterTable(f, warnings);
+  if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
+  h << ModelComparisonTable(fit);
   h << "<p>Residual image per frame (tile = frame, blue: model darker, red: model brighter than "
        "measured, full scale +-10%):</p>";
   for (const char* img :

@@ -143,15 +143,154 @@ T DirectionalK(const T& x, const T& y, const T& tau_x, const T& tau_y, const T& 
 
 }  // namespace lt
 
+namespace lt {
+
+// The roughness-dependent pieces of the dd, fs and coh components.
+template <typename T>
+struct Roughness {
+  T s;        // shadowing S (eq. 6/23)
+  T sigma_e;  // effective roughness (eq. 8/24)
+  T mx, my;   // effective slopes m_e = sigma_e/tau per axis (eq. 21)
+};
+
+// k_i, k_r (eq. 25; tau/sigma when isotropic), S, sigma_e and m_e for the clamped cosines
+// ci, cr.
+template <typename T>
+Roughness<T> RoughnessAt(const LiTorranceParams<T>& p, const T l[3], const T v[3], const T& ci,
+                         const T& cr, bool shadowing_cutoff) {
+  using std::exp;
+  using std::log;
+  const T one(1.0);
+  const T k_i = DirectionalK(l[0], l[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
+  const T k_r = DirectionalK(v[0], v[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
+  // (1 - cos)^k of eq. 6 and (1 - cos)^(1.6 k) of eq. 8 share one log per direction; at
+  // cos = 1 both powers are exactly 0 (PowUnit). Every log and exp below is taken on a
+  // finite argument (log(1) = 0 where the branch does not apply) and its result selected, so
+  // the batch kernel vectorises (no call inside a branch, reflectance/batch_math.h).
+  const T zero(0.0);
+  const bool lit_i = one - ci > zero, lit_r = one - cr > zero;
+  const T log_i = log(lit_i ? one - ci : one);
+  const T log_r = log(lit_r ? one - cr : one);
+  const T pow_i = lit_i ? exp(k_i * log_i) : zero;
+  const T pow_r = lit_r ? exp(k_r * log_r) : zero;
+  Roughness<T> r;
+  r.s = (one - pow_i) * (one - pow_r);
+  if (shadowing_cutoff && ci > one - exp(T(std::log(0.005)) / k_i) &&
+      cr > one - exp(T(std::log(0.005)) / k_r)) {
+    r.s = one;
+  }
+  const T pow16_i = exp(T(1.6) * k_i * log_i), pow16_r = exp(T(1.6) * k_r * log_r);
+  const T base_i = one - (lit_i ? pow16_i : zero);
+  const T base_r = one - (lit_r ? pow16_r : zero);
+  // sigma_e -> 0 at grazing angles; floor it at 1e-6 sigma so 1/m_e stays finite. (Single
+  // comparisons and selects of values: GCC does not vectorise selects on combined masks.)
+  const T min_base = base_i < base_r ? base_i : base_r;
+  const bool both = min_base > T(1e-300);
+  const T se =
+      p.sigma_um * exp(T(0.1) * (k_i * log(both ? base_i : one) + k_r * log(both ? base_r : one)));
+  const T floor_e = T(1e-6) * p.sigma_um;
+  const T se_valid = both ? se : zero;
+  r.sigma_e = se_valid > floor_e ? se_valid : floor_e;
+  r.mx = r.sigma_e / p.tau_x_um;
+  r.my = r.sigma_e / p.tau_y_um;
+  return r;
+}
+
+// The bisector h = l + v and Schlick's F at theta_h, the angle between h and v.
+template <typename T>
+struct Bisector {
+  T hx, hy, hz;  // hz = cos i + cos r
+  T hxy2;        // hx^2 + hy^2
+  T tan2_b;      // tan^2(theta_b) = (hx^2 + hy^2)/hz^2
+  T fresnel;
+};
+
+template <typename T>
+Bisector<T> BisectorOf(const T l[3], const T v[3], const T& ci, const T& cr, const T& f0) {
+  using std::sqrt;
+  const T one(1.0);
+  Bisector<T> h;
+  h.hx = l[0] + v[0];
+  h.hy = l[1] + v[1];
+  h.hz = ci + cr;
+  h.hxy2 = h.hx * h.hx + h.hy * h.hy;
+  h.tan2_b = h.hxy2 / (h.hz * h.hz);
+  // cos theta_h = sqrt((1 + l.v)/2).
+  const T ldv = l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
+  const T half = T(0.5) * (one + ldv);
+  const T cos_h = half > T(1e-30) ? sqrt(half > T(1e-30) ? half : one) : T(0.0);
+  h.fresnel = Schlick(f0, cos_h);
+  return h;
+}
+
+// eq. 9 with eq. 10 (eq. 22 when anisotropic). The geometric factor (v.v / v.N)^2 is only
+// dimensionless (and equal to the He-Torrance rough-surface limit) with v = L + V, not
+// 2 pi (L + V)/lambda as the converted text defines v: then (v.v/v.N)^2/(c_i+c_r)^2
+// = (1 + tan^2 theta_b)^2 and eq. 9-10 is Beckmann/Cook-Torrance with alpha = 2 m_e.
+template <typename T>
+T DirectionalDiffuse(const T& k_dd, const Bisector<T>& h, const Roughness<T>& r, const T& ci,
+                     const T& cr) {
+  using std::exp;
+  const T one(1.0);
+  const T expo =
+      (h.hx * h.hx / (r.mx * r.mx) + h.hy * h.hy / (r.my * r.my)) / (T(4.0) * h.hz * h.hz);
+  const T d = (one + h.tan2_b) * (one + h.tan2_b) * exp(-expo) / (T(16.0) * r.mx * r.my);
+  return k_dd * h.fresnel * r.s * d / (T(kPi) * ci * cr);
+}
+
+// Adds eq. 13-14 (eq. 26 when anisotropic) to *f. N(N.L) - L is minus the horizontal part of
+// L: the forward azimuth. cos(theta_f) = v . that unit vector. The converted tan^2(theta_f)
+// is symmetric about theta_f = 90 deg, which would add an identical backward lobe; we keep
+// the forward half only (cos(theta_f) > 0), which is continuous because
+// exp(-tan^2/16m^2) -> 0 at theta_f -> 90 deg, and matches "forward scattering".
+// trans_i, trans_r: the Fresnel transmissions 1 - F of the two directions.
+template <typename T>
+void AddForwardScatter(const T& k_fs, const T l[3], const T v[3], const Bisector<T>& h,
+                       const Roughness<T>& r, const T& trans_i, const T& trans_r, const T& ci,
+                       const T& cr, T* f) {
+  using std::exp;
+  using std::sqrt;
+  const T one(1.0), zero(0.0);
+  const T lxy2 = l[0] * l[0] + l[1] * l[1];
+  const bool off_normal = lxy2 > T(1e-24);
+  const T cos_f = -(v[0] * l[0] + v[1] * l[1]) / sqrt(off_normal ? lxy2 : one);
+  const T cos_f_valid = off_normal ? cos_f : zero;
+  const bool forward = cos_f_valid > T(0.0);
+  const T cf2 = forward ? cos_f * cos_f : one;
+  const T tan2_f = (one - cf2) / cf2;
+  // eq. 26 weights by the bisector azimuth phi_b.
+  const bool has_b = h.hxy2 > T(1e-24);
+  const T aniso =
+      has_b ? (h.hx * h.hx / (r.mx * r.mx) + h.hy * h.hy / (r.my * r.my)) / (has_b ? h.hxy2 : one)
+            : one / (r.mx * r.mx);
+  const T fs = k_fs * T(kInvPi) * trans_i * trans_r * (one - ci) * (one - cr) *
+               exp(-tan2_f * aniso / T(16.0));
+  if (forward) *f += fs;
+}
+
+// Adds eq. 3-4 to *f, with the delta over the lamp's solid angle (see the file header); the
+// 1/(cos i d omega_i) normalisation follows eq. 16 (He-Torrance), so the cone receives
+// reflectance F S exp(-g).
+template <typename T>
+void AddCoherent(const T& k_dd, const T l[3], const T v[3], const Bisector<T>& h,
+                 const Roughness<T>& r, const T& ci, const LiTorranceOptions& opt, T* f) {
+  using std::exp;
+  const T cos_mirror = -l[0] * v[0] - l[1] * v[1] + l[2] * v[2];
+  const double cos_cone = 1.0 - opt.lamp_solid_angle_sr / (2.0 * kPi);
+  const T lambda_um = T(opt.wavelength_nm * 1e-3);
+  const T gq = T(2.0 * kPi) * r.sigma_e / lambda_um * h.hz;
+  const T coh = k_dd * h.fresnel * r.s * exp(-gq * gq) / (ci * T(opt.lamp_solid_angle_sr));
+  if (cos_mirror >= T(cos_cone)) *f += coh;
+}
+
+}  // namespace lt
+
 // The BRDF (1/sr) of the components in `mask`, for unit vectors l (to the source) and v (to
 // the viewer) in the tangent frame (z = normal, x = tau_x axis); tau_x = tau_y is the
 // isotropic model of sec. 3, otherwise the appendix's anisotropic extension (eq. 20-26).
 template <typename T>
 T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int mask,
                  const LiTorranceOptions& opt = LiTorranceOptions()) {
-  using std::exp;
-  using std::log;
-  using std::sqrt;
   constexpr double kMinCos = 1e-12;
   const T ci = l[2] > T(kMinCos) ? l[2] : T(kMinCos);
   const T cr = v[2] > T(kMinCos) ? v[2] : T(kMinCos);
@@ -167,92 +306,11 @@ T LiTorranceBrdf(const LiTorranceParams<T>& p, const T l[3], const T v[3], int m
 
   if (!(mask & (kLtCoh | kLtDd | kLtFs))) return f;
 
-  // Roughness-dependent pieces: k_i, k_r (eq. 25; tau/sigma when isotropic), S (eq. 6/23),
-  // sigma_e (eq. 8/24) and the effective slopes m_e = sigma_e/tau (eq. 21).
-  const T k_i = lt::DirectionalK(l[0], l[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
-  const T k_r = lt::DirectionalK(v[0], v[1], p.tau_x_um, p.tau_y_um, p.sigma_um);
-  // (1 - cos)^k of eq. 6 and (1 - cos)^(1.6 k) of eq. 8 share one log per direction; at
-  // cos = 1 both powers are exactly 0 (lt::PowUnit). Every log and exp below is taken on a
-  // finite argument (log(1) = 0 where the branch does not apply) and its result selected, so
-  // the batch kernel vectorises (no call inside a branch, reflectance/batch_math.h).
-  const T zero(0.0);
-  const bool lit_i = one - ci > zero, lit_r = one - cr > zero;
-  const T log_i = log(lit_i ? one - ci : one);
-  const T log_r = log(lit_r ? one - cr : one);
-  const T pow_i = lit_i ? exp(k_i * log_i) : zero;
-  const T pow_r = lit_r ? exp(k_r * log_r) : zero;
-  T s = (one - pow_i) * (one - pow_r);
-  if (opt.shadowing_cutoff && ci > one - exp(T(std::log(0.005)) / k_i) &&
-      cr > one - exp(T(std::log(0.005)) / k_r)) {
-    s = one;
-  }
-  const T pow16_i = exp(T(1.6) * k_i * log_i), pow16_r = exp(T(1.6) * k_r * log_r);
-  const T base_i = one - (lit_i ? pow16_i : zero);
-  const T base_r = one - (lit_r ? pow16_r : zero);
-  // sigma_e -> 0 at grazing angles; floor it at 1e-6 sigma so 1/m_e stays finite. (Single
-  // comparisons and selects of values: GCC does not vectorise selects on combined masks.)
-  const T min_base = base_i < base_r ? base_i : base_r;
-  const bool both = min_base > T(1e-300);
-  const T se =
-      p.sigma_um * exp(T(0.1) * (k_i * log(both ? base_i : one) + k_r * log(both ? base_r : one)));
-  const T floor_e = T(1e-6) * p.sigma_um;
-  const T se_valid = both ? se : zero;
-  const T sigma_e = se_valid > floor_e ? se_valid : floor_e;
-  const T mx = sigma_e / p.tau_x_um, my = sigma_e / p.tau_y_um;
-
-  // Bisector h = l + v; tan^2(theta_b) = (hx^2 + hy^2)/hz^2, hz = cos i + cos r.
-  const T hx = l[0] + v[0], hy = l[1] + v[1], hz = ci + cr;
-  const T hxy2 = hx * hx + hy * hy;
-  const T tan2_b = hxy2 / (hz * hz);
-  // Schlick F at theta_h, the angle between h and v: cos = sqrt((1 + l.v)/2).
-  const T ldv = l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
-  const T half = T(0.5) * (one + ldv);
-  const T cos_h = half > T(1e-30) ? sqrt(half > T(1e-30) ? half : one) : T(0.0);
-  const T fresnel = lt::Schlick(f0, cos_h);
-
-  if (mask & kLtDd) {
-    // eq. 9 with eq. 10 (eq. 22 when anisotropic). The geometric factor (v.v / v.N)^2 is
-    // only dimensionless (and equal to the He-Torrance rough-surface limit) with v = L + V,
-    // not 2 pi (L + V)/lambda as the converted text defines v: then (v.v/v.N)^2/(c_i+c_r)^2
-    // = (1 + tan^2 theta_b)^2 and eq. 9-10 is Beckmann/Cook-Torrance with alpha = 2 m_e.
-    const T expo = (hx * hx / (mx * mx) + hy * hy / (my * my)) / (T(4.0) * hz * hz);
-    const T d = (one + tan2_b) * (one + tan2_b) * exp(-expo) / (T(16.0) * mx * my);
-    f += p.k_dd * fresnel * s * d / (T(kPi) * ci * cr);
-  }
-
-  if (mask & kLtFs) {
-    // eq. 13-14 (eq. 26 when anisotropic). N(N.L) - L is minus the horizontal part of L:
-    // the forward azimuth. cos(theta_f) = v . that unit vector. The converted tan^2(theta_f)
-    // is symmetric about theta_f = 90 deg, which would add an identical backward lobe; we
-    // keep the forward half only (cos(theta_f) > 0), which is continuous because
-    // exp(-tan^2/16m^2) -> 0 at theta_f -> 90 deg, and matches "forward scattering".
-    const T lxy2 = l[0] * l[0] + l[1] * l[1];
-    const bool off_normal = lxy2 > T(1e-24);
-    const T cos_f = -(v[0] * l[0] + v[1] * l[1]) / sqrt(off_normal ? lxy2 : one);
-    const T cos_f_valid = off_normal ? cos_f : zero;
-    const bool forward = cos_f_valid > T(0.0);
-    const T cf2 = forward ? cos_f * cos_f : one;
-    const T tan2_f = (one - cf2) / cf2;
-    // eq. 26 weights by the bisector azimuth phi_b.
-    const bool has_b = hxy2 > T(1e-24);
-    const T aniso = has_b ? (hx * hx / (mx * mx) + hy * hy / (my * my)) / (has_b ? hxy2 : one)
-                          : one / (mx * mx);
-    const T fs = p.k_fs * T(kInvPi) * trans_i * trans_r * (one - ci) * (one - cr) *
-                 exp(-tan2_f * aniso / T(16.0));
-    if (forward) f += fs;
-  }
-
-  if (mask & kLtCoh) {
-    // eq. 3-4 with the delta over the lamp's solid angle (see the file header); the
-    // 1/(cos i d omega_i) normalisation follows eq. 16 (He-Torrance), so the cone receives
-    // reflectance F S exp(-g).
-    const T cos_mirror = -l[0] * v[0] - l[1] * v[1] + l[2] * v[2];
-    const double cos_cone = 1.0 - opt.lamp_solid_angle_sr / (2.0 * kPi);
-    const T lambda_um = T(opt.wavelength_nm * 1e-3);
-    const T gq = T(2.0 * kPi) * sigma_e / lambda_um * hz;
-    const T coh = p.k_dd * fresnel * s * exp(-gq * gq) / (ci * T(opt.lamp_solid_angle_sr));
-    if (cos_mirror >= T(cos_cone)) f += coh;
-  }
+  const lt::Roughness<T> r = lt::RoughnessAt(p, l, v, ci, cr, opt.shadowing_cutoff);
+  const lt::Bisector<T> h = lt::BisectorOf(l, v, ci, cr, f0);
+  if (mask & kLtDd) f += lt::DirectionalDiffuse(p.k_dd, h, r, ci, cr);
+  if (mask & kLtFs) lt::AddForwardScatter(p.k_fs, l, v, h, r, trans_i, trans_r, ci, cr, &f);
+  if (mask & kLtCoh) lt::AddCoherent(p.k_dd, l, v, h, r, ci, opt, &f);
   return f;
 }
 

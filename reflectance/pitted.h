@@ -211,59 +211,68 @@ T HemisphereSingleScatter(const T& theta_l, const T& theta_v, const T& phi, int 
   return mean * TwoDeltaOverSin(delta > T(0) ? delta : T(0)) / cos_v;
 }
 
-// Any aperture, single scattering, by quadrature in the space of wall normals: the wall point
-// p with inward normal m is p = C - m, so the pit is the cap m.z >= cos Psi (dOmega = da),
-// the lit set is m.s >= -cos Psi and the visible set m.t >= -cos Psi, t = 2 (v.z) v - z (the
-// half-space of PitGeometry::PrimaryAt written in m). Returns the integral of (m.l)(m.v) over
-// the intersection. On each ring of polar angle g around z, m = (sin g cos w, sin g sin w,
-// cos g), both conditions are arcs in w (|w| <= acos k_s, |w - phi| <= acos k_t) and the
-// integrand is a trigonometric polynomial, so the w-integral is analytic; the g-integral is
-// Gauss-Legendre, split where a ring starts or stops meeting a shadow circle (k = +-1) and
-// mapped with a smoothstep so the sqrt behaviour of acos there is integrated smoothly.
+// The sines and cosines of the incidence and view angles that CapSingleScatter's rings use,
+// and the cosine of the aperture.
 template <typename T>
-T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& phi, int nodes) {
+struct CapRingForm {
+  T c;                   // cos Psi
+  T sl, cl, sv, cv;      // of theta_l, theta_v
+  T cp, sp;              // of phi
+  T s2l, c2l, s2v, c2v;  // of the shadow axes' polar angles 2 theta_l, 2 theta_v
+  T phi;
+};
+
+// Half-width of the arc of a ring where m.axis >= -c, axis at polar angle with sin/cos
+// (sa, ca): sin g sa cos w + cos g ca >= -c.
+template <typename T>
+T CapRingHalfWidth(const T& c, const T& sg, const T& cg, const T& sa, const T& ca) {
   using std::acos;
+  const T num = -c - cg * ca;
+  const T den = sg * sa;
+  if (!(den > T(1e-300))) return num <= T(0) ? T(kPi) : T(0);
+  const T k = num / den;
+  if (k >= T(1)) return T(0);
+  if (k <= T(-1)) return T(kPi);
+  return acos(k);
+}
+
+// The w-integral over the ring of polar angle g, times sin g: the integrand over the arcs
+// where the ring is lit and visible.
+template <typename T>
+T CapRing(const CapRingForm<T>& r, const T& g) {
   using std::cos;
   using std::sin;
-  const T c = cos(psi);
-  const T sl = sin(theta_l), cl = cos(theta_l), sv = sin(theta_v), cv = cos(theta_v);
-  const T cp = cos(phi), sp = sin(phi);
-  const T s2l = T(2) * sl * cl, c2l = cl * cl - sl * sl;
-  const T s2v = T(2) * sv * cv, c2v = cv * cv - sv * sv;
-  // Half-width of the arc of a ring where m.axis >= -c, axis at polar angle with sin/cos
-  // (sa, ca): sin g sa cos w + cos g ca >= -c.
-  auto half_width = [&](const T& sg, const T& cg, const T& sa, const T& ca) {
-    const T num = -c - cg * ca;
-    const T den = sg * sa;
-    if (!(den > T(1e-300))) return num <= T(0) ? T(kPi) : T(0);
-    const T k = num / den;
-    if (k >= T(1)) return T(0);
-    if (k <= T(-1)) return T(kPi);
-    return acos(k);
+  const T sg = sin(g), cg = cos(g);
+  const T ws = CapRingHalfWidth(r.c, sg, cg, r.s2l, r.c2l);
+  const T wt = CapRingHalfWidth(r.c, sg, cg, r.s2v, r.c2v);
+  const T a1 = sg * r.sl, b1 = cg * r.cl, a2 = sg * r.sv, b2 = cg * r.cv;
+  const T& cp = r.cp;
+  const T& sp = r.sp;
+  // Antiderivative in w of (a1 cos w + b1)(a2 cos(w - phi) + b2).
+  auto F = [&](const T& w) {
+    const T s2 = sin(T(2) * w) * cp - cos(T(2) * w) * sp;  // sin(2w - phi)
+    const T sm = sin(w) * cp - cos(w) * sp;                // sin(w - phi)
+    return a1 * a2 * (s2 / T(4) + w * cp / T(2)) + a1 * b2 * sin(w) + b1 * a2 * sm + b1 * b2 * w;
   };
-  auto ring = [&](const T& g) {
-    const T sg = sin(g), cg = cos(g);
-    const T ws = half_width(sg, cg, s2l, c2l);
-    const T wt = half_width(sg, cg, s2v, c2v);
-    const T a1 = sg * sl, b1 = cg * cl, a2 = sg * sv, b2 = cg * cv;
-    // Antiderivative in w of (a1 cos w + b1)(a2 cos(w - phi) + b2).
-    auto F = [&](const T& w) {
-      const T s2 = sin(T(2) * w) * cp - cos(T(2) * w) * sp;  // sin(2w - phi)
-      const T sm = sin(w) * cp - cos(w) * sp;                // sin(w - phi)
-      return a1 * a2 * (s2 / T(4) + w * cp / T(2)) + a1 * b2 * sin(w) + b1 * a2 * sm + b1 * b2 * w;
-    };
-    T sum(0);
-    for (int shift = -1; shift <= 1; ++shift) {
-      const T lo2 = phi - wt + T(2 * kPi * shift), hi2 = phi + wt + T(2 * kPi * shift);
-      const T lo = lo2 > -ws ? lo2 : -ws;
-      const T hi = hi2 < ws ? hi2 : ws;
-      if (hi > lo) sum += F(hi) - F(lo);
-    }
-    return sum * sg;
-  };
-  // Breakpoints in g: a ring touches the shadow circle of an axis at polar angle a (radius
-  // pi - Psi) from outside or inside at |g - a| = pi - Psi, g + a = pi - Psi, g + a = pi + Psi.
-  T breaks[16];
+  T sum(0);
+  for (int shift = -1; shift <= 1; ++shift) {
+    const T lo2 = r.phi - wt + T(2 * kPi * shift), hi2 = r.phi + wt + T(2 * kPi * shift);
+    const T lo = lo2 > -ws ? lo2 : -ws;
+    const T hi = hi2 < ws ? hi2 : ws;
+    if (hi > lo) sum += F(hi) - F(lo);
+  }
+  return sum * sg;
+}
+
+// Breakpoints in g, sorted, from 0 to psi: a ring touches the shadow circle of an axis at
+// polar angle a (radius pi - Psi) from outside or inside at |g - a| = pi - Psi,
+// g + a = pi - Psi, g + a = pi + Psi, and the two shadow circles cross (there the two arcs'
+// ends meet). Returns their number (at most 16).
+template <typename T>
+int CapRingBreaks(const CapRingForm<T>& r, const T& psi, const T& theta_l, const T& theta_v,
+                  T breaks[16]) {
+  using std::acos;
+  using std::sqrt;
   int nb = 0;
   breaks[nb++] = T(0);
   const T rad = T(kPi) - psi;
@@ -272,30 +281,59 @@ T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& ph
       if (g > T(0) && g < psi) breaks[nb++] = g;
     }
   }
-  // ... and where the two shadow circles cross (there the two arcs' ends meet): m.s = m.t = -c
-  // gives m = x (s + t) + z (s x t), x = -c / (1 + s.t), z^2 = (1 - 2 c x') / (1 - (s.t)^2).
-  {
-    using std::sqrt;
-    const T sx = s2l, sz = c2l, tx = s2v * cp, ty = s2v * sp, tz = c2v;
-    const T G = sx * tx + sz * tz;
-    const T one_m_g2 = T(1) - G * G;
-    if (one_m_g2 > T(1e-12) && G > T(-1) + T(1e-12)) {
-      const T x = -c / (T(1) + G);
-      const T z2 = (T(1) - T(2) * c * c / (T(1) + G)) / one_m_g2;
-      if (z2 >= T(0)) {
-        const T nz = sx * ty;  // z-component of s x t (s has no y-component)
-        const T z = sqrt(z2 + T(1e-300));
-        for (const T& mz : {x * (sz + tz) + z * nz, x * (sz + tz) - z * nz}) {
-          if (mz > T(-1) && mz < T(1)) {
-            const T g = acos(mz);
-            if (g > T(0) && g < psi) breaks[nb++] = g;
-          }
+  // Where the shadow circles cross, m.s = m.t = -c gives m = x (s + t) + z (s x t),
+  // x = -c / (1 + s.t), z^2 = (1 - 2 c x') / (1 - (s.t)^2).
+  const T sx = r.s2l, sz = r.c2l, tx = r.s2v * r.cp, ty = r.s2v * r.sp, tz = r.c2v;
+  const T G = sx * tx + sz * tz;
+  const T one_m_g2 = T(1) - G * G;
+  if (one_m_g2 > T(1e-12) && G > T(-1) + T(1e-12)) {
+    const T x = -r.c / (T(1) + G);
+    const T z2 = (T(1) - T(2) * r.c * r.c / (T(1) + G)) / one_m_g2;
+    if (z2 >= T(0)) {
+      const T nz = sx * ty;  // z-component of s x t (s has no y-component)
+      const T z = sqrt(z2 + T(1e-300));
+      for (const T& mz : {x * (sz + tz) + z * nz, x * (sz + tz) - z * nz}) {
+        if (mz > T(-1) && mz < T(1)) {
+          const T g = acos(mz);
+          if (g > T(0) && g < psi) breaks[nb++] = g;
         }
       }
     }
   }
   breaks[nb++] = psi;
   std::sort(breaks, breaks + nb, [](const T& x, const T& y) { return x < y; });
+  return nb;
+}
+
+// Any aperture, single scattering, by quadrature in the space of wall normals: the wall point
+// p with inward normal m is p = C - m, so the pit is the cap m.z >= cos Psi (dOmega = da),
+// the lit set is m.s >= -cos Psi and the visible set m.t >= -cos Psi, t = 2 (v.z) v - z (the
+// half-space of PitGeometry::PrimaryAt written in m). Returns the integral of (m.l)(m.v) over
+// the intersection. On each ring of polar angle g around z, m = (sin g cos w, sin g sin w,
+// cos g), both conditions are arcs in w (|w| <= acos k_s, |w - phi| <= acos k_t) and the
+// integrand is a trigonometric polynomial, so the w-integral is analytic (CapRing); the
+// g-integral is Gauss-Legendre, split where a ring starts or stops meeting a shadow circle
+// (k = +-1, CapRingBreaks) and mapped with a smoothstep so the sqrt behaviour of acos there is
+// integrated smoothly.
+template <typename T>
+T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& phi, int nodes) {
+  using std::cos;
+  using std::sin;
+  CapRingForm<T> r;
+  r.c = cos(psi);
+  r.sl = sin(theta_l);
+  r.cl = cos(theta_l);
+  r.sv = sin(theta_v);
+  r.cv = cos(theta_v);
+  r.cp = cos(phi);
+  r.sp = sin(phi);
+  r.s2l = T(2) * r.sl * r.cl;
+  r.c2l = r.cl * r.cl - r.sl * r.sl;
+  r.s2v = T(2) * r.sv * r.cv;
+  r.c2v = r.cv * r.cv - r.sv * r.sv;
+  r.phi = phi;
+  T breaks[16];
+  const int nb = CapRingBreaks(r, psi, theta_l, theta_v, breaks);
   const auto& gl = GaussLegendre01(nodes);
   T total(0);
   for (int k = 0; k + 1 < nb; ++k) {
@@ -304,7 +342,8 @@ T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& ph
     for (const auto& q : gl) {
       const double u = q[0];
       // Smoothstep g = lo + w (3u^2 - 2u^3), dg = 6 w u (1 - u) du.
-      total += T(q[1] * 6.0 * u * (1.0 - u)) * w * ring(breaks[k] + w * T(u * u * (3.0 - 2.0 * u)));
+      total += T(q[1] * 6.0 * u * (1.0 - u)) * w *
+               CapRing(r, breaks[k] + w * T(u * u * (3.0 - 2.0 * u)));
     }
   }
   return total;

@@ -187,6 +187,197 @@ bool InsideOthers(const CapCircle<T> (&circles)[3], int i, double theta) {
   return true;
 }
 
+// The sines and cosines that the arrangement of the three circles is built from.
+template <typename T>
+struct CapAngles {
+  T c, s;                         // of Psi
+  T sl, cl, sv, cv;               // of theta_l, theta_v
+  T cp, sp, sh, ch;               // of phi and phi/2
+  T S_l, C_l, S_v, C_v;           // of the shadow axes' polar angles 2 theta_l, 2 theta_v
+  T cos_sum, sin_diff, cos_diff;  // of theta_l + theta_v, theta_l - theta_v
+};
+
+template <typename T>
+CapAngles<T> CapAnglesOf(const T& psi, const T& theta_l, const T& theta_v, const T& phi) {
+  using std::cos;
+  using std::sin;
+  CapAngles<T> g;
+  g.c = cos(psi);
+  g.s = sin(psi);
+  g.sl = sin(theta_l);
+  g.cl = cos(theta_l);
+  g.sv = sin(theta_v);
+  g.cv = cos(theta_v);
+  g.cp = cos(phi);
+  g.sp = sin(phi);
+  g.sh = sin(phi / T(2));
+  g.ch = cos(phi / T(2));
+  g.S_l = T(2) * g.sl * g.cl;
+  g.C_l = g.cl * g.cl - g.sl * g.sl;
+  g.S_v = T(2) * g.sv * g.cv;
+  g.C_v = g.cv * g.cv - g.sv * g.sv;
+  g.cos_sum = cos(theta_l + theta_v);
+  g.sin_diff = sin(theta_l - theta_v);
+  g.cos_diff = cos(theta_l - theta_v);
+  return g;
+}
+
+// The pit's circle and the two shadow circles, with axes z, s and t.
+template <typename T>
+void CapCirclesOf(const CapAngles<T>& g, CapCircle<T> circles[3]) {
+  const T zero(0), one(1);
+  circles[0] = {
+      {zero, zero, one}, {one, zero, zero}, {zero, one, zero}, g.c, g.s, zero, T(2), true};
+  circles[1] = {{g.S_l, zero, g.C_l},
+                {g.C_l, zero, -g.S_l},
+                {zero, one, zero},
+                -g.c,
+                g.s,
+                g.S_l,
+                T(2) * g.cl * g.cl,
+                false};
+  circles[2] = {{g.S_v * g.cp, g.S_v * g.sp, g.C_v},
+                {g.C_v * g.cp, g.C_v * g.sp, -g.S_v},
+                {-g.sp, g.cp, zero},
+                -g.c,
+                g.s,
+                g.S_v,
+                T(2) * g.cv * g.cv,
+                false};
+}
+
+// The geometry of a pair of circles in forms without cancellation: 1 -+ a_i.a_j, a_i -+ a_j
+// and a_i x a_j (CrossCircles' arguments).
+template <typename T>
+struct CapPair {
+  int i, j;
+  bool same_c;
+  T d_minus, d_plus, toward[3], cross[3];
+};
+
+template <typename T>
+void CapPairsOf(const CapAngles<T>& g, CapPair<T> pairs[3]) {
+  const T zero(0);
+  pairs[0] = {0,
+              1,
+              false,
+              T(2) * g.sl * g.sl,
+              T(2) * g.cl * g.cl,
+              {-g.S_l, zero, T(2) * g.sl * g.sl},
+              {zero, g.S_l, zero}};
+  pairs[1] = {0,
+              2,
+              false,
+              T(2) * g.sv * g.sv,
+              T(2) * g.cv * g.cv,
+              {-g.S_v * g.cp, -g.S_v * g.sp, T(2) * g.sv * g.sv},
+              {-g.S_v * g.sp, g.S_v * g.cp, zero}};
+  pairs[2] = {
+      1,
+      2,
+      true,
+      T(2) * (g.sin_diff * g.sin_diff + g.S_l * g.S_v * g.sh * g.sh),
+      T(2) * (g.cos_sum * g.cos_sum + g.S_l * g.S_v * g.ch * g.ch),
+      {T(2) * (g.cos_sum * g.sin_diff + g.S_v * g.ch * g.ch), g.S_v * g.sp,
+       T(2) * g.cos_sum * g.cos_diff},
+      {-g.C_l * g.S_v * g.sp, -T(2) * (g.sin_diff * g.cos_diff + g.C_l * g.S_v * g.sh * g.sh),
+       g.S_l * g.S_v * g.sp}};
+}
+
+// Coincident circles: identical caps count once (the second is marked unused); complementary
+// caps leave no area, and then this returns false.
+template <typename T>
+bool DropCoincidentCircles(const T& c, const CapPair<T> (&pairs)[3], CapCircle<T> (&circles)[3]) {
+  constexpr double kCoincident = 1e-24, kGreat = 1e-12;
+  const bool great = std::abs(ValueOf(c)) < kGreat;  // all three are great circles
+  for (const CapPair<T>& pr : pairs) {
+    const double dm = ValueOf(pr.d_minus), dp = ValueOf(pr.d_plus);
+    const bool identical = pr.same_c ? dm < kCoincident : (great && dm < kCoincident);
+    const bool complementary = pr.same_c ? (great && dp < kCoincident) : dp < kCoincident;
+    if (complementary) return false;
+    if (identical && circles[pr.i].used) circles[pr.j].used = false;
+  }
+  return true;
+}
+
+// The crossings of the used circles: up to 6 points, each an end of arcs on two circles.
+template <typename T>
+struct CapCrossings {
+  T points[6][3];
+  ArcEnd<T> ends[3][4];
+  int end_point[3][4];
+  int point_third[6];  // the circle a crossing is not on
+  int n_ends[3] = {0, 0, 0};
+  int n_points = 0;
+};
+
+template <typename T>
+void CrossAllCircles(const CapCircle<T> (&circles)[3], const CapPair<T> (&pairs)[3],
+                     CapCrossings<T>* x) {
+  for (const CapPair<T>& pr : pairs) {
+    if (!circles[pr.i].used || !circles[pr.j].used) continue;
+    T found[2][3];
+    const int n =
+        CrossCircles(circles[pr.i].c, pr.same_c, pr.d_minus, pr.d_plus, pr.toward, pr.cross, found);
+    for (int q = 0; q < n; ++q, ++x->n_points) {
+      for (int k = 0; k < 3; ++k) x->points[x->n_points][k] = found[q][k];
+      x->point_third[x->n_points] = 3 - pr.i - pr.j;
+      for (int side : {pr.i, pr.j}) {
+        x->ends[side][x->n_ends[side]] = AngleOn(circles[side], x->points[x->n_points]);
+        x->end_point[side][x->n_ends[side]++] = x->n_points;
+      }
+    }
+  }
+}
+
+// True when a crossing of two circles lies on the third used one (to 1e-12): the degenerate
+// arrangement that CapSingleScatterClosed moves off.
+template <typename T>
+bool CrossingOnThirdCircle(const CapCircle<T> (&circles)[3], const CapCrossings<T>& x) {
+  for (int q = 0; q < x.n_points; ++q) {
+    const CapCircle<T>& third = circles[x.point_third[q]];
+    if (!third.used) continue;
+    double on_third = -ValueOf(third.c);
+    for (int d = 0; d < 3; ++d) on_third += ValueOf(x.points[q][d]) * ValueOf(third.a[d]);
+    if (std::abs(on_third) < 1e-12) return true;
+  }
+  return false;
+}
+
+// Adds circle i's arcs on R's boundary to the two line integrals (HarmonicArc, AreaArc).
+template <typename T>
+void AddCircleArcs(const CapCircle<T> (&circles)[3], int i, const CapCrossings<T>& x,
+                   const FrameForm<T>& form, const T& vers, T* harmonic, T* area) {
+  const CapCircle<T>& cc = circles[i];
+  const T two_pi(2 * kPi);
+  const int n = x.n_ends[i];
+  if (n == 0) {
+    // No crossing: the whole circle bounds R when it lies inside the other caps. Only the
+    // pit's own circle can: a shadow circle (radius pi - Psi >= Psi) never fits in the pit.
+    if (!cc.axis_is_z || !InsideOthers(circles, i, 0.0)) return;
+    const ArcEnd<T> start{T(0), T(1), T(0)};
+    *harmonic += HarmonicArc(cc, form, start, start, two_pi);
+    *area += vers * two_pi;
+    return;
+  }
+  // Sort the ends by angle (insertion sort, at most 4).
+  int order[4] = {0, 1, 2, 3};
+  for (int a = 1; a < n; ++a) {
+    for (int b = a; b > 0 && x.ends[i][order[b]].theta < x.ends[i][order[b - 1]].theta; --b) {
+      std::swap(order[b], order[b - 1]);
+    }
+  }
+  for (int k = 0; k < n; ++k) {
+    const int e0 = order[k], e1 = order[(k + 1) % n];
+    const ArcEnd<T>& a0 = x.ends[i][e0];
+    const ArcEnd<T>& a1 = x.ends[i][e1];
+    const T dtheta = k + 1 < n ? a1.theta - a0.theta : a1.theta + two_pi - a0.theta;
+    if (!InsideOthers(circles, i, ValueOf(a0.theta) + 0.5 * ValueOf(dtheta))) continue;
+    *harmonic += HarmonicArc(cc, form, a0, a1, dtheta);
+    *area += AreaArc(cc, vers, x.points[x.end_point[i][e0]], x.points[x.end_point[i][e1]], dtheta);
+  }
+}
+
 // The integral of (m.l)(m.v) over the pit's lit and visible wall normals (the quantity
 // CapSingleScatter integrates by quadrature), for theta_l, theta_v in [0, pi/2) and
 // psi in (0, pi/2].
@@ -201,137 +392,29 @@ bool InsideOthers(const CapCircle<T> (&circles)[3], int i, double theta) {
 template <typename T>
 T CapSingleScatterClosed(const T& psi, const T& theta_l, const T& theta_v, const T& phi,
                          bool moved_off_degenerate = false) {
-  using std::cos;
   using std::sin;
-  const T c = cos(psi), s = sin(psi);
-  const T sl = sin(theta_l), cl = cos(theta_l), sv = sin(theta_v), cv = cos(theta_v);
-  const T cp = cos(phi), sp = sin(phi);
-  const T sh = sin(phi / T(2)), ch = cos(phi / T(2));
-  const T l[3] = {sl, T(0), cl};
-  const T v[3] = {sv * cp, sv * sp, cv};
-  // Shadow axes s and t at polar angles 2 theta_l, 2 theta_v (S = sin, C = cos of those).
-  const T S_l = T(2) * sl * cl, C_l = cl * cl - sl * sl;
-  const T S_v = T(2) * sv * cv, C_v = cv * cv - sv * sv;
-  const T zero(0), one(1);
-  CapCircle<T> circles[3] = {
-      {{zero, zero, one}, {one, zero, zero}, {zero, one, zero}, c, s, zero, T(2), true},
-      {{S_l, zero, C_l}, {C_l, zero, -S_l}, {zero, one, zero}, -c, s, S_l, T(2) * cl * cl, false},
-      {{S_v * cp, S_v * sp, C_v},
-       {C_v * cp, C_v * sp, -S_v},
-       {-sp, cp, zero},
-       -c,
-       s,
-       S_v,
-       T(2) * cv * cv,
-       false}};
+  const CapAngles<T> g = CapAnglesOf(psi, theta_l, theta_v, phi);
+  CapCircle<T> circles[3];
+  CapPair<T> pairs[3];
+  CapCirclesOf(g, circles);
+  CapPairsOf(g, pairs);
+  if (!DropCoincidentCircles(g.c, pairs, circles)) return T(0);
+  CapCrossings<T> crossings;
+  CrossAllCircles(circles, pairs, &crossings);
+  if (!moved_off_degenerate && CrossingOnThirdCircle(circles, crossings)) {
+    const T moved = phi + T(ValueOf(phi) < kHalfPi ? 1e-9 : -1e-9);
+    return CapSingleScatterClosed(psi, theta_l, theta_v, moved, true);
+  }
+  const T l[3] = {g.sl, T(0), g.cl};
+  const T v[3] = {g.sv * g.cp, g.sv * g.sp, g.cv};
   const T sin_half_psi = sin(psi / T(2));
   const T vers = T(2) * sin_half_psi * sin_half_psi;  // 1 - cos Psi
-  // Pair geometry in forms without cancellation: 1 -+ a_i.a_j, a_i -+ a_j and a_i x a_j.
-  struct Pair {
-    int i, j;
-    bool same_c;
-    T d_minus, d_plus, toward[3], cross[3];
-  };
-  const T cos_sum = cos(theta_l + theta_v), sin_diff = sin(theta_l - theta_v);
-  const T cos_diff = cos(theta_l - theta_v);
-  Pair pairs[3] = {
-      {0,
-       1,
-       false,
-       T(2) * sl * sl,
-       T(2) * cl * cl,
-       {-S_l, zero, T(2) * sl * sl},
-       {zero, S_l, zero}},
-      {0,
-       2,
-       false,
-       T(2) * sv * sv,
-       T(2) * cv * cv,
-       {-S_v * cp, -S_v * sp, T(2) * sv * sv},
-       {-S_v * sp, S_v * cp, zero}},
-      {1,
-       2,
-       true,
-       T(2) * (sin_diff * sin_diff + S_l * S_v * sh * sh),
-       T(2) * (cos_sum * cos_sum + S_l * S_v * ch * ch),
-       {T(2) * (cos_sum * sin_diff + S_v * ch * ch), S_v * sp, T(2) * cos_sum * cos_diff},
-       {-C_l * S_v * sp, -T(2) * (sin_diff * cos_diff + C_l * S_v * sh * sh), S_l * S_v * sp}}};
-  // Coincident circles: identical caps count once; complementary caps leave no area.
-  constexpr double kCoincident = 1e-24, kGreat = 1e-12;
-  const bool great = std::abs(ValueOf(c)) < kGreat;  // all three are great circles
-  for (const Pair& pr : pairs) {
-    const double dm = ValueOf(pr.d_minus), dp = ValueOf(pr.d_plus);
-    const bool identical = pr.same_c ? dm < kCoincident : (great && dm < kCoincident);
-    const bool complementary = pr.same_c ? (great && dp < kCoincident) : dp < kCoincident;
-    if (complementary) return T(0);
-    if (identical && circles[pr.i].used) circles[pr.j].used = false;
-  }
-  // Crossings: up to 6 points, each an end of arcs on two circles.
-  T points[6][3];
-  ArcEnd<T> ends[3][4];
-  int end_point[3][4];
-  int point_third[6];  // the circle a crossing is not on
-  int n_ends[3] = {0, 0, 0};
-  int n_points = 0;
-  for (const Pair& pr : pairs) {
-    if (!circles[pr.i].used || !circles[pr.j].used) continue;
-    T found[2][3];
-    const int n =
-        CrossCircles(circles[pr.i].c, pr.same_c, pr.d_minus, pr.d_plus, pr.toward, pr.cross, found);
-    for (int q = 0; q < n; ++q, ++n_points) {
-      for (int k = 0; k < 3; ++k) points[n_points][k] = found[q][k];
-      point_third[n_points] = 3 - pr.i - pr.j;
-      for (int side : {pr.i, pr.j}) {
-        ends[side][n_ends[side]] = AngleOn(circles[side], points[n_points]);
-        end_point[side][n_ends[side]++] = n_points;
-      }
-    }
-  }
-  if (!moved_off_degenerate) {
-    for (int q = 0; q < n_points; ++q) {
-      const CapCircle<T>& third = circles[point_third[q]];
-      if (!third.used) continue;
-      double on_third = -ValueOf(third.c);
-      for (int d = 0; d < 3; ++d) on_third += ValueOf(points[q][d]) * ValueOf(third.a[d]);
-      if (std::abs(on_third) < 1e-12) {
-        const T moved = phi + T(ValueOf(phi) < kHalfPi ? 1e-9 : -1e-9);
-        return CapSingleScatterClosed(psi, theta_l, theta_v, moved, true);
-      }
-    }
-  }
   const T lv3 = Dot3(l, v) / T(3);
   T harmonic(0), area(0);
-  const T two_pi(2 * kPi);
   for (int i = 0; i < 3; ++i) {
-    const CapCircle<T>& cc = circles[i];
-    if (!cc.used) continue;
-    const FrameForm<T> form = FormInFrame(cc, l, v, lv3);
-    const int n = n_ends[i];
-    if (n == 0) {
-      // No crossing: the whole circle bounds R when it lies inside the other caps. Only the
-      // pit's own circle can: a shadow circle (radius pi - Psi >= Psi) never fits in the pit.
-      if (!cc.axis_is_z || !InsideOthers(circles, i, 0.0)) continue;
-      const ArcEnd<T> start{zero, one, zero};
-      harmonic += HarmonicArc(cc, form, start, start, two_pi);
-      area += vers * two_pi;
-      continue;
-    }
-    // Sort the ends by angle (insertion sort, at most 4).
-    int order[4] = {0, 1, 2, 3};
-    for (int a = 1; a < n; ++a) {
-      for (int b = a; b > 0 && ends[i][order[b]].theta < ends[i][order[b - 1]].theta; --b) {
-        std::swap(order[b], order[b - 1]);
-      }
-    }
-    for (int k = 0; k < n; ++k) {
-      const int e0 = order[k], e1 = order[(k + 1) % n];
-      const ArcEnd<T>& a0 = ends[i][e0];
-      const ArcEnd<T>& a1 = ends[i][e1];
-      const T dtheta = k + 1 < n ? a1.theta - a0.theta : a1.theta + two_pi - a0.theta;
-      if (!InsideOthers(circles, i, ValueOf(a0.theta) + 0.5 * ValueOf(dtheta))) continue;
-      harmonic += HarmonicArc(cc, form, a0, a1, dtheta);
-      area += AreaArc(cc, vers, points[end_point[i][e0]], points[end_point[i][e1]], dtheta);
-    }
+    if (!circles[i].used) continue;
+    AddCircleArcs(circles, i, crossings, FormInFrame(circles[i], l, v, lv3), vers, &harmonic,
+                  &area);
   }
   return -harmonic / T(6) + lv3 * area;
 }

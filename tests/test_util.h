@@ -1,4 +1,5 @@
-// Helpers for tests: paths to the real data and the gonio binary, and running the CLI.
+// Helpers for tests: paths to the real data and the gonio binary, running the CLI and checking
+// its refusals, temporary folders, the message of an InputError.
 #pragma once
 
 #include <sys/wait.h>
@@ -11,6 +12,8 @@
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "common/error.h"
 
 namespace gonio::testing {
 
@@ -109,6 +112,27 @@ inline int MessageLines(const std::string& err) {
     start = end + 1;
   }
   return n;
+}
+
+// A refusal of bad input: exit code 2 and one message line on stderr that contains both
+// `names` (the file or option) and `says` (the problem).
+inline void ExpectOneLineError(const CommandResult& r, const std::string& names,
+                               const std::string& says) {
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(MessageLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find(names), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
+}
+
+// The message of the InputError `f` throws (empty when it throws none).
+template <typename F>
+std::string InputErrorOf(F f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 // A fresh empty folder under the system temp dir, removed by the destructor.

@@ -143,10 +143,11 @@ CvViews ToCv(const Board& board, const std::vector<BoardObservation>& views) {
   return cv_views;
 }
 
-void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, int width,
-                int height, const CvSolve& seed, const CalibrationOptions& options,
-                CalibrationResult* result) {
-  ScratchDir scratch;
+// The problem kMrcalSolveScript reads: the lens model, imager, board spacing, the seed's
+// intrinsics and board poses, and every view's corners on the board's lattice.
+nlohmann::json MrcalProblem(const Board& board, const std::vector<BoardObservation>& views,
+                            int width, int height, const CvSolve& seed,
+                            const CalibrationOptions& options) {
   const Board::MrcalGrid grid = board.ToMrcalGrid();
   nlohmann::json problem = {{"lensmodel", LensModelName(options.lens_model)},
                             {"imagersize", {width, height}},
@@ -180,6 +181,14 @@ void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, 
   }
   problem["observations"] = observations;
   problem["frames_rt_toref"] = frames;
+  return problem;
+}
+
+// Runs kMrcalSolveScript on `problem` in a scratch folder: the solved model into `result`
+// (its text and the camera), and the statistics line the script prints returned.
+nlohmann::json RunMrcalScript(const nlohmann::json& problem, const CalibrationOptions& options,
+                              CalibrationResult* result) {
+  ScratchDir scratch;
   const fs::path problem_file = scratch.path() / "problem.json";
   WriteTextAtomically(problem_file, problem.dump());
   const fs::path model = scratch.path() / "camera.cameramodel";
@@ -195,12 +204,18 @@ void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, 
   if (!fs::exists(model)) throw NumericalError("mrcal wrote no model");
   result->model_text = ReadTextFile(model);
   result->camera = CameraModel::Read(model);
-  nlohmann::json stats;
   try {
-    stats = nlohmann::json::parse(LastLine(stats_file));
+    return nlohmann::json::parse(LastLine(stats_file));
   } catch (const nlohmann::json::exception&) {
     throw NumericalError("python3-mrcal printed no statistics: " + LastLine(stats_file));
   }
+}
+
+// The residuals and the projection uncertainty grid of the script's statistics into
+// `result`; throws when the views do not constrain the lens model (the uncertainty is not
+// finite, or over options.max_uncertainty_px at the imager centre).
+void ReadMrcalStats(const nlohmann::json& stats, const CalibrationOptions& options,
+                    CalibrationResult* result) {
   result->rms_px = stats.at("rms_px");
   result->worst_px = stats.at("worst_px");
   result->num_outliers = result->num_points - stats.at("n_inliers").get<int>();
@@ -234,6 +249,14 @@ void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, 
         LensModelName(options.lens_model), result->uncertainty_centre_px,
         options.max_uncertainty_px));
   }
+}
+
+void SolveMrcal(const Board& board, const std::vector<BoardObservation>& views, int width,
+                int height, const CvSolve& seed, const CalibrationOptions& options,
+                CalibrationResult* result) {
+  const nlohmann::json problem = MrcalProblem(board, views, width, height, seed, options);
+  const nlohmann::json stats = RunMrcalScript(problem, options, result);
+  ReadMrcalStats(stats, options, result);
 }
 
 CvSolve RunOpenCv(const Board& board, const std::vector<BoardObservation>& views, int width,

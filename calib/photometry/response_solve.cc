@@ -101,6 +101,77 @@ std::vector<std::vector<int>> ByPixel(const std::vector<KnotObservation>& obs, i
   return by;
 }
 
+// The free knots and times as one vector of unknowns, and back.
+Eigen::VectorXd PackUnknowns(const FreeIndex& f, const std::vector<double>& h,
+                             const std::vector<double>& ln_t) {
+  Eigen::VectorXd y(f.size);
+  for (size_t k = 0; k < f.knot.size(); ++k) {
+    if (f.knot[k] >= 0) y(f.knot[k]) = h[k];
+  }
+  for (size_t j = 0; j < f.frame.size(); ++j) {
+    if (f.frame[j] >= 0) y(f.frame[j]) = ln_t[j];
+  }
+  return y;
+}
+
+void UnpackUnknowns(const FreeIndex& f, const Eigen::VectorXd& y, std::vector<double>* h,
+                    std::vector<double>* ln_t) {
+  for (size_t k = 0; k < f.knot.size(); ++k) {
+    if (f.knot[k] >= 0) (*h)[k] = y(f.knot[k]);
+  }
+  for (size_t j = 0; j < f.frame.size(); ++j) {
+    if (f.frame[j] >= 0) (*ln_t)[j] = y(f.frame[j]);
+  }
+}
+
+// An observation's q at the unknowns y and its pixel's ln E = e.
+double QOf(const Terms& t, const Eigen::VectorXd& y, double e) {
+  double q = t.constant - e;
+  for (int m = 0; m < t.n; ++m) q += t.coef[m] * y(t.index[m]);
+  return q;
+}
+
+// Adds the observations' normal equations with weights omega to normal and rhs (on entry the
+// prior's), each pixel's ln E eliminated. d: per pixel the sum of its weights (its ln E's
+// normal equation), zero on entry.
+void AddObservationsReduced(const std::vector<Terms>& terms,
+                            const std::vector<std::vector<int>>& by_pixel,
+                            const std::vector<double>& omega, Eigen::MatrixXd* normal,
+                            Eigen::VectorXd* rhs, std::vector<double>* d) {
+  const int n = static_cast<int>(normal->rows());
+  // Scratch for one pixel's coupling to the free unknowns (g_p, sparse over `touched`).
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  std::vector<int> touched;
+  std::vector<char> is_touched(n, 0);
+  std::vector<double> b(by_pixel.size(), 0.0);
+  for (size_t p = 0; p < by_pixel.size(); ++p) {
+    if (by_pixel[p].empty()) continue;
+    touched.clear();
+    for (int i : by_pixel[p]) {
+      const Terms& t = terms[i];
+      (*d)[p] += omega[i];
+      b[p] += omega[i] * t.constant;
+      for (int m = 0; m < t.n; ++m) {
+        (*rhs)(t.index[m]) -= omega[i] * t.coef[m] * t.constant;
+        for (int k = 0; k < t.n; ++k) {
+          (*normal)(t.index[m], t.index[k]) += omega[i] * t.coef[m] * t.coef[k];
+        }
+        if (!is_touched[t.index[m]]) {
+          is_touched[t.index[m]] = 1;
+          touched.push_back(t.index[m]);
+        }
+        g(t.index[m]) += omega[i] * t.coef[m];
+      }
+    }
+    // ln E_p = (g_p . y + b_p) / d_p eliminated: normal -= g g^T / d, rhs += g b / d.
+    for (int r : touched) {
+      (*rhs)(r) += g(r) * b[p] / (*d)[p];
+      for (int c : touched) (*normal)(r, c) -= g(r) * g(c) / (*d)[p];
+    }
+    for (int r : touched) g(r) = 0, is_touched[r] = 0;
+  }
+}
+
 }  // namespace
 
 double HuberWeight(double residual, double scale) {
@@ -120,57 +191,17 @@ void SolveResponseFit(const std::vector<KnotObservation>& obs, const LinearFitSp
   AddSmoothness(spec, f, *h, &prior, &prior_rhs);
   for (size_t i = 0; i < obs.size(); ++i) terms[i] = TermsOf(obs[i], f, *h, *ln_t);
 
-  Eigen::VectorXd y(n);
-  for (size_t k = 0; k < f.knot.size(); ++k) {
-    if (f.knot[k] >= 0) y(f.knot[k]) = (*h)[k];
-  }
-  for (size_t j = 0; j < f.frame.size(); ++j) {
-    if (f.frame[j] >= 0) y(f.frame[j]) = (*ln_t)[j];
-  }
+  Eigen::VectorXd y = PackUnknowns(f, *h, *ln_t);
   std::vector<double> omega(obs.size());
-  // Scratch for one pixel's coupling to the free unknowns (g_p, sparse over `touched`).
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-  std::vector<int> touched;
-  std::vector<char> is_touched(n, 0);
-  const auto q_of = [&](size_t i, double e) {
-    double q = terms[i].constant - e;
-    for (int m = 0; m < terms[i].n; ++m) q += terms[i].coef[m] * y(terms[i].index[m]);
-    return q;
-  };
   for (int iteration = 0; iteration < spec.max_iterations; ++iteration) {
     for (size_t i = 0; i < obs.size(); ++i) {
       const double w = obs[i].w;
-      omega[i] = w * w * HuberWeight(w * q_of(i, (*ln_e)[obs[i].pixel]), spec.huber_scale);
+      omega[i] = w * w * HuberWeight(w * QOf(terms[i], y, (*ln_e)[obs[i].pixel]), spec.huber_scale);
     }
     Eigen::MatrixXd normal = prior;
     Eigen::VectorXd rhs = prior_rhs;
-    std::vector<double> d(by_pixel.size(), 0.0), b(by_pixel.size(), 0.0);
-    for (size_t p = 0; p < by_pixel.size(); ++p) {
-      if (by_pixel[p].empty()) continue;
-      touched.clear();
-      for (int i : by_pixel[p]) {
-        const Terms& t = terms[i];
-        d[p] += omega[i];
-        b[p] += omega[i] * t.constant;
-        for (int m = 0; m < t.n; ++m) {
-          rhs(t.index[m]) -= omega[i] * t.coef[m] * t.constant;
-          for (int k = 0; k < t.n; ++k) {
-            normal(t.index[m], t.index[k]) += omega[i] * t.coef[m] * t.coef[k];
-          }
-          if (!is_touched[t.index[m]]) {
-            is_touched[t.index[m]] = 1;
-            touched.push_back(t.index[m]);
-          }
-          g(t.index[m]) += omega[i] * t.coef[m];
-        }
-      }
-      // ln E_p = (g_p . y + b_p) / d_p eliminated: normal -= g g^T / d, rhs += g b / d.
-      for (int r : touched) {
-        rhs(r) += g(r) * b[p] / d[p];
-        for (int c : touched) normal(r, c) -= g(r) * g(c) / d[p];
-      }
-      for (int r : touched) g(r) = 0, is_touched[r] = 0;
-    }
+    std::vector<double> d(by_pixel.size(), 0.0);
+    AddObservationsReduced(terms, by_pixel, omega, &normal, &rhs, &d);
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
     const Eigen::VectorXd y_new = ldlt.solve(rhs);
     if (ldlt.info() != Eigen::Success || !y_new.allFinite()) {
@@ -181,18 +212,13 @@ void SolveResponseFit(const std::vector<KnotObservation>& obs, const LinearFitSp
     for (size_t p = 0; p < by_pixel.size(); ++p) {
       if (by_pixel[p].empty()) continue;
       double num = 0;
-      for (int i : by_pixel[p]) num += omega[i] * q_of(i, 0.0);
+      for (int i : by_pixel[p]) num += omega[i] * QOf(terms[i], y, 0.0);
       (*ln_e)[p] = num / d[p];
     }
     if (normal_out) *normal_out = normal;
     if (step < spec.tolerance) break;
   }
-  for (size_t k = 0; k < f.knot.size(); ++k) {
-    if (f.knot[k] >= 0) (*h)[k] = y(f.knot[k]);
-  }
-  for (size_t j = 0; j < f.frame.size(); ++j) {
-    if (f.frame[j] >= 0) (*ln_t)[j] = y(f.frame[j]);
-  }
+  UnpackUnknowns(f, y, h, ln_t);
   if (weights) *weights = std::move(omega);
 }
 

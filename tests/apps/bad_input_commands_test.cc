@@ -17,13 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::RunGonio;
 
-void ExpectOneLineError(const testing::CommandResult& r, const std::string& names,
-                        const std::string& says) {
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find(names), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
-}
+using testing::ExpectOneLineError;
 
 // "nan" or "inf" given to any number option is refused naming the option (it read as "not
 // given" for brdf eval, and passed every range test for brdf plot).

@@ -2,7 +2,6 @@
 // option, and a table whose rows are the single-geometry estimates of the same seed.
 #include "data_synth/microsim_job.h"
 
-#include <functional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -14,20 +13,13 @@
 namespace gonio::microsim {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::InputErrorOf;
 
 TEST(MicrosimJob, SurfaceWordsRoundTripAndUnknownWordsNameTheOption) {
   for (SurfaceKind k : {SurfaceKind::kVGroove, SurfaceKind::kGaussian, SurfaceKind::kPits}) {
     EXPECT_EQ(ParseSurfaceKind(SurfaceKindName(k)), k);
   }
-  const std::string e = ErrorOf([] { ParseSurfaceKind("dunes"); });
+  const std::string e = InputErrorOf([] { ParseSurfaceKind("dunes"); });
   EXPECT_NE(e.find("--surface"), std::string::npos) << e;
   EXPECT_NE(e.find("dunes"), std::string::npos) << e;
 }
@@ -35,19 +27,19 @@ TEST(MicrosimJob, SurfaceWordsRoundTripAndUnknownWordsNameTheOption) {
 TEST(MicrosimJob, MissingOrMisplacedSurfaceParametersNameTheOption) {
   SurfaceRequest pits;
   pits.kind = SurfaceKind::kPits;
-  EXPECT_NE(ErrorOf([&] { MakeSurface(pits); }).find("--aperture"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { MakeSurface(pits); }).find("--aperture"), std::string::npos);
   SurfaceRequest grooves;
   grooves.sigma_deg = 20;
   grooves.rms_slope = 0.3;
-  const std::string e = ErrorOf([&] { MakeSurface(grooves); });
+  const std::string e = InputErrorOf([&] { MakeSurface(grooves); });
   EXPECT_NE(e.find("--rms-slope does not apply to --surface vgroove"), std::string::npos) << e;
   MicrosimJob job;
   job.surface.sigma_deg = 20;
   job.theta_i_deg = {95};
   job.theta_r_deg = {10};
-  EXPECT_NE(ErrorOf([&] { RunMicrosimJob(job); }).find("--theta-i"), std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { RunMicrosimJob(job); }).find("--theta-i"), std::string::npos);
   job.theta_i_deg = {10, 20};  // two values need --table
-  EXPECT_NE(ErrorOf([&] { RunMicrosimJob(job); }).find("--theta-i takes one value"),
+  EXPECT_NE(InputErrorOf([&] { RunMicrosimJob(job); }).find("--theta-i takes one value"),
             std::string::npos);
 }
 

@@ -12,6 +12,7 @@
 #include "common/math.h"
 #include "reflectance/oren_nayar.h"
 #include "tests/estimation/synthetic_observations.h"
+#include "tests/test_util.h"
 
 namespace gonio {
 namespace {
@@ -85,16 +86,7 @@ TEST(JointFit, CrossValidationNeedsTwoFrames) {
   EXPECT_THROW(FitAndSelect(Synthesize(1, 1, true), o), InputError);
 }
 
-// The message of the InputError `parse` throws (empty when it throws none).
-template <typename F>
-std::string InputErrorOf(F parse) {
-  try {
-    parse();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::InputErrorOf;
 
 // Option words (--criterion, --robust, --light-frame) parse to enums and print back unchanged;
 // an unknown word is an InputError naming the option and the accepted words.

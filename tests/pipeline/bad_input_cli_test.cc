@@ -59,13 +59,7 @@ class BadInputCli : public ::testing::Test {
 };
 testing::TempDir* BadInputCli::dir_ = nullptr;
 
-void ExpectOneLineError(const testing::CommandResult& r, const std::string& names,
-                        const std::string& says) {
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find(names), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
-}
+using testing::ExpectOneLineError;
 
 // 1. No photometric calibration: refused, unless --assume-linear, which is then recorded.
 TEST_F(BadInputCli, NoPhotometricCalibrationIsRefusedOrRecorded) {

@@ -20,13 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void ExpectOneLineError(const testing::CommandResult& r, const std::string& names,
-                        const std::string& says) {
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find(names), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find(says), std::string::npos) << r.err;
-}
+using testing::ExpectOneLineError;
 
 // Each line of an observations.csv through `edit(row_index, fields)` (data rows only).
 std::string EditRows(const std::string& csv,

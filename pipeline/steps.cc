@@ -1,0 +1,57 @@
+#include "pipeline/steps.h"
+
+#include <filesystem>
+#include <map>
+
+#include "calib/photometry/vignette.h"
+#include "common/camera_model.h"
+#include "common/error.h"
+#include "common/io.h"
+#include "common/session.h"
+#include "pipeline/run.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio {
+
+ObservationSet ExtractSessionObservations(const ExtractFiles& f, const ExtractOptions& o) {
+  const Session session = ReadSession(f.session);
+  const Board board =
+      Board::Read(f.board.empty() ? (fs::path(f.session) / "board.json").string() : f.board);
+  std::map<std::string, Rigid3d> poses;
+  for (const auto& [file, pose] : ReadPoses(f.poses)) poses[file] = pose;
+  RunInputs in;  // the photometric calibration found the way `gonio run` finds it
+  const PhotometricCalibration photometric =
+      LoadPhotometricFor(session, f.photometric, f.assume_linear, &in);
+  ObservationSet set =
+      ExtractObservations(f.session, CameraModel::Read(f.camera), board, poses, photometric, o);
+  set.assumptions = in.assumptions;  // e.g. --assume-linear, carried to gonio fit
+  return set;
+}
+
+FitOfFiles FitObservationFiles(const std::vector<std::string>& files,
+                               const std::string& observations, const JointFitOptions& o) {
+  FitOfFiles r;
+  std::vector<ObservationSet> sets;
+  for (const auto& f : files) sets.push_back(ReadObservations(f));
+  r.data = MergeObservations(sets);
+  // The checks gonio run makes (pipeline/checks.h), on the same terms.
+  try {
+    r.checked = FitChecked(r.data, o, observations, FitChecksOptions());
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    if (what.rfind(observations, 0) == 0) throw;
+    throw InputError(observations + ": " + what);  // the fit's own words lack the file
+  }
+  return r;
+}
+
+void WriteFitOfFiles(const FitOfFiles& r, const std::string& observations, const std::string& out) {
+  nlohmann::json j = r.checked.fit.ToJson();
+  j["observations"] = observations;
+  j["assumptions"] = r.data.assumptions;
+  j["checks"] = r.checked.checks.ToJson();
+  WriteJsonAtomically(out, j);
+}
+
+}  // namespace gonio
