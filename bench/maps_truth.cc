@@ -80,10 +80,15 @@ std::string MapsTruthComparison::Report() const {
       100 * edge_albedo_rel_rms, edge_albedo_rms_z);
 }
 
-MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::path& truth_dir,
-                                         const MapsTruthOptions& o) {
-  const nlohmann::json maps = ReadJsonFile(maps_dir / "maps.json");
-  const nlohmann::json truth = ReadJsonFile(truth_dir / "truth.json");
+namespace {
+
+// The truth's maps (truth.json "texture"), on the truth's grid.
+struct Truth {
+  TruthMap albedo, normal, rough, mat;
+  int materials = 0;
+};
+
+Truth ReadTruth(const fs::path& truth_dir, const nlohmann::json& truth) {
   if (!truth.contains("texture")) throw InputError(truth_dir.string() + ": truth has no texture");
   const auto& tg = truth["texture"]["grid"];
   auto truth_map = [&](const std::string& key) {
@@ -94,126 +99,154 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
     m.y0 = tg["first_texel_centre_in_board"][1].get<double>();
     return m;
   };
-  const TruthMap t_albedo = truth_map("albedo"), t_normal = truth_map("normal"),
-                 t_rough = truth_map("roughness"), t_mat = truth_map("materials");
+  Truth t;
+  t.albedo = truth_map("albedo");
+  t.normal = truth_map("normal");
+  t.rough = truth_map("roughness");
+  t.mat = truth_map("materials");
+  t.materials = static_cast<int>(truth["texture"]["materials"].size());
+  return t;
+}
+
+// The maps' files and where their texels are on the board.
+struct Maps {
+  cv::Mat albedo, sd_albedo, normal, sd_normal, materials, rough, sd_rough, mask, edges;
+  bool has_rough = false;
+  double texel = 0, x0 = 0, y0 = 0, dx = 0, dy = 0;
+  int materials_found = 0;
+};
+
+Maps ReadMaps(const fs::path& maps_dir, const nlohmann::json& maps, const nlohmann::json& truth) {
+  Maps m;
   const auto& g = maps["grid"];
-  const double texel = g["texel_m"].get<double>();
-  const double x0 = g["first_texel_centre_in_board"][0].get<double>();
-  const double y0 = g["first_texel_centre_in_board"][1].get<double>();
+  m.texel = g["texel_m"].get<double>();
+  m.x0 = g["first_texel_centre_in_board"][0].get<double>();
+  m.y0 = g["first_texel_centre_in_board"][1].get<double>();
   // A rectified capture's frame is centred on its square: its truth says where that is.
-  double dx = 0, dy = 0;
   if (truth.contains("rectified") && maps["lamp"]["frame"] == "per-view") {
-    dx = truth["rectified"]["centre_in_board"][0].get<double>();
-    dy = truth["rectified"]["centre_in_board"][1].get<double>();
+    m.dx = truth["rectified"]["centre_in_board"][0].get<double>();
+    m.dy = truth["rectified"]["centre_in_board"][1].get<double>();
   }
   const std::string channel_param = maps["channel_parameters"].get<std::string>();
   const std::string albedo_file = channel_param.rfind("diffuse", 0) == 0 ? "diffuse" : "albedo";
-  const cv::Mat albedo = ReadMap(maps_dir / (albedo_file + ".tiff"));
-  const cv::Mat sd_albedo = ReadMap(maps_dir / ("sd_" + albedo_file + ".tiff"));
-  const cv::Mat normal = ReadMap(maps_dir / "normal.tiff");
-  const cv::Mat sd_normal = ReadMap(maps_dir / "sd_normal.tiff");
-  const cv::Mat materials = ReadMap(maps_dir / "materials.tiff");
-  const bool has_rough = fs::exists(maps_dir / "roughness.tiff");
-  const cv::Mat rough = has_rough ? ReadMap(maps_dir / "roughness.tiff") : cv::Mat();
-  const cv::Mat sd_rough = has_rough ? ReadMap(maps_dir / "sd_roughness.tiff") : cv::Mat();
-  const cv::Mat mask = cv::imread((maps_dir / "mask.png").string(), cv::IMREAD_GRAYSCALE);
-  if (mask.empty()) throw InputError((maps_dir / "mask.png").string() + ": cannot be read");
-  const cv::Mat edges = fs::exists(maps_dir / "edges.png")
-                            ? cv::imread((maps_dir / "edges.png").string(), cv::IMREAD_GRAYSCALE)
-                            : cv::Mat(mask.size(), CV_8U, cv::Scalar(0));
-  const int C = albedo.channels();
-  MapsTruthComparison r;
-  r.materials_found = maps["clusters"]["k"].get<int>();
-  r.materials_true = static_cast<int>(truth["texture"]["materials"].size());
-  struct Texel {
-    double x, y;
-    int i, j;
-    bool interior, edge;
-  };
+  m.albedo = ReadMap(maps_dir / (albedo_file + ".tiff"));
+  m.sd_albedo = ReadMap(maps_dir / ("sd_" + albedo_file + ".tiff"));
+  m.normal = ReadMap(maps_dir / "normal.tiff");
+  m.sd_normal = ReadMap(maps_dir / "sd_normal.tiff");
+  m.materials = ReadMap(maps_dir / "materials.tiff");
+  m.has_rough = fs::exists(maps_dir / "roughness.tiff");
+  if (m.has_rough) {
+    m.rough = ReadMap(maps_dir / "roughness.tiff");
+    m.sd_rough = ReadMap(maps_dir / "sd_roughness.tiff");
+  }
+  m.mask = cv::imread((maps_dir / "mask.png").string(), cv::IMREAD_GRAYSCALE);
+  if (m.mask.empty()) throw InputError((maps_dir / "mask.png").string() + ": cannot be read");
+  m.edges = fs::exists(maps_dir / "edges.png")
+                ? cv::imread((maps_dir / "edges.png").string(), cv::IMREAD_GRAYSCALE)
+                : cv::Mat(m.mask.size(), CV_8U, cv::Scalar(0));
+  m.materials_found = maps["clusters"]["k"].get<int>();
+  return m;
+}
+
+struct Texel {
+  double x, y;
+  int i, j;
+  bool interior, edge;
+};
+
+// The maps' masked texels with their board points; interior: no other truth material within
+// the band and not an edge of the maps; edge: an edge of the maps the band leaves in.
+std::vector<Texel> ClassifyTexels(const Maps& m, const Truth& truth, double band) {
   std::vector<Texel> texels;
-  const double band = o.edge_band_m;
-  for (int j = 0; j < albedo.rows; ++j) {
-    for (int i = 0; i < albedo.cols; ++i) {
-      if (!mask.at<uint8_t>(j, i)) continue;
-      const double x = x0 + i * texel + dx, y = y0 + j * texel + dy;
-      const double m0 = t_mat.At(x, y, 0, true);
+  for (int j = 0; j < m.albedo.rows; ++j) {
+    for (int i = 0; i < m.albedo.cols; ++i) {
+      if (!m.mask.at<uint8_t>(j, i)) continue;
+      const double x = m.x0 + i * m.texel + m.dx, y = m.y0 + j * m.texel + m.dy;
+      const double m0 = truth.mat.At(x, y, 0, true);
       bool interior = true;
       for (int k = 0; k < 8 && interior; ++k) {
         const double a = k * kPi / 4;
-        interior = t_mat.At(x + band * std::cos(a), y + band * std::sin(a), 0, true) == m0;
+        interior = truth.mat.At(x + band * std::cos(a), y + band * std::sin(a), 0, true) == m0;
       }
-      const bool edge = edges.at<uint8_t>(j, i) > 0;
+      const bool edge = m.edges.at<uint8_t>(j, i) > 0;
       texels.push_back({x, y, i, j, interior && !edge, interior && edge});
     }
   }
-  // Albedo scale per channel (least squares of fitted on true) when asked.
-  for (int c = 0; c < C && o.fit_albedo_scale; ++c) {
+  return texels;
+}
+
+// Albedo scale per channel: least squares of fitted on true.
+void FitAlbedoScale(const Maps& m, const Truth& truth, const std::vector<Texel>& texels,
+                    MapsTruthComparison* r) {
+  const int C = m.albedo.channels();
+  for (int c = 0; c < C; ++c) {
     double num = 0, den = 0;
     for (const auto& t : texels) {
-      const double a = t_albedo.At(t.x, t.y, c);
-      num += a * albedo.ptr<float>(t.j)[t.i * C + c];
+      const double a = truth.albedo.At(t.x, t.y, c);
+      num += a * m.albedo.ptr<float>(t.j)[t.i * C + c];
       den += a * a;
     }
-    r.albedo_scale[c] = den > 0 ? num / den : 1.0;
+    r->albedo_scale[c] = den > 0 ? num / den : 1.0;
   }
+}
+
+// Sums of squared errors and z over the texels, by kind.
+struct ErrorSums {
   double a2 = 0, a2_all = 0, az2 = 0, n2 = 0, n2_all = 0, nz2 = 0, r2 = 0, rz2 = 0;
   double ea2 = 0, eaz2 = 0;
   size_t na = 0, na_all = 0;
-  std::map<std::pair<int, int>, size_t> confusion;
-  for (const auto& t : texels) {
-    ++r.texels;
-    const float* a = albedo.ptr<float>(t.j) + t.i * C;
-    const float* sa = sd_albedo.ptr<float>(t.j) + t.i * C;
-    double ae2 = 0, az = 0;
-    for (int c = 0; c < C; ++c) {
-      const double truth_a = r.albedo_scale[c] * t_albedo.At(t.x, t.y, C == 3 ? c : 1);
-      const double e = a[c] - truth_a;
-      ae2 += (e / truth_a) * (e / truth_a);
-      az += sa[c] > 0 ? (e / sa[c]) * (e / sa[c]) : 0.0;
-    }
-    const float* nm = normal.ptr<float>(t.j) + t.i * 3;
-    const Eigen::Vector3d nf(nm[0], nm[1], nm[2]);
-    const Eigen::Vector3d nt = Eigen::Vector3d(t_normal.At(t.x, t.y, 0), t_normal.At(t.x, t.y, 1),
-                                               t_normal.At(t.x, t.y, 2))
-                                   .normalized();
-    const double angle = RadToDeg(std::atan2(nf.cross(nt).norm(), nf.dot(nt)));
-    a2_all += ae2;
-    na_all += C;
-    n2_all += angle * angle;
-    if (t.edge) {
-      ++r.edge;
-      ea2 += ae2;
-      eaz2 += az;
-    }
-    if (!t.interior) continue;
-    ++r.interior;
-    a2 += ae2;
-    na += C;
-    az2 += az;
-    n2 += angle * angle;
-    const double sn = sd_normal.at<float>(t.j, t.i);
-    if (sn > 0) nz2 += (angle / sn) * (angle / sn);
-    if (has_rough) {
-      const double e = rough.at<float>(t.j, t.i) - t_rough.At(t.x, t.y, 0);
-      r2 += e * e;
-      const double s = sd_rough.at<float>(t.j, t.i);
-      if (s > 0) rz2 += (e / s) * (e / s);
-    }
-    ++confusion[{static_cast<int>(std::lround(t_mat.At(t.x, t.y, 0, true))),
-                 static_cast<int>(std::lround(materials.at<float>(t.j, t.i)))}];
+  std::map<std::pair<int, int>, size_t> confusion;  // (truth material, cluster) -> texels
+};
+
+// Texel t's errors into the sums (and r's texel counts).
+void AddTexel(const Maps& m, const Truth& truth, const Texel& t, ErrorSums* s,
+              MapsTruthComparison* r) {
+  const int C = m.albedo.channels();
+  ++r->texels;
+  const float* a = m.albedo.ptr<float>(t.j) + t.i * C;
+  const float* sa = m.sd_albedo.ptr<float>(t.j) + t.i * C;
+  double ae2 = 0, az = 0;
+  for (int c = 0; c < C; ++c) {
+    const double truth_a = r->albedo_scale[c] * truth.albedo.At(t.x, t.y, C == 3 ? c : 1);
+    const double e = a[c] - truth_a;
+    ae2 += (e / truth_a) * (e / truth_a);
+    az += sa[c] > 0 ? (e / sa[c]) * (e / sa[c]) : 0.0;
   }
-  r.albedo_rel_rms = Rms(a2, na);
-  r.albedo_rel_rms_all = Rms(a2_all, na_all);
-  r.edge_albedo_rel_rms = Rms(ea2, r.edge * C);
-  r.edge_albedo_rms_z = Rms(eaz2, r.edge * C);
-  r.albedo_rms_z = Rms(az2, na);
-  r.normal_rms_deg = Rms(n2, r.interior);
-  r.normal_rms_deg_all = Rms(n2_all, r.texels);
-  r.normal_rms_z = Rms(nz2, r.interior);
-  r.roughness_rms = Rms(r2, r.interior);
-  r.roughness_rms_deg = RadToDeg(r.roughness_rms);
-  r.roughness_rms_z = Rms(rz2, r.interior);
-  // Agreement: each found cluster counted for the truth material most of its texels have.
+  const float* nm = m.normal.ptr<float>(t.j) + t.i * 3;
+  const Eigen::Vector3d nf(nm[0], nm[1], nm[2]);
+  const Eigen::Vector3d nt =
+      Eigen::Vector3d(truth.normal.At(t.x, t.y, 0), truth.normal.At(t.x, t.y, 1),
+                      truth.normal.At(t.x, t.y, 2))
+          .normalized();
+  const double angle = RadToDeg(std::atan2(nf.cross(nt).norm(), nf.dot(nt)));
+  s->a2_all += ae2;
+  s->na_all += C;
+  s->n2_all += angle * angle;
+  if (t.edge) {
+    ++r->edge;
+    s->ea2 += ae2;
+    s->eaz2 += az;
+  }
+  if (!t.interior) return;
+  ++r->interior;
+  s->a2 += ae2;
+  s->na += C;
+  s->az2 += az;
+  s->n2 += angle * angle;
+  const double sn = m.sd_normal.at<float>(t.j, t.i);
+  if (sn > 0) s->nz2 += (angle / sn) * (angle / sn);
+  if (m.has_rough) {
+    const double e = m.rough.at<float>(t.j, t.i) - truth.rough.At(t.x, t.y, 0);
+    s->r2 += e * e;
+    const double sr = m.sd_rough.at<float>(t.j, t.i);
+    if (sr > 0) s->rz2 += (e / sr) * (e / sr);
+  }
+  ++s->confusion[{static_cast<int>(std::lround(truth.mat.At(t.x, t.y, 0, true))),
+                  static_cast<int>(std::lround(m.materials.at<float>(t.j, t.i)))}];
+}
+
+// Agreement: each found cluster counted for the truth material most of its texels have.
+double MaterialAgreement(const std::map<std::pair<int, int>, size_t>& confusion, size_t interior) {
   std::map<int, std::pair<int, size_t>> best;  // cluster -> (material, count)
   for (const auto& [key, count] : confusion) {
     auto& b = best[key.second];
@@ -221,7 +254,37 @@ MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::pat
   }
   size_t agree = 0;
   for (const auto& [cluster, b] : best) agree += b.second;
-  r.material_agreement = r.interior ? static_cast<double>(agree) / r.interior : 0.0;
+  return interior ? static_cast<double>(agree) / interior : 0.0;
+}
+
+}  // namespace
+
+MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::path& truth_dir,
+                                         const MapsTruthOptions& o) {
+  const nlohmann::json maps = ReadJsonFile(maps_dir / "maps.json");
+  const nlohmann::json truth_json = ReadJsonFile(truth_dir / "truth.json");
+  const Truth truth = ReadTruth(truth_dir, truth_json);
+  const Maps m = ReadMaps(maps_dir, maps, truth_json);
+  const int C = m.albedo.channels();
+  MapsTruthComparison r;
+  r.materials_found = m.materials_found;
+  r.materials_true = truth.materials;
+  const std::vector<Texel> texels = ClassifyTexels(m, truth, o.edge_band_m);
+  if (o.fit_albedo_scale) FitAlbedoScale(m, truth, texels, &r);
+  ErrorSums s;
+  for (const auto& t : texels) AddTexel(m, truth, t, &s, &r);
+  r.albedo_rel_rms = Rms(s.a2, s.na);
+  r.albedo_rel_rms_all = Rms(s.a2_all, s.na_all);
+  r.edge_albedo_rel_rms = Rms(s.ea2, r.edge * C);
+  r.edge_albedo_rms_z = Rms(s.eaz2, r.edge * C);
+  r.albedo_rms_z = Rms(s.az2, s.na);
+  r.normal_rms_deg = Rms(s.n2, r.interior);
+  r.normal_rms_deg_all = Rms(s.n2_all, r.texels);
+  r.normal_rms_z = Rms(s.nz2, r.interior);
+  r.roughness_rms = Rms(s.r2, r.interior);
+  r.roughness_rms_deg = RadToDeg(r.roughness_rms);
+  r.roughness_rms_z = Rms(s.rz2, r.interior);
+  r.material_agreement = MaterialAgreement(s.confusion, r.interior);
   return r;
 }
 

@@ -1,0 +1,302 @@
+// The roughness hypotheses of SolveMaps (maps.h): the first maps and the views' registration,
+// the material clusters and their edges, each hypothesis fitted and the choice by BIC; on a
+// large grid the search's texel blocks and the chosen maps fitted on every texel.
+#include "estimation/maps/maps_hypotheses.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "estimation/maps/registration.h"
+
+namespace gonio {
+namespace maps_internal {
+namespace {
+
+MapsCandidate CandidateOf(const TexelFit& f) {
+  MapsCandidate c;
+  c.mode = f.mode;
+  c.clusters = f.mode == RoughnessMode::kClusters ? f.clusters : 1;
+  c.chi2 = f.chi2;
+  c.bic = f.bic;
+  c.parameters = f.parameters;
+  c.residuals = f.residuals;
+  c.cluster_roughness = f.cluster_r;
+  c.cluster_roughness_sd = f.cluster_r_sd;
+  c.seconds = f.seconds;
+  return c;
+}
+
+// Features for the clusters: the first channel parameter of each channel (the albedo, or the
+// diffuse albedo) and, when fitted per texel, the roughness.
+Eigen::MatrixXd ClusterFeatures(const TexelFit& f, std::vector<size_t>* texels) {
+  texels->clear();
+  for (size_t t = 0; t < f.fitted.size(); ++t) {
+    if (f.fitted[t]) texels->push_back(t);
+  }
+  const bool rough = f.mode == RoughnessMode::kTexel;
+  const int d = f.channels + (rough ? 1 : 0);
+  Eigen::MatrixXd X(texels->size(), d);
+  for (size_t i = 0; i < texels->size(); ++i) {
+    const size_t t = (*texels)[i];
+    for (int c = 0; c < f.channels; ++c) X(i, c) = f.w[(t * f.channels + c) * f.m];
+    if (rough) X(i, f.channels) = f.r[t];
+  }
+  return X;
+}
+
+// The texels whose samples mix materials (clusters.h MaterialEdges) under `label`, among the
+// texels `fit` fitted; empty with one cluster.
+std::vector<uint8_t> EdgesOf(const TexelData& data, const TexelFit& fit,
+                             const std::vector<int>& label, int k) {
+  if (k < 2) return {};
+  std::vector<int> fitted_label(label.size(), -1);
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (fit.fitted[t]) fitted_label[t] = label[t];
+  }
+  return MaterialEdges(fitted_label, data.grid.width, data.grid.height,
+                       data.reach_m / data.grid.texel);
+}
+
+// The fit of lowest BIC (or the one asked for), its clusters, and why.
+void ChooseHypothesis(const std::vector<TexelFit>& fits, const std::vector<int>& label,
+                      const MapsOptions& o, MapsResult* r) {
+  size_t best = 0;
+  for (size_t i = 0; i < fits.size(); ++i) {
+    r->candidates.push_back(CandidateOf(fits[i]));
+    if (fits[i].bic < fits[best].bic) best = i;
+  }
+  r->fit = fits[best];
+  r->fit.cluster = label;
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (!r->fit.fitted[t]) r->fit.cluster[t] = -1;
+  }
+  r->selection_reason =
+      o.roughness == RoughnessChoice::kAuto
+          ? fmt::format("roughness {}: lowest BIC of {} hypotheses", ToString(r->fit.mode),
+                        fits.size())
+          : fmt::format("roughness {}: as asked (--roughness)", ToString(r->fit.mode));
+}
+
+// The first maps (one roughness for the sample) with the lamp placed from its start, and the
+// views registered against them (registration.h) in `r->registration`.
+TexelFit FirstFit(TexelData* data, const MapsLamp& lamp, const MapsOptions& o,
+                  const TexelSolveOptions& so, MapsResult* r) {
+  const NoiseModel noise;  // a 1% relative start until the residuals say what the noise is
+  spdlog::info("maps: one roughness for the sample, noise model from its residuals");
+  TexelFit first = FitTexels(*data, RoughnessMode::kSample, {}, 0, lamp, noise, nullptr, so);
+  r->registration.assign(data->views.size(), ViewRegistration());
+  for (int round = 0; round < o.registration_rounds; ++round) {
+    spdlog::info("maps: registering the views against the maps (round {})", round + 1);
+    const std::vector<ViewRegistration> step = RegisterViews(first, so, data);
+    for (size_t v = 0; v < step.size(); ++v) {
+      r->registration[v].shift += step[v].shift;
+      r->registration[v].linear += step[v].linear;
+      r->registration[v].rms_m = std::hypot(r->registration[v].rms_m, step[v].rms_m);
+    }
+    first = FitTexels(*data, RoughnessMode::kSample, {}, 0, first.lamp, noise, &first, so);
+  }
+  return first;
+}
+
+// The material clusters of the per-texel features of `fit` (r->clusters), and per texel its
+// cluster (`label`) and whether its samples mix materials (`edge`, empty with one cluster).
+// Texels on an edge take values between their materials' and would make clusters of their
+// own: the mixture is fitted again without them and they are assigned to its clusters.
+void FindMaterials(const TexelData& data, const TexelFit& fit, const ClusterOptions& co,
+                   MapsResult* r, std::vector<int>* label, std::vector<uint8_t>* edge) {
+  std::vector<size_t> texels;
+  const Eigen::MatrixXd X = ClusterFeatures(fit, &texels);
+  auto cluster = [&](const std::vector<size_t>& rows) {
+    Eigen::MatrixXd Xr(rows.size(), X.cols());
+    std::vector<size_t> texel_of_row(rows.size());
+    for (size_t i = 0; i < rows.size(); ++i) {
+      Xr.row(i) = X.row(rows[i]);
+      texel_of_row[i] = texels[rows[i]];
+    }
+    r->clusters = ClusterByBic(Xr, co);
+    MergeContinuousClusters(Xr, texel_of_row, data.grid.width, data.grid.height, co.jump_ratio,
+                            &r->clusters);
+    const std::vector<int> assigned = r->clusters.Assign(X);
+    label->assign(data.grid.size(), 0);
+    for (size_t i = 0; i < texels.size(); ++i) (*label)[texels[i]] = assigned[i];
+    *edge = EdgesOf(data, fit, *label, r->clusters.k);
+  };
+  std::vector<size_t> all(texels.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  cluster(all);
+  if (edge->empty()) return;
+  std::vector<size_t> inner;
+  for (size_t i = 0; i < texels.size(); ++i) {
+    if (!(*edge)[texels[i]]) inner.push_back(i);
+  }
+  const ClusterResult with_edges = r->clusters;
+  cluster(inner);
+  if (r->clusters.k < 2) {  // the edges were all that differed: keep the first answer
+    r->clusters = with_edges;
+    cluster(all);
+  }
+}
+
+// A start for FitTexels with only the shared roughness values set (no texel fitted).
+TexelFit RoughnessSeed(const TexelData& d, const std::vector<double>& roughness) {
+  TexelFit seed;
+  seed.fitted.assign(d.grid.size(), 0);
+  seed.cluster_r = roughness;
+  return seed;
+}
+
+}  // namespace
+
+// The hypotheses the roughness option asks for, fitted with one noise model, and the choice.
+void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& o,
+                   const TexelSolveOptions& so, MapsResult* r) {
+  const TexelData& data = *data_in;
+  const MapsModelInfo info = InfoOf(so.model);
+  const TexelFit first = FirstFit(data_in, lamp, o, so, r);
+  NoiseModel noise = EstimateNoise(data, first, o.relative_noise_floor, so);
+  MapsLamp fitted_lamp = first.lamp;
+  fitted_lamp.refine_position = false;
+  const bool want_texel = info.has_roughness && o.roughness != RoughnessChoice::kSample;
+  const bool want_clusters = o.roughness == RoughnessChoice::kAuto ||
+                             o.roughness == RoughnessChoice::kClusters || !info.has_roughness;
+  const TexelFit* features = &first;
+  TexelFit texel;
+  if (want_texel) {
+    spdlog::info("maps: one roughness per texel");
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, fitted_lamp, noise, &first, so);
+    // The most flexible hypothesis leaves the least model error in its residuals: the noise
+    // model every hypothesis is compared with is measured on it.
+    noise = EstimateNoise(data, texel, o.relative_noise_floor, so);
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, texel.lamp, noise, &texel, so);
+    features = &texel;
+  }
+  std::vector<int> label;
+  std::vector<uint8_t> edge;
+  FindMaterials(data, *features, o.clusters, r, &label, &edge);
+  if (!edge.empty()) {
+    // Texels on material edges fit no one material: the noise is measured without them.
+    TexelFit inner = *features;
+    inner.edge = edge;
+    noise = EstimateNoise(data, inner, o.relative_noise_floor, so);
+  }
+  // Several materials: the lamp placed with one roughness for all of them absorbs their
+  // difference in roughness, so it is placed again (without the edge texels) with the first
+  // hypothesis that can hold them, per cluster when fitted, and the others keep it.
+  MapsLamp hypothesis_lamp = fitted_lamp;
+  hypothesis_lamp.refine_position = lamp.refine_position && r->clusters.k > 1;
+  auto fit = [&](RoughnessMode mode, const TexelFit* start) {
+    const bool per_cluster = mode == RoughnessMode::kClusters;
+    TexelFit f =
+        FitTexels(data, mode, per_cluster ? label : std::vector<int>(),
+                  per_cluster ? r->clusters.k : 0, hypothesis_lamp, noise, start, so, edge);
+    hypothesis_lamp = f.lamp;
+    hypothesis_lamp.refine_position = false;
+    return f;
+  };
+  const TexelFit* start = want_texel ? &texel : &first;
+  std::optional<TexelFit> clusters;
+  if (want_clusters && info.has_roughness && r->clusters.k > 1) {
+    spdlog::info("maps: one roughness per material cluster ({} clusters)", r->clusters.k);
+    clusters = fit(RoughnessMode::kClusters, start);
+  }
+  std::vector<TexelFit> fits;
+  if (o.roughness == RoughnessChoice::kAuto || o.roughness == RoughnessChoice::kSample) {
+    spdlog::info("maps: one roughness for the sample (final noise model)");
+    fits.push_back(fit(RoughnessMode::kSample, start));
+  }
+  if (clusters) fits.push_back(std::move(*clusters));
+  if (want_texel && (o.roughness != RoughnessChoice::kClusters || fits.empty())) {
+    if (r->clusters.k > 1) {
+      spdlog::info("maps: one roughness per texel (final noise model)");
+      texel = fit(RoughnessMode::kTexel, &texel);
+    }
+    fits.push_back(texel);  // with clusters asked and one cluster found, the per-texel maps
+  }
+  if (fits.empty()) fits.push_back(first);  // clusters asked of a model without roughness
+  ChooseHypothesis(fits, label, o, r);
+}
+
+// The texels the hypotheses are searched on (docs/maps.md "Speed"): square blocks of
+// kBlock x kBlock texels on an even lattice over the grid, about `target` texels of the mask in
+// all. Blocks keep each texel's neighbours, which the registration's gradients and the
+// clusters' edge test need.
+std::vector<uint8_t> SearchMask(const TexelData& d, size_t target) {
+  constexpr int kBlock = 32;
+  const size_t masked = d.masked_texels();
+  const int w = d.grid.width, h = d.grid.height;
+  const double share = std::min(1.0, static_cast<double>(target) / std::max<size_t>(masked, 1));
+  // Blocks per axis: block area / spacing^2 = share.
+  const int spacing = std::max(kBlock, static_cast<int>(std::lround(kBlock / std::sqrt(share))));
+  std::vector<uint8_t> mask(d.grid.size(), 0);
+  const int x0 = (w % spacing) / 2, y0 = (h % spacing) / 2;
+  for (int by = y0; by < h; by += spacing) {
+    for (int bx = x0; bx < w; bx += spacing) {
+      for (int y = by; y < std::min(h, by + kBlock); ++y) {
+        for (int x = bx; x < std::min(w, bx + kBlock); ++x) {
+          const size_t t = static_cast<size_t>(y) * w + x;
+          mask[t] = d.mask[t];
+        }
+      }
+    }
+  }
+  return mask;
+}
+
+// The chosen hypothesis on every texel of `data`, with the search's lamp, noise model, shared
+// roughness values and mixture (its clusters assigned to every texel from a per-texel fit).
+void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptions& so,
+              MapsResult* r) {
+  TexelFit search = r->fit;
+  search.lamp.refine_position = false;  // the search placed it
+  const MapsModelInfo info = InfoOf(search.model);
+  spdlog::info("maps: the chosen maps on all {} texels", data.masked_texels());
+  double mean_r = 0;
+  for (double v : search.cluster_r) mean_r += v / search.cluster_r.size();
+  TexelFit texel;
+  std::vector<int> label(data.grid.size(), 0);
+  if (info.has_roughness && (search.mode != RoughnessMode::kSample || r->clusters.k > 1)) {
+    const TexelFit seed = RoughnessSeed(data, {mean_r});
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp, search.noise, &seed, so);
+    std::vector<size_t> texels;
+    const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(texel, &texels));
+    for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
+  }
+  const std::vector<uint8_t> edge =
+      texel.fitted.empty() ? std::vector<uint8_t>() : EdgesOf(data, texel, label, r->clusters.k);
+  switch (search.mode) {
+    case RoughnessMode::kTexel:
+      r->fit = edge.empty() ? texel
+                            : FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp,
+                                        search.noise, &texel, so, edge);
+      break;
+    case RoughnessMode::kClusters: {
+      TexelFit seed = texel;
+      seed.cluster_r = search.cluster_r;
+      r->fit = FitTexels(data, RoughnessMode::kClusters, label, r->clusters.k, search.lamp,
+                         search.noise, &seed, so, edge);
+      break;
+    }
+    case RoughnessMode::kSample: {
+      TexelFit seed = texel.fitted.empty() ? RoughnessSeed(data, search.cluster_r) : texel;
+      seed.cluster_r = search.cluster_r;
+      r->fit = FitTexels(data, RoughnessMode::kSample, {}, 0, search.lamp, search.noise, &seed, so,
+                         edge);
+      break;
+    }
+  }
+  if (texel.fitted.empty() && r->clusters.k > 1) {  // no roughness: the albedo alone
+    std::vector<size_t> texels;
+    const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(r->fit, &texels));
+    for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
+  }
+  r->fit.cluster = label;
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (!r->fit.fitted[t]) r->fit.cluster[t] = -1;
+  }
+}
+
+}  // namespace maps_internal
+}  // namespace gonio

@@ -1,0 +1,202 @@
+// `gonio maps` on a session (maps.h): its inputs, frames, board poses and the uniform fit that
+// places the lamp, then the texel samples and SolveMaps.
+#include <algorithm>
+#include <chrono>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "calib/geometry/detect.h"
+#include "common/error.h"
+#include "common/image_io.h"
+#include "common/log.h"
+#include "estimation/extract/extract.h"
+#include "estimation/maps/maps.h"
+
+namespace fs = std::filesystem;
+
+namespace gonio {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::string& camera_path,
+                                        const std::string& photometric_path, bool assume_linear) {
+  MapsSessionInputs in;
+  in.session = ReadSession(session_dir);
+  if (in.session.board.empty()) {
+    throw InputError(session_dir.string() + "/session.json: names no board file");
+  }
+  in.board = Board::Read(in.session.BoardPath());
+  if (camera_path.empty()) throw InputError("--camera: give the camera model (.cameramodel)");
+  in.camera = CameraModel::Read(camera_path);
+  const fs::path default_photometric = in.session.dir / "photometric.json";
+  if (!photometric_path.empty() || (!assume_linear && fs::exists(default_photometric))) {
+    const fs::path p = photometric_path.empty() ? default_photometric : fs::path(photometric_path);
+    in.photometric = PhotometricCalibration::Read(p);
+    if (in.session.bit_depth > 0 && in.photometric.response.bit_depth != in.session.bit_depth) {
+      throw InputError(fmt::format("{}: calibrated for {} bits, {} says {} bits", p.string(),
+                                   in.photometric.response.bit_depth,
+                                   (in.session.dir / "session.json").string(),
+                                   in.session.bit_depth));
+    }
+  } else if (assume_linear) {
+    if (in.session.frames.empty()) throw InputError(session_dir.string() + ": no frames");
+    const cv::Mat first = ReadImage(in.session.FramePath(0), ImageExpectation());
+    const int bits =
+        in.session.bit_depth > 0 ? in.session.bit_depth : (first.depth() == CV_8U ? 8 : 16);
+    in.photometric =
+        PhotometricCalibration::Linear(bits, first.channels(), 0.0, BlackLevelSource::kAssumed);
+    in.assumptions.push_back(fmt::format(
+        "a linear camera ({} bits, black level 0, no vignetting): --assume-linear", bits));
+  } else {
+    throw InputError(
+        "no photometric calibration: give --photometric photometric.json (gonio photometric "
+        "response / vignette), put one in the session, or --assume-linear");
+  }
+  return in;
+}
+
+namespace {
+
+// Every frame of the session, decoded once through the one image reader (common/image_io.h),
+// checked against the session and the calibrations as extraction checks them.
+std::vector<cv::Mat> ReadFrames(const MapsSessionInputs& in) {
+  const Session& session = in.session;
+  const ImageExpectation expect = FrameExpectation(
+      session, in.photometric, "the photometric calibration", &in.camera, "the camera");
+  std::vector<cv::Mat> frames(session.frames.size());
+  Progress progress("maps: reading frames", frames.size());
+  for (size_t i = 0; i < frames.size(); ++i) {
+    frames[i] = ReadImage(session.FramePath(i), expect);
+    progress.Step();
+  }
+  progress.Done();
+  return frames;
+}
+
+// The board pose of every frame, when the caller (gonio run) has none.
+SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat>& frames) {
+  std::vector<BoardObservation> detections;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    detections.push_back(DetectBoard(GreyForDetection(frames[i], in.session.bit_depth), in.board,
+                                     PoseOptions().detector, in.session.frames[i].file));
+  }
+  return LocateObservations(in.camera, in.board, detections, PoseOptions());
+}
+
+// The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
+JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
+                          const std::vector<cv::Mat>& frames,
+                          const std::vector<TexelSampler::Pose>& sampler_poses,
+                          const std::vector<size_t>& frame_of) {
+  const Session& session = in.session;
+  ExtractOptions eo;
+  eo.patch = 4;
+  eo.threads = o.threads;
+  ObservationExtractor extractor(session.frames, in.camera, in.board, in.photometric, eo);
+  for (size_t k = 0; k < sampler_poses.size(); ++k) {
+    extractor.AddFrame(frame_of[k], frames[frame_of[k]], sampler_poses[k].cam_from_board,
+                       session.FramePath(frame_of[k]).string());
+  }
+  ObservationSet obs = extractor.Finish(session.dir.string());
+  JointFitOptions jo;
+  jo.light_frame = o.light_frame;
+  jo.white_albedo = o.white_albedo;
+  jo.threads = o.threads;
+  // A deterministic subsample, as the joint fit's final fit takes (30000 observations).
+  const size_t stride = std::max<size_t>(1, obs.observations.size() / 30000);
+  std::vector<Observation> kept;
+  for (size_t i = 0; i < obs.observations.size(); i += stride) kept.push_back(obs.observations[i]);
+  obs.observations = std::move(kept);
+  const MapsModel maps_model = o.ResolvedModel(o.white_albedo.has_value());
+  const std::string model =
+      maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
+  spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
+               obs.observations.size());
+  return FitJoint(model, obs, InitialLight(obs, jo), jo);
+}
+
+}  // namespace
+
+MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
+                           const SessionPoses* poses_in, const JointFitResult* uniform_in) {
+  o.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  const Session& session = in.session;
+  const std::vector<cv::Mat> frames = ReadFrames(in);
+  SessionPoses located;
+  if (!poses_in) located = LocateFrames(in, frames);
+  const SessionPoses& poses = poses_in ? *poses_in : located;
+  if (poses.frames.empty()) throw InputError(session.dir.string() + ": the board is in no frame");
+  std::vector<TexelSampler::Pose> sampler_poses;
+  std::vector<size_t> frame_of;
+  for (const auto& f : poses.frames) {
+    for (size_t i = 0; i < session.frames.size(); ++i) {
+      if (session.frames[i].file != f.file) continue;
+      sampler_poses.push_back(
+          {f.file, f.pose.cam_from_board, session.frames[i].exposure_s, session.frames[i].gain});
+      frame_of.push_back(i);
+    }
+  }
+  const double read_s = Seconds(t0);
+  MapsLamp lamp;
+  lamp.frame =
+      o.light_frame == LightFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
+  lamp.white_albedo = o.white_albedo;
+  std::optional<JointFitResult> uniform;
+  const auto t_fit = std::chrono::steady_clock::now();
+  if (o.lamp) {
+    lamp.position = *o.lamp;
+  } else if (uniform_in) {
+    uniform = *uniform_in;
+  } else {
+    uniform = UniformFit(in, o, frames, sampler_poses, frame_of);
+  }
+  if (uniform) {
+    lamp.position = uniform->light_position;
+    lamp.intensity = uniform->intensity;
+    lamp.refine_position = true;
+  }
+  const double fit_s = Seconds(t_fit);
+  const auto t_sample = std::chrono::steady_clock::now();
+  // The frames stay decoded until the maps are fitted: a large grid samples them again with
+  // each view's registration (SolveMaps).
+  auto sample = [&](const std::vector<ViewRegistration>* registration) {
+    TexelSampler sampler(in.camera, in.board, in.photometric, sampler_poses, o.sampling);
+    for (size_t k = 0; k < sampler_poses.size(); ++k) {
+      const std::function<Eigen::Vector2d(const Eigen::Vector3d&)> displacement =
+          [&, k](const Eigen::Vector3d& p) {
+            return DisplacementAt((*registration)[k], sampler.grid(), p);
+          };
+      sampler.AddFrame(k, frames[frame_of[k]], session.FramePath(frame_of[k]).string(),
+                       registration ? &displacement : nullptr);
+    }
+    return sampler.Finish(session.dir.string());
+  };
+  TexelData data = sample(nullptr);
+  spdlog::info("maps: {} x {} texels of {:.3f} mm, {} views", data.grid.width, data.grid.height,
+               1e3 * data.grid.texel, data.views.size());
+  const double sample_s = read_s + Seconds(t_sample);
+  MapsResult r = SolveMaps(std::move(data), lamp, o,
+                           [&](const std::vector<ViewRegistration>& g) { return sample(&g); });
+  r.sample_s = sample_s;
+  r.uniform_fit_s = fit_s;
+  r.uniform_fit = uniform;
+  r.input = session.dir.string();
+  r.lamp_source = o.lamp ? "--lamp (held fixed)"
+                         : fmt::format("uniform {} fit{}, refined with the maps",
+                                       uniform ? uniform->material.model : "",
+                                       uniform_in ? " of gonio run" : "");
+  for (const auto& a : in.assumptions) r.assumptions.insert(r.assumptions.begin(), a);
+  for (const auto& s : poses.skipped) {
+    r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
+  }
+  return r;
+}
+
+}  // namespace gonio
