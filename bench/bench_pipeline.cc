@@ -122,8 +122,9 @@ std::string CategoryAxis(const std::vector<std::string>& labels) {
   return ex + fmt::format(")\nset xrange [-0.5:{}]\n", labels.size() - 0.5);
 }
 
-// search_vs_fixed_cost.{png,svg}: per sample the chain's total time with `--models lambert`
-// and `--models auto`, and twice the former (the target for the latter).
+// search_vs_fixed_cost.{png,svg}: per sample (labelled with auto / lambert) the chain's total
+// time with `--models lambert` and `--models auto`, and twice the former (the target for auto,
+// docs/bench.md "The chain").
 void PlotSearchAgainstFixedCost(const fs::path& dir, const PipelineBenchReport& rep) {
   PlotSpec spec;
   spec.title =
@@ -138,7 +139,7 @@ void PlotSearchAgainstFixedCost(const fs::path& dir, const PipelineBenchReport& 
   target.style = "points pt 6 ps 2";
   for (size_t k = 0; k < rep.scenes.size(); ++k) {
     const SceneSearchRow& r = rep.scenes[k];
-    labels.push_back(fmt::format("{} ({}): x{:.2f}", r.scene, r.material, r.auto_over_lambert));
+    labels.push_back(fmt::format("{} x{:.2f}", r.scene, r.auto_over_lambert));
     for (PlotSeries* p : {&fixed, &search, &target}) p->x.push_back(static_cast<double>(k));
     fixed.y.push_back(r.fixed.total_s);
     search.y.push_back(r.search.total_s);
@@ -205,10 +206,6 @@ PipelineBenchReport RunPipelineBench(const BenchOptions& options, const fs::path
   if (options.size != "smoke") {
     UserChainOptions uo;
     uo.threads = options.threads;
-    if (options.size == "quick") {
-      uo.compare_width = 320;
-      uo.compare_height = 240;
-    }
     rep.user_chain = RunUserChainBench(scene, work / "user_chain", gonio, uo);
   }
   return rep;

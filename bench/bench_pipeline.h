@@ -57,9 +57,8 @@ struct ResponseComparison {
 
 struct UserChainOptions {
   int threads = 0;  // `gonio run --threads` (0: all cores)
-  // The 8-bit RGB sweep of the OpenCV comparison (0 x 0: skipped). OpenCV's Robertson takes
-  // minutes at 640x480 on a shared 2-core machine (docs/photometric.md), so the quick bench
-  // renders it smaller.
+  // The image of the OpenCV comparison's 8-bit RGB sweep (0 x 0: skipped); 640x480 is the
+  // flash-8bit preset's camera, the sweep docs/photometric.md "Pair consistency" timed.
   int compare_width = 640, compare_height = 480;
   void Check() const;  // InputError
 };

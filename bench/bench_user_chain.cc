@@ -108,7 +108,9 @@ synth::Scene SweepFor(const synth::Scene& session) {
 synth::Scene RgbSweep8(const synth::Scene& session, int width, int height) {
   synth::Scene sweep = SweepFor(session);
   sweep.photometric = synth::PresetScene("flash-8bit").photometric;
-  sweep.texture = synth::PresetScene("textured").texture;
+  const synth::Scene textured = synth::PresetScene("textured");
+  sweep.material = textured.material;  // the texture's materials are of its model
+  sweep.texture = textured.texture;
   CameraModel& c = sweep.camera;
   const double sx = static_cast<double>(width) / c.width,
                sy = static_cast<double>(height) / c.height;
@@ -137,7 +139,8 @@ ResponseComparison CompareWithOpenCv(const synth::Scene& session, const fs::path
               out.string()},
              work / "user_chain.log", &cmp.command);
   if (cmp.command.exit_code != 0 || !fs::exists(out)) return cmp;
-  for (const auto& m : ReadJsonFile(out).at("comparison")) {
+  const nlohmann::json response = ReadJsonFile(out);  // kept: the loop reads into it
+  for (const auto& m : response.at("comparison")) {
     cmp.methods.emplace_back(m.at("method").get<std::string>(), m.at("calibrate_s").get<double>());
   }
   return cmp;
