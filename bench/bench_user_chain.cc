@@ -5,7 +5,6 @@
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <fcntl.h>
 #include <chrono>
@@ -46,7 +45,8 @@ double HighWaterMb(const std::string& pid) {
 // address space (vfork), and Linux keeps that space's high-water mark through exec, so every
 // child read at least the bench process's own peak (144 MB for each quick stage). Above the
 // bench's peak ru_maxrss is the child's; below it the last VmHWM read is (the high-water mark
-// only grows, so only a peak in the last 20 ms before exit could be missed).
+// only grows, so only a peak in the last 20 ms before exit could be missed). The stage's wall
+// time is read after this returns: up to 20 ms late, on stages of seconds.
 double WaitWithPeak(pid_t pid, int* status, const std::string& stage) {
   const double parent_mb = HighWaterMb("self");
   double polled_mb = 0;
