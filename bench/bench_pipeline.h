@@ -36,7 +36,7 @@ struct SceneSearchRow {
   std::string scene;     // "diffuse", "specular", "pitted"
   std::string material;  // the rendered model
   PipelineRunRow fixed, search;
-  double search_over_fixed = 0;  // total time ratio (target <= 2)
+  double auto_over_lambert = 0;  // search / fixed total time (target <= 2, issue 31)
 };
 
 // One command of the user chain: its wall time and its process's peak resident memory.
@@ -46,13 +46,32 @@ struct UserChainStage {
   int exit_code = 0;
 };
 
+// `photometric response --compare-opencv` on an 8-bit RGB sweep: each method's own
+// calibration time (response.json comparison[].calibrate_s), gonio's first.
+struct ResponseComparison {
+  int width = 0, height = 0, frames = 0;
+  UserChainStage command;                               // the whole command
+  std::vector<std::pair<std::string, double>> methods;  // method, calibrate_s
+  nlohmann::json ToJson() const;
+};
+
+struct UserChainOptions {
+  int threads = 0;  // `gonio run --threads` (0: all cores)
+  // The image of the OpenCV comparison's 8-bit RGB sweep (0 x 0: skipped); 640x480 is the
+  // flash-8bit preset's camera, the sweep docs/photometric.md "Pair consistency" timed.
+  int compare_width = 640, compare_height = 480;
+  void Check() const;  // InputError
+};
+
 struct UserChainReport {
   std::vector<UserChainStage> stages;  // calibrate, locate, response, vignetting, run
   double total_s = 0;                  // the stages' sum, rendering excluded (target < 30 s)
   double peak_rss_mb = 0;              // the largest stage's
+  double response_calibrate_s = NAN;   // gonio's calibration alone (response.json calibrate_s)
   size_t frames = 0, sweep_frames = 0;
-  std::string selected;                              // the model `gonio run` chose
-  double sigma_error_deg = NAN, albedo_error = NAN;  // against truth.json
+  std::string selected;                                   // the model `gonio run` chose
+  double sigma_error_deg = NAN, albedo_error = NAN;       // against truth.json
+  std::optional<ResponseComparison> response_comparison;  // not part of the chain's total
   nlohmann::json ToJson() const;
 };
 
@@ -62,7 +81,7 @@ struct PipelineBenchReport {
   std::vector<PipelineRunRow> runs;  // auto, the right model, (full: every candidate), sizes
   double auto_over_right_model = 0;  // total time ratio, same run (target <= 2.5)
   std::vector<std::pair<size_t, double>> fit_time_vs_observations;
-  std::vector<SceneSearchRow> scenes;         // diffuse (the default preset), specular, pitted
+  std::vector<SceneSearchRow> scenes;  // diffuse (the default preset); specular, pitted (not smoke)
   std::optional<UserChainReport> user_chain;  // full and quick sizes
   nlohmann::json ToJson() const;
 };
@@ -74,11 +93,13 @@ PipelineBenchReport RunPipelineBench(const BenchOptions& options, const std::fil
                                      const std::filesystem::path& gonio);
 
 // The user chain on `scene` (rendered with a 40-frame third-stop sweep into `work`), each
-// command a process of `gonio`.
+// command a process of `gonio`; then the OpenCV comparison on an 8-bit RGB sweep.
 UserChainReport RunUserChainBench(const synth::Scene& scene, const std::filesystem::path& work,
-                                  const std::filesystem::path& gonio, int threads);
+                                  const std::filesystem::path& gonio,
+                                  const UserChainOptions& options);
 
-// pipeline_bench.json, fit_time_vs_observations.{png,svg}, stage_times.{png,svg}.
+// pipeline_bench.json, fit_time_vs_observations.{png,svg}, stage_times.{png,svg},
+// search_vs_fixed_cost.{png,svg}.
 void WritePipelineBenchOutputs(const std::filesystem::path& dir, const PipelineBenchReport& rep);
 
 }  // namespace gonio::bench

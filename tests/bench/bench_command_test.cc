@@ -78,7 +78,14 @@ TEST(BenchCli, PipelineSmokeWritesStageTimesAndRatio) {
   EXPECT_LT(j["runs"][0]["candidates_fitted"].get<size_t>(), 17u);
   EXPECT_GT(j["auto_over_right_model"].get<double>(), 0.0);
   for (const auto& run : j["runs"]) EXPECT_GT(run["stages"]["fit_s"].get<double>(), 0.0);
-  for (const char* f : {"fit_time_vs_observations.png", "stage_times.svg"}) {
+  // The search against the fixed cost: the default sample only at smoke size, no user chain
+  // (both cost minutes; docs/bench.md "The chain").
+  ASSERT_EQ(j["search_vs_fixed_cost"].size(), 1u);
+  EXPECT_EQ(j["search_vs_fixed_cost"][0]["fixed"]["candidates_fitted"], 1u);
+  EXPECT_GT(j["search_vs_fixed_cost"][0]["auto_over_lambert"].get<double>(), 0.0);
+  EXPECT_TRUE(j["user_chain"].is_null());
+  for (const char* f :
+       {"fit_time_vs_observations.png", "stage_times.svg", "search_vs_fixed_cost.svg"}) {
     EXPECT_GT(std::filesystem::file_size(dir.path() / f), 1000u) << f;
   }
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "work"));
