@@ -5,7 +5,6 @@
 #include <optional>
 
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
@@ -27,24 +26,6 @@ struct ResponseArgs {
   ResponseOptions options;
 };
 
-// gonio against OpenCV's Debevec and Robertson on the same frames, times and pixels, with each
-// method's own calibration time (docs/photometric.md "Pair consistency").
-nlohmann::json PrintComparison(const SweepResponse& r) {
-  nlohmann::json j = nlohmann::json::array();
-  std::cout << "pair consistency on the frames and times gonio used, values 5-95% of the range:\n";
-  for (const auto& m : CompareWithClassicMethods(r.sweep.frames, r.result, r.calibrate_s)) {
-    std::cout << fmt::format(
-        "  {:<17} median pair {:6.2f}%  worst pair {:6.2f}%  worst band bias "
-        "{:6.2f}%  calibrated in {:6.2f} s\n",
-        m.method, 100 * m.consistency.median_pair, 100 * m.consistency.worst_pair,
-        100 * m.consistency.worst_band_bias, m.calibrate_s);
-    j.push_back({{"method", m.method},
-                 {"consistency", m.consistency.ToJson()},
-                 {"calibrate_s", m.calibrate_s}});
-  }
-  return j;
-}
-
 void RunResponse(const ResponseArgs& args) {
   SweepResponseOptions o;
   o.sweep = args.sweep;
@@ -60,14 +41,8 @@ void RunResponse(const ResponseArgs& args) {
   o.compare_opencv = args.compare_opencv;
   o.response = args.options;
   const SweepResponse r = CalibrateSweepResponse(o);
-  if (r.result.BlackLevelUncertain()) {
-    spdlog::warn(
-        "the black level is estimated from the curve's shape and the data allow a wide range "
-        "(see below): shoot dark frames with the lens capped and list them in session.json "
-        "dark_frames, or give --black-level (docs/capture.md)");
-  }
   nlohmann::json comparison;
-  if (args.compare_opencv) comparison = PrintComparison(r);
+  if (args.compare_opencv) comparison = CompareWithOpenCv(r, std::cout);
   WriteSweepResponse(r, o, comparison, args.out, args.plot);
   std::cout << r.result.Report();
 }

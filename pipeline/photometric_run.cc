@@ -168,7 +168,29 @@ SweepResponse CalibrateSweepResponse(const SweepResponseOptions& o) {
   out.result = CalibrateResponse(sweep.frames, ro);
   out.calibrate_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   spdlog::info("inverse response calibrated in {:.2f} s", out.calibrate_s);
+  if (out.result.BlackLevelUncertain()) {
+    spdlog::warn(
+        "the black level is estimated from the curve's shape and the data allow a wide range "
+        "(see below): shoot dark frames with the lens capped and list them in session.json "
+        "dark_frames, or give --black-level (docs/capture.md)");
+  }
   return out;
+}
+
+nlohmann::json CompareWithOpenCv(const SweepResponse& r, std::ostream& out) {
+  nlohmann::json j = nlohmann::json::array();
+  out << "pair consistency on the frames and times gonio used, values 5-95% of the range:\n";
+  for (const auto& m : CompareWithClassicMethods(r.sweep.frames, r.result, r.calibrate_s)) {
+    out << fmt::format(
+        "  {:<17} median pair {:6.2f}%  worst pair {:6.2f}%  worst band bias "
+        "{:6.2f}%  calibrated in {:6.2f} s\n",
+        m.method, 100 * m.consistency.median_pair, 100 * m.consistency.worst_pair,
+        100 * m.consistency.worst_band_bias, m.calibrate_s);
+    j.push_back({{"method", m.method},
+                 {"consistency", m.consistency.ToJson()},
+                 {"calibrate_s", m.calibrate_s}});
+  }
+  return j;
 }
 
 void WriteSweepResponse(const SweepResponse& r, const SweepResponseOptions& o,

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,11 @@ struct SweepResponse {
 // InputError naming the file or option on a sweep that cannot be calibrated (dark frames
 // given twice, a bit depth contradicting session.json, ...).
 SweepResponse CalibrateSweepResponse(const SweepResponseOptions& o);
+
+// gonio against OpenCV's Debevec and Robertson on the same frames, times and pixels, with each
+// method's own calibration time (docs/photometric.md "Pair consistency"): a table on `out` and
+// the JSON array response.json holds as `comparison`. InputError for a sweep that is not 8-bit.
+nlohmann::json CompareWithOpenCv(const SweepResponse& r, std::ostream& out);
 
 // response.json at `out` (with the sweep, the list and `comparison` when it is not null) and
 // the curve's plot at `plot` (empty: OUT with .png).
