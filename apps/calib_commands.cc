@@ -39,7 +39,6 @@ void AddDetectorOptions(CLI::App* cmd, AprilTagOptions* opt) {
       ->capture_default_str();
 }
 
-// ---------------------------------------------------------------------------------------
 struct DetectArgs {
   std::vector<std::string> images;
   std::string board, family, json_out, corners_vnl;
@@ -73,7 +72,6 @@ void RunDetect(const DetectArgs& a) {
   }
 }
 
-// ---------------------------------------------------------------------------------------
 struct CalibrateArgs {
   std::vector<std::string> images;
   std::string corners, board, out, report_json;
@@ -108,14 +106,13 @@ void RunCalibrate(const CalibrateArgs& a) {
   }
   const CalibrationResult result = Calibrate(board, v.views, v.width, v.height, options);
   WriteCalibratedModel(result, a.out);
-  for (const auto& line : {result.Report()}) std::cerr << line;
+  std::cerr << result.Report();
   nlohmann::json j = result.ToJson();
   j["model"] = a.out;
   if (!a.report_json.empty()) WriteJsonAtomically(a.report_json, j);
   PrintJson(j);
 }
 
-// ---------------------------------------------------------------------------------------
 struct LocateArgs {
   std::string session, camera, board, out;
   PoseOptions options;
