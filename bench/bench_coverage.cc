@@ -188,8 +188,93 @@ void Judge(const json& fit, const json& truth, CoverageRun* run) {
   }
 }
 
+// What the sweeps of one kind and seed share: the session, the user's camera model, and the
+// vignetting's source (the session with its located poses, or a tag-free flat field).
+struct SharedChain {
+  fs::path session, camera, vignette_session, vignette_poses;  // poses empty: a flat field
+  synth::Scene scene;
+  double white_albedo = 0;
+};
+
+// Renders the session and calibrates the camera with mrcal from its frames; StepFailed when a
+// step fails.
+SharedChain RunSharedSteps(const CoverageKind& kind, const CoveragePlan& plan, int seed,
+                           const fs::path& dir, Chain* chain) {
+  SharedChain s;
+  const fs::path cal = dir / "cal";
+  s.session = dir / "session";
+  s.camera = cal / "camera.cameramodel";
+  s.vignette_session = s.session;
+  s.vignette_poses = cal / "poses.json";
+  s.scene = SessionScene(kind, plan, seed);
+  chain->Render("session", s.scene, s.session);
+  fs::remove(s.session / "camera.cameramodel");  // the renderer's geometry is not the user's
+  EnsureDirectory(cal);
+  chain->Step("calibrate",
+              {"calibrate", "--images", (s.session / "frame_*.png").string(), "--board",
+               (s.session / "board.json").string(), "--out", s.camera.string()});
+  if (kind.flash) {
+    s.vignette_session = dir / "flat";
+    chain->Render("flat", SameCamera("flat-field", s.scene), s.vignette_session);
+    s.vignette_poses.clear();  // a tag-free flat field has no poses to locate (docs/photometric.md)
+  } else {
+    chain->Step("locate", {"locate", "--session", s.session.string(), "--camera", s.camera.string(),
+                           "--out", s.vignette_poses.string()});
+  }
+  s.white_albedo = ReadJsonFile(s.session / "truth.json").at("white_albedo").get<double>();
+  return s;
+}
+
+// One sweep's part of the chain: render the sweep, response, vignetting, run, judged into `r`;
+// StepFailed when a step fails.
+void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& dir, Chain* chain,
+              CoverageRun* r) {
+  const fs::path sweep_dir = dir / ("sweep-" + r->sweep), sc = dir / ("cal-" + r->sweep);
+  const fs::path out = dir / ("run-" + r->sweep);
+  chain->Render("sweep-" + r->sweep, SweepScene(r->sweep, s.scene), sweep_dir);
+  EnsureDirectory(sc);
+  chain->Step("response-" + r->sweep, {"photometric", "response", "--sweep", sweep_dir.string(),
+                                       "--out", (sc / "response.json").string()});
+  std::vector<std::string> vignette = {"photometric",
+                                       "vignette",
+                                       "--session",
+                                       s.vignette_session.string(),
+                                       "--camera",
+                                       s.camera.string(),
+                                       "--board",
+                                       (s.vignette_session / "board.json").string(),
+                                       "--response",
+                                       (sc / "response.json").string(),
+                                       "--out",
+                                       (sc / "vignette.tiff").string(),
+                                       "--photometric-out",
+                                       (sc / "photometric.json").string()};
+  if (!s.vignette_poses.empty()) {
+    vignette.insert(vignette.end(), {"--poses", s.vignette_poses.string()});
+  }
+  chain->Step("vignette-" + r->sweep, vignette);
+  std::vector<std::string> args = {"run",
+                                   "--session",
+                                   s.session.string(),
+                                   "--camera",
+                                   s.camera.string(),
+                                   "--photometric",
+                                   (sc / "photometric.json").string(),
+                                   "--white-albedo",
+                                   fmt::format("{}", s.white_albedo),
+                                   "--out",
+                                   out.string()};
+  if (kind.flash) args.insert(args.end(), {"--light-frame", "camera"});
+  chain->Step("run-" + r->sweep, args, true);
+  Judge(ReadJsonFile(out / "fit.json"), ReadJsonFile(s.session / "truth.json"), r);
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 // The user's chain on one kind and seed, one run per sweep; the session, its camera model and
-// poses (or the flat field) are shared by the sweeps.
+// poses (or the flat field) are shared by the sweeps, and their time is split among them.
 std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePlan& plan, int seed,
                                      const fs::path& exe, const fs::path& dir, int threads) {
   std::vector<CoverageRun> runs;
@@ -201,82 +286,25 @@ std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePla
     runs.push_back(r);
   }
   const auto start = std::chrono::steady_clock::now();
-  auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
   fs::remove_all(dir);
   EnsureDirectory(dir);
   Chain chain(exe, dir, threads);
-  const fs::path session = dir / "session", cal = dir / "cal", camera = cal / "camera.cameramodel";
-  fs::path vignette_session = session, vignette_poses = cal / "poses.json";
-  const synth::Scene scene = SessionScene(kind, plan, seed);
-  double shared_s = 0;
+  SharedChain shared;
   try {
-    chain.Render("session", scene, session);
-    fs::remove(session / "camera.cameramodel");  // the renderer's geometry is not the user's
-    EnsureDirectory(cal);
-    chain.Step("calibrate", {"calibrate", "--images", (session / "frame_*.png").string(), "--board",
-                             (session / "board.json").string(), "--out", camera.string()});
-    if (kind.flash) {
-      vignette_session = dir / "flat";
-      chain.Render("flat", SameCamera("flat-field", scene), vignette_session);
-      vignette_poses.clear();  // a tag-free flat field has no poses to locate (docs/photometric.md)
-    } else {
-      chain.Step("locate", {"locate", "--session", session.string(), "--camera", camera.string(),
-                            "--out", vignette_poses.string()});
-    }
+    shared = RunSharedSteps(kind, plan, seed, dir, &chain);
   } catch (const StepFailed& e) {
     for (auto& r : runs) r.failed = e.what();
     return runs;
   }
-  shared_s = elapsed();
-  const double white_albedo = ReadJsonFile(session / "truth.json").at("white_albedo").get<double>();
+  const double shared_s = SecondsSince(start);
   for (auto& r : runs) {
     const auto run_start = std::chrono::steady_clock::now();
-    const fs::path sweep_dir = dir / ("sweep-" + r.sweep), sc = dir / ("cal-" + r.sweep);
-    const fs::path out = dir / ("run-" + r.sweep);
     try {
-      chain.Render("sweep-" + r.sweep, SweepScene(r.sweep, scene), sweep_dir);
-      EnsureDirectory(sc);
-      chain.Step("response-" + r.sweep, {"photometric", "response", "--sweep", sweep_dir.string(),
-                                         "--out", (sc / "response.json").string()});
-      std::vector<std::string> vignette = {"photometric",
-                                           "vignette",
-                                           "--session",
-                                           vignette_session.string(),
-                                           "--camera",
-                                           camera.string(),
-                                           "--board",
-                                           (vignette_session / "board.json").string(),
-                                           "--response",
-                                           (sc / "response.json").string(),
-                                           "--out",
-                                           (sc / "vignette.tiff").string(),
-                                           "--photometric-out",
-                                           (sc / "photometric.json").string()};
-      if (!vignette_poses.empty())
-        vignette.insert(vignette.end(), {"--poses", vignette_poses.string()});
-      chain.Step("vignette-" + r.sweep, vignette);
-      std::vector<std::string> args = {"run",
-                                       "--session",
-                                       session.string(),
-                                       "--camera",
-                                       camera.string(),
-                                       "--photometric",
-                                       (sc / "photometric.json").string(),
-                                       "--white-albedo",
-                                       fmt::format("{}", white_albedo),
-                                       "--out",
-                                       out.string()};
-      if (kind.flash) args.insert(args.end(), {"--light-frame", "camera"});
-      chain.Step("run-" + r.sweep, args, true);
-      Judge(ReadJsonFile(out / "fit.json"), ReadJsonFile(session / "truth.json"), &r);
+      RunSweep(kind, shared, dir, &chain, &r);
     } catch (const StepFailed& e) {
       r.failed = e.what();
     }
-    r.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count() +
-        shared_s / static_cast<double>(runs.size());
+    r.seconds = SecondsSince(run_start) + shared_s / static_cast<double>(runs.size());
   }
   return runs;
 }

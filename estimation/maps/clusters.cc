@@ -10,6 +10,7 @@
 
 #include "common/error.h"
 #include "common/math.h"
+#include "common/stats.h"
 
 namespace gonio {
 namespace {
@@ -203,6 +204,43 @@ ClusterResult ClusterByBic(const Eigen::MatrixXd& features, const ClusterOptions
   return result;
 }
 
+namespace {
+
+// Cluster b merged into a, labels renumbered 0..k-2 by weight (largest first), weights, means
+// and the components' clusters to match.
+void MergeInto(int a_keep, int b_gone, const Eigen::MatrixXd& features, ClusterResult* c) {
+  const int n = static_cast<int>(features.rows()), d = static_cast<int>(features.cols());
+  const int k = c->k;
+  std::vector<double> weight(k, 0.0);
+  std::vector<Eigen::VectorXd> sum(k, Eigen::VectorXd::Zero(d));
+  for (int i = 0; i < n; ++i) {
+    if (c->label[i] == b_gone) c->label[i] = a_keep;
+  }
+  for (int i = 0; i < n; ++i) {
+    weight[c->label[i]] += 1.0 / n;
+    sum[c->label[i]] += features.row(i).transpose();
+  }
+  std::vector<int> order;
+  for (int a = 0; a < k; ++a) {
+    if (weight[a] > 0) order.push_back(a);
+  }
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return weight[a] > weight[b]; });
+  std::vector<int> rank(k, -1);
+  for (size_t i = 0; i < order.size(); ++i) rank[order[i]] = static_cast<int>(i);
+  for (int i = 0; i < n; ++i) c->label[i] = rank[c->label[i]];
+  for (int& cl : c->component_cluster) cl = rank[cl == b_gone ? a_keep : cl];
+  c->k = static_cast<int>(order.size());
+  c->weight.clear();
+  c->mean.clear();
+  for (int a : order) {
+    c->weight.push_back(weight[a]);
+    c->mean.push_back(sum[a] / (weight[a] * n));
+  }
+  c->merged += 1;
+}
+
+}  // namespace
+
 void MergeContinuousClusters(const Eigen::MatrixXd& features,
                              const std::vector<size_t>& texel_of_row, int width, int height,
                              double jump_ratio, ClusterResult* c) {
@@ -213,11 +251,6 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
   for (int j = 0; j < d; ++j) sd(j) = sd(j) > 0 ? sd(j) : 1.0;
   std::vector<int> row_of(static_cast<size_t>(width) * height, -1);
   for (int i = 0; i < n; ++i) row_of[texel_of_row[i]] = i;
-  auto median = [](std::vector<double>& v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
   for (;;) {
     const int k = c->k;
     // Neighbour distances inside each cluster (pooled) and across each pair's boundary.
@@ -240,14 +273,14 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
         }
       }
     }
-    const double within = std::max(median(inside), 1e-12);
+    const double within = std::max(inside.empty() ? 0.0 : Median(inside), 1e-12);
     int best_a = -1, best_b = -1;
     double best_ratio = jump_ratio;
     for (int a = 0; a < k; ++a) {
       for (int b = a + 1; b < k; ++b) {
         // A boundary of a few texel pairs says nothing: at least 10.
         if (across[a][b].size() < 10) continue;
-        const double ratio = median(across[a][b]) / within;
+        const double ratio = Median(across[a][b]) / within;
         if (ratio < best_ratio) {
           best_ratio = ratio;
           best_a = a;
@@ -256,33 +289,7 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
       }
     }
     if (best_a < 0) return;
-    // Merge b into a; relabel so labels stay 0..k-2, ordered by weight.
-    std::vector<double> weight(k, 0.0);
-    std::vector<Eigen::VectorXd> sum(k, Eigen::VectorXd::Zero(d));
-    for (int i = 0; i < n; ++i) {
-      if (c->label[i] == best_b) c->label[i] = best_a;
-    }
-    for (int i = 0; i < n; ++i) {
-      weight[c->label[i]] += 1.0 / n;
-      sum[c->label[i]] += features.row(i).transpose();
-    }
-    std::vector<int> order;
-    for (int a = 0; a < k; ++a) {
-      if (weight[a] > 0) order.push_back(a);
-    }
-    std::sort(order.begin(), order.end(), [&](int a, int b) { return weight[a] > weight[b]; });
-    std::vector<int> rank(k, -1);
-    for (size_t i = 0; i < order.size(); ++i) rank[order[i]] = static_cast<int>(i);
-    for (int i = 0; i < n; ++i) c->label[i] = rank[c->label[i]];
-    for (int& cl : c->component_cluster) cl = rank[cl == best_b ? best_a : cl];
-    c->k = static_cast<int>(order.size());
-    c->weight.clear();
-    c->mean.clear();
-    for (int a : order) {
-      c->weight.push_back(weight[a]);
-      c->mean.push_back(sum[a] / (weight[a] * n));
-    }
-    c->merged += 1;
+    MergeInto(best_a, best_b, features, c);
   }
 }
 
