@@ -141,8 +141,9 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
 }
 
 // The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
-// when photometric.json says how accurate it is: the response's band biases (their RMS) and the
-// rest of relative_accuracy for the vignetting.
+// when photometric.json says how accurate it is: the response's slope error per octave (its band
+// biases' RMS over the octaves between neighbouring exposures), its ends where the prior holds
+// the table, and the rest of relative_accuracy for the vignetting.
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
                           const JointFitOptions& fit_options, RunResult* r) {
   const auto& accuracy = in.photometric.relative_accuracy;
@@ -154,8 +155,17 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   for (const auto& obs : r->observations.observations) {
     values.insert(values.end(), obs.value.begin(), obs.value.end());
   }
-  e.response_ratio_error =
-      std::min(PhotometricCalibration::ResponseFieldRmsAt(response, values), *accuracy);
+  e.response_ratio_error = PhotometricCalibration::ResponseSlopeErrorAt(response, values);
+  // Where the sweep's data thin out, the table's own error (response.h, ResponseEnd).
+  e.response_ends = response.ends;
+  // Its wiggles between knots: the smoothing sensitivity is the change under a prior
+  // kSmoothingSensitivityFactor times stiffer, (factor - 1) times the prior's bias where the
+  // data hold the curve (the bias grows in proportion to the prior's weight there).
+  if (std::isfinite(response.knot_spacing)) {
+    e.response_wiggle =
+        PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
+    e.response_knot_spacing = response.knot_spacing;
+  }
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
   // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
   // are in the noise floor but are no smooth field.

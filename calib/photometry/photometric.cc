@@ -8,6 +8,7 @@
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/io.h"
+#include "common/stats.h"
 
 namespace gonio {
 
@@ -104,6 +105,22 @@ double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response
     sum += bias * bias;
   }
   return std::min(std::sqrt(sum / values.size()), 0.99);
+}
+
+double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& response,
+                                                    const std::vector<double>& values) {
+  std::vector<double> times;
+  for (const auto& f : response.frames) {
+    if (f.used && f.estimated_s > 0) times.push_back(f.estimated_s);
+  }
+  std::sort(times.begin(), times.end());
+  std::vector<double> octaves;
+  for (size_t k = 1; k < times.size(); ++k) {
+    // Equal exposures say nothing about the response (MeasurePairConsistency skips them too).
+    if (times[k] / times[k - 1] > 1.01) octaves.push_back(std::log2(times[k] / times[k - 1]));
+  }
+  const double per_pair = octaves.empty() ? 1.0 : Median(octaves);
+  return std::min(ResponseFieldRmsAt(response, values) / per_pair, 0.99);
 }
 
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {

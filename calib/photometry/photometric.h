@@ -47,6 +47,12 @@ struct PhotometricCalibration {
   // ResponseFieldRms.
   static double ResponseFieldRmsAt(const ResponseResult& response,
                                    const std::vector<double>& values);
+  // The response's slope error per octave of radiance where the data are: ResponseFieldRmsAt,
+  // a ratio error of neighbouring exposures, over log2 of their ratio (the median over the
+  // used frames' neighbours: 1/3 for a third-stop sweep, where a slope error of s per octave
+  // shows as s/3 per pair). What gonio run's calibration-error propagation draws.
+  static double ResponseSlopeErrorAt(const ResponseResult& response,
+                                     const std::vector<double>& values);
   // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.

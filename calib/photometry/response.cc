@@ -311,12 +311,12 @@ void CheckSupportedRange(const std::vector<double>& h, int k_lo, int k_hi, doubl
 }
 
 // Table of relative exposure for every value: exp(h) where data exist, a straight line down to
-// the black level below, held constant above the highest supported value (`z_top`, which the
-// result then treats as saturation). Without `black_given` the black level and its range are
-// estimated (EstimateBlackLevel).
+// the black level below the lowest supported value, held constant above the highest (which the
+// result then treats as saturation); `supported` gets the two. Without `black_given` the black
+// level and its range are estimated (EstimateBlackLevel).
 std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* black_level,
                                std::array<double, 2>* black_range, bool black_given,
-                               double* z_top) {
+                               std::array<double, 2>* supported) {
   const int K = s.num_knots;
   std::vector<double> w(K);
   for (int k = 0; k < K; ++k) w[k] = fit.counts[k] + 1e-6;
@@ -335,7 +335,7 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
   const double z_hi =
       std::min(static_cast<double>(k_hi) * s.max_value / (K - 1), s.saturation_limit);
   CheckSupportedRange(h, k_lo, k_hi, z_lo, z_hi, s);
-  *z_top = z_hi;
+  *supported = {z_lo, z_hi};
   *black_range = {*black_level, *black_level};
   if (!black_given) {
     const BlackLevelEstimate e = EstimateBlackLevel(h, fit.counts, fit.rms, s, z_lo, z_hi);
@@ -362,9 +362,12 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
 
 // The per-channel tables, black and saturation levels, fit RMS and the self-check over the
 // whole returned range (just above black to saturation).
-void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<ChannelFit>& fits,
-                    const std::vector<Setup>& setups, const ResponseOptions& o,
-                    ResponseResult* result) {
+// Returns each channel's supported range (the lowest and highest values the data support).
+std::vector<std::array<double, 2>> FinishResponse(const std::vector<ExposureFrame>& frames,
+                                                  const std::vector<ChannelFit>& fits,
+                                                  const std::vector<Setup>& setups,
+                                                  const ResponseOptions& o,
+                                                  ResponseResult* result) {
   const bool black_given = o.black_level || !o.channel_black_level.empty();
   result->black_level_source = black_given ? o.black_level_source : BlackLevelSource::kEstimated;
   result->black_level.assign(result->channels, o.black_level.value_or(0.0));
@@ -373,12 +376,12 @@ void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<
   result->saturation_level.assign(result->channels, 0.0);
   double rms = 0;
   std::vector<double> lo(result->channels), hi(result->channels);
+  std::vector<std::array<double, 2>> supported(result->channels);
   for (int c = 0; c < result->channels; ++c) {
-    double z_top = 0;
     result->inverse_response.push_back(BuildTable(fits[c], setups[c], &result->black_level[c],
                                                   &result->black_level_range[c], black_given,
-                                                  &z_top));
-    result->saturation_level[c] = std::floor(z_top) + 1;
+                                                  &supported[c]));
+    result->saturation_level[c] = std::floor(supported[c][1]) + 1;
     rms += fits[c].rms * fits[c].rms;
     lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
     hi[c] = result->saturation_level[c] - 1;
@@ -392,6 +395,7 @@ void FinishResponse(const std::vector<ExposureFrame>& frames, const std::vector<
   }
   result->consistency =
       MeasurePairConsistency(frames, used_t, used, result->inverse_response, lo, hi);
+  return supported;
 }
 
 }  // namespace
@@ -461,10 +465,11 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   std::vector<bool> free_time(frames.size(), false);
   const auto fits = FitWithTimeScreening(planes, frames, setups, pixels, o, &s, &free_time);
   ReportFrames(fits, free_time, frames, s, o, &result);
-  FinishResponse(frames, fits, setups, o, &result);
+  const auto supported = FinishResponse(frames, fits, setups, o, &result);
   for (auto& cs : setups) cs.usable = s.usable;
-  result.smoothing_sensitivity =
-      SmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, result, o);
+  result.knot_spacing = s.max_value / (s.num_knots - 1.0);
+  result.smoothing_sensitivity = SmoothingSensitivity(planes, frames, free_time, setups, pixels,
+                                                      fits, result, o, supported, &result.ends);
   return result;
 }
 

@@ -108,6 +108,29 @@ struct PairConsistency {
   static PairConsistency FromJson(const nlohmann::json& j, const std::string& source);
 };
 
+// The stiffer prior the smoothing sensitivity refits with (response_smoothing.cc): 4x the
+// smoothness (twice the curvature penalty's scale), enough to straighten what only the prior
+// holds up between data.
+constexpr double kSmoothingSensitivityFactor = 4.0;
+
+// One end of a channel's table where the sweep's data thin out (docs/photometric.md, "The
+// table's ends"). Below the lowest value the data support the table is a straight line to the
+// black level, anchored at that value's knot; near the highest, the curve rests on few samples.
+// There the smoothing prior, not the data, holds the curve up, and a ratio self-check cannot see
+// a gain error of a whole segment. `error`: the relative change of the table at `end` under the
+// stiffer prior SmoothingSensitivity refits with (the common offset removed), taken as the
+// 1-sigma error of every value beyond `end`, tapering linearly to 0 at `taper_to` (two knots
+// inside). Measured on the flash preset's 12-bit sweep: 4.0 % at the dark end for a table 3.0 %
+// off there.
+struct ResponseEnd {
+  int channel = 0;
+  double end = 0;       // value: beyond it (below a dark end, above a bright one) the full error
+  double taper_to = 0;  // value where the error has tapered to 0
+  double error = 0;     // relative, 1 sigma
+  // The error's weight at value z: 1 beyond `end`, 0 beyond `taper_to`, linear between.
+  double WeightAt(double z) const;
+};
+
 struct ResponseResult {
   int bit_depth = 8;
   int channels = 1;
@@ -131,6 +154,12 @@ struct ResponseResult {
   // the sweep holds, which the self-check cannot see. NaN: not measured (older files,
   // smoothness 0).
   double smoothing_sensitivity = NAN;
+  // The table's ends where the prior holds it (see ResponseEnd): empty in older files and with
+  // smoothness 0.
+  std::vector<ResponseEnd> ends;
+  // Values between the fit's knots (its curve's own scale): the scale of the wiggles the
+  // smoothing sensitivity measures. NaN in older files.
+  double knot_spacing = NAN;
 
   // Relative exposure of a (possibly fractional) pixel value, linear between table entries.
   double Linearize(int channel, double value) const;

@@ -120,19 +120,19 @@ BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
 double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
                     bool* piled = nullptr);
 
-// The stiffer prior SmoothingSensitivity refits with: 4x the smoothness (twice the curvature
-// penalty's scale), enough to straighten what only the prior holds up between data.
-constexpr double kSmoothingSensitivityFactor = 4.0;
-
 // Relative change of the inverse response when every channel is refitted with the smoothness
 // times kSmoothingSensitivityFactor, frames and times as in `fits`: per band of the self-checked
 // range (black + 2 % of the range to saturation, PairConsistency::kBands equal parts) the median
-// change, and the worst band (response_smoothing.cc); NaN with smoothness 0.
+// change, and the worst band (response_smoothing.cc); NaN with smoothness 0. `ends` (may be
+// null) gets each channel's two ResponseEnds: the change at the lowest and highest values the
+// data support (`supported`, per channel [low, high]).
 double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
                             const std::vector<ExposureFrame>& frames,
                             const std::vector<bool>& free_time, const std::vector<Setup>& setups,
                             const std::vector<std::vector<cv::Point>>& pixels,
                             const std::vector<ChannelFit>& fits, const ResponseResult& result,
-                            const ResponseOptions& o);
+                            const ResponseOptions& o,
+                            const std::vector<std::array<double, 2>>& supported,
+                            std::vector<ResponseEnd>* ends);
 
 }  // namespace gonio

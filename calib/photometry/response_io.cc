@@ -224,6 +224,14 @@ std::string ResponseResult::Report() const {
         100 * smoothing_sensitivity,
         smoothing_sensitivity > 0.01 ? "; more exposures (third stops) would pin it" : "");
   }
+  for (const auto& e : ends) {
+    if (e.error < 0.005) continue;
+    s << fmt::format(
+        "{} end of channel {}: beyond value {:.0f} the curve rests on the prior, not the sweep "
+        "(it moves {:.1f}% under a 4x stiffer prior); observations there carry that error, which "
+        "a sweep with more of its samples at these values would shrink\n",
+        e.taper_to > e.end ? "dark" : "bright", e.channel, e.end, 100 * e.error);
+  }
   for (const auto& f : frames) {
     s << fmt::format(
         "  {:<20} listed {:>10.5g} s  used {:>10.5g} s  {}\n", f.file, f.listed_s, f.estimated_s,
@@ -233,6 +241,50 @@ std::string ResponseResult::Report() const {
   }
   return s.str();
 }
+
+double ResponseEnd::WeightAt(double z) const {
+  const double span = taper_to - end;  // > 0 at a dark end, < 0 at a bright one
+  if (!(std::abs(span) > 0)) return (z - end) * span <= 0 ? 1.0 : 0.0;
+  return std::clamp(1.0 - (z - end) / span, 0.0, 1.0);
+}
+
+namespace {
+
+nlohmann::json EndsToJson(const std::vector<ResponseEnd>& ends) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& e : ends) {
+    out.push_back(
+        {{"channel", e.channel}, {"end", e.end}, {"taper_to", e.taper_to}, {"error", e.error}});
+  }
+  return out;
+}
+
+// What EndsToJson wrote; InputError naming `source` on a wrong type, a channel out of range or
+// an error outside [0, 1).
+std::vector<ResponseEnd> EndsFromJson(const nlohmann::json& j, int channels,
+                                      const std::string& source) {
+  std::vector<ResponseEnd> out;
+  if (!j.is_array()) throw InputError(source + ": 'ends' must be an array");
+  for (const auto& item : j) {
+    ResponseEnd e;
+    try {
+      e.channel = item.at("channel").get<int>();
+      e.end = item.at("end").get<double>();
+      e.taper_to = item.at("taper_to").get<double>();
+      e.error = item.at("error").get<double>();
+    } catch (const nlohmann::json::exception&) {
+      throw InputError(source + ": each of 'ends' needs channel, end, taper_to and error");
+    }
+    if (e.channel < 0 || e.channel >= channels || !std::isfinite(e.end) ||
+        !std::isfinite(e.taper_to) || !(e.error >= 0 && e.error < 1)) {
+      throw InputError(source + ": 'ends' holds a channel out of range or an error outside [0, 1)");
+    }
+    out.push_back(e);
+  }
+  return out;
+}
+
+}  // namespace
 
 nlohmann::json ResponseResult::ToJson() const {
   nlohmann::json fr = nlohmann::json::array();
@@ -257,6 +309,9 @@ nlohmann::json ResponseResult::ToJson() const {
           {"smoothing_sensitivity", std::isfinite(smoothing_sensitivity)
                                         ? nlohmann::json(smoothing_sensitivity)
                                         : nlohmann::json()},
+          {"ends", EndsToJson(ends)},
+          {"knot_spacing",
+           std::isfinite(knot_spacing) ? nlohmann::json(knot_spacing) : nlohmann::json()},
           {"rms_log_residual", rms_log_residual}};
 }
 
@@ -299,6 +354,14 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
       throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
     }
     r.smoothing_sensitivity = v.get<double>();
+  }
+  if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
+  if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {
+    const auto& v = j["knot_spacing"];
+    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(source + ": 'knot_spacing' must be a positive number or null");
+    }
+    r.knot_spacing = v.get<double>();
   }
   if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
       static_cast<int>(r.black_level.size()) != r.channels ||

@@ -13,12 +13,44 @@
 
 namespace gonio {
 
+namespace {
+
+// h's change under the stiffer prior at value z, linear between knots.
+double ChangeAt(const Setup& s, const std::vector<double>& h, const std::vector<double>& stiff,
+                double z) {
+  const double pos = std::clamp(z / s.max_value * (s.num_knots - 1), 0.0, s.num_knots - 1.0);
+  const int k = std::min(static_cast<int>(pos), s.num_knots - 2);
+  const double a = pos - k;
+  return (1 - a) * (stiff[k] - h[k]) + a * (stiff[k + 1] - h[k + 1]);
+}
+
+// The channel's two ResponseEnds: the change at the lowest and highest supported values, the
+// common offset `mid` removed; each tapers over two knots towards the middle, where the
+// change measured on the sweeps falls to the self-check's level (docs/photometric.md).
+void AddEnds(int channel, const Setup& s, const std::vector<double>& h,
+             const std::vector<double>& stiff, double mid, const std::array<double, 2>& range,
+             std::vector<ResponseEnd>* ends) {
+  const double taper = 2.0 * s.max_value / (s.num_knots - 1.0);
+  for (int side = 0; side < 2; ++side) {
+    ResponseEnd e;
+    e.channel = channel;
+    e.end = range[side];
+    e.taper_to = side == 0 ? range[0] + taper : range[1] - taper;
+    e.error = std::min(std::expm1(std::abs(ChangeAt(s, h, stiff, e.end) - mid)), 0.99);
+    ends->push_back(e);
+  }
+}
+
+}  // namespace
+
 double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
                             const std::vector<ExposureFrame>& frames,
                             const std::vector<bool>& free_time, const std::vector<Setup>& setups,
                             const std::vector<std::vector<cv::Point>>& pixels,
                             const std::vector<ChannelFit>& fits, const ResponseResult& result,
-                            const ResponseOptions& o) {
+                            const ResponseOptions& o,
+                            const std::vector<std::array<double, 2>>& supported,
+                            std::vector<ResponseEnd>* ends) {
   // Without a prior there is nothing to compare against (knots without data stay where the
   // solver started); the result then says "not measured".
   if (!(o.smoothness > 0)) return NAN;
@@ -53,6 +85,7 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
     for (const auto& v : in_band) {
       if (!v.empty()) worst = std::max(worst, Median(v));
     }
+    if (ends) AddEnds(static_cast<int>(c), s, fits[c].h, refit.h, mid, supported[c], ends);
   }
   return std::expm1(worst);
 }

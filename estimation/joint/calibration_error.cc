@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 
 #include <fmt/format.h>
@@ -34,7 +35,30 @@ std::vector<double> Normalised(std::vector<double> v) {
 
 struct ErrorModes {
   std::vector<std::vector<double>> response, vignette;  // [mode][observation in `use`]
+  std::vector<std::vector<double>> ends;                // in relative error per unit normal draw
 };
+
+// One response end's mode (calibration_error.h): the end's error times its weight at each
+// observation's raw value in its channel, centred (a common scale is the lamp's intensity);
+// empty when no observation reaches the end.
+std::vector<double> EndMode(const ObservationSet& data, const std::vector<size_t>& use,
+                            const ResponseEnd& end) {
+  std::vector<double> m;
+  bool reached = false;
+  for (size_t i : use) {
+    const auto& value = data.observations[i].value;
+    const double z = end.channel < static_cast<int>(value.size()) ? value[end.channel] : NAN;
+    const double w = std::isfinite(z) ? end.WeightAt(z) : 0.0;
+    reached = reached || w > 0;
+    m.push_back(end.error * w);
+  }
+  if (!reached) return {};
+  double mean = 0;
+  for (double x : m) mean += x;
+  mean /= m.size();
+  for (double& x : m) x -= mean;
+  return m;
+}
 
 // The modes of calibration_error.h at the observations in `use`.
 ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
@@ -61,15 +85,54 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
     ty.push_back(dy);
   }
   ErrorModes m;
-  for (auto* v : {&u, &u2}) {
-    auto n = Normalised(*v);
-    if (!n.empty()) m.response.push_back(std::move(n));
-  }
+  // In octaves, not normalised: the slope error is drawn per octave (calibration_error.h).
+  const auto centred = [](std::vector<double> v, double scale) {
+    double mean = 0;
+    for (double x : v) mean += x;
+    mean /= std::max<size_t>(v.size(), 1);
+    for (double& x : v) x = scale * (x - mean);
+    return v;
+  };
+  m.response.push_back(centred(u, 1.0));
+  m.response.push_back(centred(u2, 0.5));
   for (auto* v : {&r2, &r4, &tx, &ty}) {
     auto n = Normalised(*v);
     if (!n.empty()) m.vignette.push_back(std::move(n));
   }
+  for (const ResponseEnd& end : e.response_ends) {
+    auto n = EndMode(data, use, end);
+    if (!n.empty()) m.ends.push_back(std::move(n));
+  }
   return m;
+}
+
+// One draw of the response's wiggles (calibration_error.h) at the observations in `use`, added
+// to `log_field`: a normal draw per channel and knot, linear between knots, mean over channels.
+void AddWiggles(const ObservationSet& data, const std::vector<size_t>& use,
+                const CalibrationErrorModel& e, std::mt19937_64* rng,
+                std::vector<double>* log_field) {
+  if (!(e.response_wiggle > 0) || !(e.response_knot_spacing > 0)) return;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::map<std::pair<size_t, long>, double> knot;  // (channel, knot) -> draw, made when reached
+  const auto at = [&](size_t c, long k) {
+    auto it = knot.find({c, k});
+    if (it == knot.end()) it = knot.emplace(std::make_pair(c, k), normal(*rng)).first;
+    return it->second;
+  };
+  for (size_t k = 0; k < use.size(); ++k) {
+    const auto& value = data.observations[use[k]].value;
+    double sum = 0;
+    int n = 0;
+    for (size_t c = 0; c < value.size(); ++c) {
+      if (!std::isfinite(value[c])) continue;
+      const double pos = std::max(value[c], 0.0) / e.response_knot_spacing;
+      const long j = static_cast<long>(pos);
+      const double a = pos - j;
+      sum += (1 - a) * at(c, j) + a * at(c, j + 1);
+      ++n;
+    }
+    if (n > 0) (*log_field)[k] += e.response_wiggle * sum / n;
+  }
 }
 
 // The observations in `use`, every radiance (and its variance) multiplied by one draw of the
@@ -88,6 +151,8 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
     }
   };
   add(modes.response, e.response_ratio_error);
+  add(modes.ends, 1.0);
+  AddWiggles(data, use, e, rng, &log_field);
   add(modes.vignette, e.vignette_rms / std::sqrt(std::max<size_t>(modes.vignette.size(), 1)));
   ObservationSet out;
   out.channels = data.channels;
@@ -114,6 +179,15 @@ void CalibrationErrorModel::Check() const {
   }
   if (!(vignette_rms >= 0 && vignette_rms < 1)) {
     throw InputError("calibration error: vignette_rms must be in [0, 1)");
+  }
+  if (!(response_wiggle >= 0 && response_wiggle < 1) || !(response_knot_spacing >= 0)) {
+    throw InputError("calibration error: response_wiggle must be in [0, 1), its spacing >= 0");
+  }
+  for (const auto& end : response_ends) {
+    if (!(end.error >= 0 && end.error < 1) || !std::isfinite(end.end) ||
+        !std::isfinite(end.taper_to)) {
+      throw InputError("calibration error: a response end's error must be in [0, 1)");
+    }
   }
   if (!(radius_px > 0) || !principal_point.allFinite()) {
     throw InputError("calibration error: the principal point and radius must be finite, > 0");

@@ -11,13 +11,27 @@
 // selected model from the fitted solution. The spread of the refits is the calibration part
 // of the uncertainty; it is added in quadrature to the statistical one.
 //
-// Error modes (each normalised to an RMS of 1 over the observations used):
-//   response: u and u^2 - mean(u^2), u = log2(L / median L) (octaves); a slope error a of
-//             ln X shows as a ratio error of about a per octave, the quantity response.json's
-//             consistency.worst_band_bias measures (docs/formats.md);
-//   vignetting: r^2 and r^4 about the principal point (r in half-diagonals, as the radial
+// Error modes:
+//   response: in octaves u = log2(L / median L), a slope error s per octave (ln-field s u)
+//             and a change of that slope over the range (ln-field c (u^2 - mean u^2) / 2, the
+//             slope moving by c per octave), both centred, s and c drawn with standard
+//             deviation response_ratio_error. The self-check's band biases are ratio errors of
+//             neighbouring exposures: per octave they are the bias over log2 of the exposure
+//             ratio (PhotometricCalibration::ResponseSlopeErrorAt);
+//   vignetting (each normalised to an RMS of 1 over the observations used): r^2 and r^4 about
+//             the principal point (r in half-diagonals, as the radial
 //             model of docs/formats.md), and the two linear tilts in x and y (a flat field lit
 //             unevenly).
+//   the response's ends (calib/photometry/response.h, ResponseEnd): where the sweep's data thin
+//             out the table rests on its smoothing prior, and a whole segment can be off by a
+//             common gain that no ratio check sees. One mode per end that observations reach,
+//             not normalised: each observation's weight is the end's error times its weight at
+//             the observation's raw value in the end's channel, centred; drawn with sd 1.
+//   the response's wiggles (response_wiggle): between the sweep's values the curve is the
+//             smoothing prior's interpolation, off by a fraction of a percent that changes sign
+//             from knot to knot. To a sample whose radiances span an octave or two these are
+//             no noise: every observation at the same raw value shares its error, and the
+//             pattern bends the radiance against angle. Drawn per knot, interpolated by value.
 // Response amplitudes are drawn with standard deviation response_ratio_error per octave,
 // vignetting amplitudes with vignette_rms / sqrt(4), so the expected RMS of the vignetting
 // field is vignette_rms.
@@ -31,14 +45,21 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "calib/photometry/response.h"
 #include "estimation/extract/observations.h"
 #include "estimation/joint/joint_fit.h"
 
 namespace gonio {
 
 struct CalibrationErrorModel {
-  double response_ratio_error = 0;  // 1-sigma ratio error per octave of radiance
-  double vignette_rms = 0;          // 1-sigma relative error of V(x), RMS over the image
+  double response_ratio_error = 0;         // 1-sigma ratio error per octave of radiance
+  std::vector<ResponseEnd> response_ends;  // their errors are 1 sigma, relative
+  // The response's wiggles between its knots: 1-sigma relative error drawn independently at
+  // every knot (`response_knot_spacing` raw values apart, per channel) and interpolated
+  // linearly at each observation's raw value. 0: none.
+  double response_wiggle = 0;
+  double response_knot_spacing = 0;
+  double vignette_rms = 0;  // 1-sigma relative error of V(x), RMS over the image
   Eigen::Vector2d principal_point = Eigen::Vector2d::Zero();  // pixels
   double radius_px = 1;                                       // half the image diagonal
   void Check() const;                                         // InputError naming the field
