@@ -37,10 +37,12 @@ double Sample(const cv::Mat& grey, double x, double y) {
 
 // The quad's edges fitted again in the original image, as libapriltag refines a quad found on a
 // decimated image (docs/calibration.md "Tag detection"): along each edge, the dark-to-bright
-// step across it within +-1 px (the gradient-weighted mean offset), then a weighted line
-// through those points; the corners are the lines' intersections. The quad is left as it is
-// when an edge has too few samples or two lines are (nearly) parallel.
-std::array<Eigen::Vector2d, 4> RefineEdges(const cv::Mat& grey, std::array<Eigen::Vector2d, 4> q) {
+// step across it (bright-to-dark for families whose border is reversed) within +-1 px (the
+// gradient-weighted mean offset), then a weighted line through those points; the corners are the
+// lines' intersections. The quad is left as it is when an edge has too few samples or two lines are
+// (nearly) parallel.
+std::array<Eigen::Vector2d, 4> RefineEdges(const cv::Mat& grey, std::array<Eigen::Vector2d, 4> q,
+                                           bool reversed_border) {
   const Eigen::Vector2d centre = 0.25 * (q[0] + q[1] + q[2] + q[3]);
   std::array<Eigen::Vector3d, 4> lines;  // a x + b y = c, (a, b) unit
   const double range = 1.0, span = 1.0;
@@ -62,7 +64,8 @@ std::array<Eigen::Vector2d, 4> RefineEdges(const cv::Mat& grey, std::array<Eigen
             std::max(hi.x(), lo.x()) > grey.cols - 1 || std::max(hi.y(), lo.y()) > grey.rows - 1) {
           continue;
         }
-        const double g = Sample(grey, hi.x(), hi.y()) - Sample(grey, lo.x(), lo.y());
+        const double g = (reversed_border ? -1 : 1) *
+                         (Sample(grey, hi.x(), hi.y()) - Sample(grey, lo.x(), lo.y()));
         if (g <= 0) continue;
         m += g * n;
         w += g;
@@ -89,6 +92,9 @@ std::array<Eigen::Vector2d, 4> RefineEdges(const cv::Mat& grey, std::array<Eigen
     m << l1.x(), l1.y(), l2.x(), l2.y();
     if (std::abs(m.determinant()) < 1e-3) return q;
     out[c] = m.inverse() * Eigen::Vector2d(l1.z(), l2.z());
+    // A refit that moves a corner by more than the search could explain (+-1 px across each
+    // edge, times 3 at a 20 deg corner) followed something else: keep the quad.
+    if (!out[c].allFinite() || (out[c] - q[c]).norm() > 3.0) return q;
   }
   return out;
 }
@@ -174,8 +180,10 @@ std::vector<TagDetection> DetectRectified(const cv::Mat& grey, const Board& boar
         const cv::Point2d in_image = Apply(image_from_patch, q);
         t.corners[c] = Eigen::Vector2d(in_image.x, in_image.y);
       }
-      if (!placed) continue;
-      t.corners = RefineEdges(grey, t.corners);
+      const bool finite = std::all_of(t.corners.begin(), t.corners.end(),
+                                      [](const Eigen::Vector2d& c) { return c.allFinite(); });
+      if (!placed || !finite) continue;
+      t.corners = RefineEdges(grey, t.corners, family.reversed_border);
       out.push_back(t);
     }
   }
