@@ -156,6 +156,29 @@ TEST(PhotometricAccuracy, ResponseFieldIsTheBandBiasWhereTheValuesAre) {
   EXPECT_DOUBLE_EQ(PhotometricCalibration::ResponseFieldRmsAt(r, {}), all);
 }
 
+// Per octave (PhotometricCalibration::ResponseSlopeErrorAt): the band biases are ratio errors
+// of neighbouring exposures, so a third-stop sweep's figure is a third of the slope error per
+// octave and a whole-stop sweep's is the figure itself. Unused frames and repeated exposures
+// do not count.
+TEST(PhotometricAccuracy, SlopeErrorIsPerOctave) {
+  ResponseResult r;
+  r.consistency.range_lo = 0;
+  r.consistency.range_hi = 800;
+  r.consistency.band_bias.assign(8, 0.001);
+  const auto frames = [](std::vector<double> times) {
+    std::vector<FrameExposureReport> out;
+    for (double t : times) out.push_back({"f", t, t, true, true, ""});
+    return out;
+  };
+  r.frames = frames({0.01, 0.02, 0.04, 0.08});
+  EXPECT_NEAR(PhotometricCalibration::ResponseSlopeErrorAt(r, {150}), 0.001, 1e-12);
+  r.frames = frames({0.01, 0.01 * std::cbrt(2.0), 0.01 * std::cbrt(4.0), 0.02, 0.02});
+  r.frames.push_back({"unused", 1.0, 1.0, true, false, ""});
+  EXPECT_NEAR(PhotometricCalibration::ResponseSlopeErrorAt(r, {150}), 0.003, 1e-9);
+  r.frames.clear();  // no frames (a linear camera's response): per pair taken as per octave
+  EXPECT_NEAR(PhotometricCalibration::ResponseSlopeErrorAt(r, {150}), 0.001, 1e-12);
+}
+
 // photometric.json's noise terms and vignette name with a wrong type or sign are bad input
 // naming the file and key (found with the fuzz target, docs/testing.md).
 TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {

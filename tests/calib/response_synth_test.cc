@@ -60,13 +60,25 @@ double TrueExposure(const synth::PhotometricChain& chain, const Camera& cam, dou
 struct TruthError {
   double relative = 0, absolute = 0;
   double lo = 0, hi = 0;
+  double end_ratio = 0;  // largest true error at a table end over its stated error
 };
 
-TruthError CompareWithTruth(const ResponseResult& r, const synth::Scene& scene, const Camera& cam) {
-  const synth::PhotometricChain chain(scene.photometric, scene.camera);
+synth::PhotometricChain chain_of(const synth::Scene& scene) {
+  return synth::PhotometricChain(scene.photometric, scene.camera);
+}
+
+// The factor from the table's relative exposure to the truth's, at the value where the truth
+// reaches a quarter of full exposure.
+double scale_of(const ResponseResult& r, const synth::Scene& scene, const Camera& cam) {
+  const synth::PhotometricChain chain = chain_of(scene);
   double z_ref = cam.black_level;
   while (TrueExposure(chain, cam, z_ref) < 0.25) ++z_ref;
-  const double scale = TrueExposure(chain, cam, z_ref) / r.Linearize(0, z_ref);
+  return TrueExposure(chain, cam, z_ref) / r.Linearize(0, z_ref);
+}
+
+TruthError CompareWithTruth(const ResponseResult& r, const synth::Scene& scene, const Camera& cam) {
+  const synth::PhotometricChain chain = chain_of(scene);
+  const double scale = scale_of(r, scene, cam);
   TruthError e;
   e.lo = cam.black_level + 0.1 * (chain.max_value() - cam.black_level);
   e.hi = r.saturation_level[0] - 1;
@@ -106,8 +118,24 @@ ResponseResult CalibrateRendered(const Camera& cam, TruthError* error) {
                            100 * r.smoothing_sensitivity, 100 * accuracy);
   EXPECT_GT(r.smoothing_sensitivity, std::abs(r.consistency.worst_band_bias));
   EXPECT_GT(3 * accuracy, error->relative);
+  // The table's ends (docs/photometric.md "The table's ends"): the stated error must cover the
+  // table's true error at each end, against the truth scaled as above, and not exceed it by
+  // more than the factor measured (see the callers).
+  EXPECT_EQ(r.ends.size(), 2u);
+  for (const ResponseEnd& end : r.ends) {
+    const double z = std::round(end.end);
+    const double truth = TrueExposure(chain_of(scene), cam, z);
+    const double off = std::abs(scale_of(r, scene, cam) * r.Linearize(0, z) / truth - 1);
+    std::cout << fmt::format("{} end at {:.0f}: stated {:.2f}%, true {:.2f}%\n",
+                             end.taper_to > end.end ? "dark" : "bright", z, 100 * end.error,
+                             100 * off);
+    error->end_ratio = std::max(error->end_ratio, off / std::max(end.error, 1e-4));
+  }
   // What response.json holds is what a reader gets back, accuracy included.
   const ResponseResult back = ResponseResult::FromJson(r.ToJson(), "response.json");
+  EXPECT_EQ(back.ends.size(), r.ends.size());
+  if (!back.ends.empty() && !r.ends.empty()) EXPECT_DOUBLE_EQ(back.ends[0].error, r.ends[0].error);
+  EXPECT_DOUBLE_EQ(back.knot_spacing, r.knot_spacing);
   EXPECT_DOUBLE_EQ(back.smoothing_sensitivity, r.smoothing_sensitivity);
   EXPECT_DOUBLE_EQ(back.consistency.worst_band_bias, r.consistency.worst_band_bias);
   EXPECT_DOUBLE_EQ(PhotometricCalibration::CombinedAccuracy(back, 0.0), accuracy);
@@ -197,6 +225,33 @@ TEST(ResponseJson, AccuracyKeysOfTheWrongTypeAreInputErrors) {
   EXPECT_THROW(ResponseResult::FromJson(bad, "response.json"), InputError);
   bad["smoothing_sensitivity"] = nullptr;  // not measured
   EXPECT_TRUE(std::isnan(ResponseResult::FromJson(bad, "response.json").smoothing_sensitivity));
+  // The table's ends and knot spacing enter the error bars too.
+  for (const nlohmann::json& ends : std::vector<nlohmann::json>{
+           "x",
+           {{{"channel", 0}, {"end", 10}, {"taper_to", 20}}},
+           {{{"channel", 3}, {"end", 10}, {"taper_to", 20}, {"error", 0.01}}},
+           {{{"channel", 0}, {"end", 10}, {"taper_to", 20}, {"error", -0.01}}}}) {
+    nlohmann::json e = good;
+    e["ends"] = ends;
+    EXPECT_THROW(ResponseResult::FromJson(e, "response.json"), InputError) << ends.dump();
+  }
+  nlohmann::json k = good;
+  k["knot_spacing"] = 0;
+  EXPECT_THROW(ResponseResult::FromJson(k, "response.json"), InputError);
+}
+
+// A table end's weight (ResponseEnd::WeightAt): 1 beyond the end, 0 beyond the taper, linear
+// between, at a dark end and a bright one.
+TEST(ResponseEnds, WeightTapersFromTheEndInwards) {
+  const ResponseEnd dark{0, 200, 260, 0.04}, bright{0, 4000, 3940, 0.01};
+  EXPECT_DOUBLE_EQ(dark.WeightAt(100), 1.0);
+  EXPECT_DOUBLE_EQ(dark.WeightAt(200), 1.0);
+  EXPECT_DOUBLE_EQ(dark.WeightAt(230), 0.5);
+  EXPECT_DOUBLE_EQ(dark.WeightAt(260), 0.0);
+  EXPECT_DOUBLE_EQ(dark.WeightAt(3000), 0.0);
+  EXPECT_DOUBLE_EQ(bright.WeightAt(4095), 1.0);
+  EXPECT_DOUBLE_EQ(bright.WeightAt(3970), 0.5);
+  EXPECT_DOUBLE_EQ(bright.WeightAt(100), 0.0);
 }
 
 TEST(ResponseRefusals, LocallyToneMappedSweepIsRefused) {
