@@ -329,4 +329,9 @@ JointFitResult FitCandidate(const std::string& model, const ObservationSet& data
                             const JointFitOptions& options, bool cross_validate,
                             const JointFitResult* warm = nullptr);
 
+// `fitted` (a converged FitCandidate result, e.g. on a screening subsample) as it stands, not
+// refitted, judged on the `use` observations: uncertainty, metrics and criteria over them.
+JointFitResult EvaluateCandidate(const JointFitResult& fitted, const ObservationSet& data,
+                                 const std::vector<size_t>& use, const JointFitOptions& options);
+
 }  // namespace gonio::joint_fit_internal
