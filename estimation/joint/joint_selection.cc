@@ -3,6 +3,7 @@
 // rule, practical significance, and the final refit. One candidate's fit is FitCandidate
 // (joint_fit.cc).
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -54,8 +55,26 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// fn(k) for every candidate k of `names` on up to `threads` threads, each thread taking the
+// next one when done, the costliest (ModelInfo::cost_rank) first: the candidates' costs differ
+// by 30x, so fixed chunks, or a costly one started last, would leave a thread idle.
+template <typename Fn>
+void ForEachCandidate(const std::vector<std::string>& names, int threads, Fn&& fn) {
+  std::vector<size_t> order(names.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return FindModel(names[a]).cost_rank > FindModel(names[b]).cost_rank;
+  });
+  std::atomic<size_t> next{0};
+  const size_t workers = std::min<size_t>(ResolveThreads(threads), order.size());
+  ParallelFor(workers, static_cast<int>(workers), [&](size_t, size_t) {
+    for (size_t k = next++; k < order.size(); k = next++) fn(order[k]);
+  });
+}
+
 // Screening (docs/pipeline.md "Staged search"): the candidates of a stage are first fitted on
-// every kScreenStride-th observation of the selection subsample. One whose weighted residual
+// about kScreenObservations of the selection subsample (every 4th or sparser: screening needs
+// a subsample of 4 x kScreenObservations). One whose weighted residual
 // per residual there exceeds kDecisiveRatio times the best so far (the earlier stages' fits,
 // this stage's screens and, when this stage's best screen is kDecisiveRatio beyond explaining
 // the data, so that the search goes on, the next stage's screens) is not refitted: on n
@@ -64,19 +83,20 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 // penalty, so it can be neither selected nor explain data its better rival does not. It stays
 // a candidate, judged on the whole selection subsample at its screening solution (its
 // criterion only overstates how badly it fits); the practical-significance test refits it if
-// it is the best simpler model and could be within the floor (ApplyPracticalSignificance). The
+// it is the best simpler model and could be within the floor (RefitScreenedSimpler). The
 // others are refitted on the whole selection subsample from their screening solution. Not
 // with cross-validation (held-out errors are not residual sums) nor for `--models all` (a
 // comparison table of full fits).
-constexpr size_t kScreenStride = 4;
-constexpr size_t kMinScreenObservations = 500;
+constexpr size_t kScreenObservations = 500;
+constexpr size_t kMinScreenStride = 4;
 constexpr double kDecisiveRatio = 2.0;
 
 std::vector<size_t> ScreenSubsample(const std::vector<size_t>& use, const JointFitOptions& o) {
   std::vector<size_t> screen;
   if (!o.screen_candidates || o.criterion == Criterion::kCv || o.exhaustive) return screen;
-  if (use.size() < kScreenStride * kMinScreenObservations) return screen;
-  for (size_t k = 0; k < use.size(); k += kScreenStride) screen.push_back(use[k]);
+  if (use.size() < kMinScreenStride * kScreenObservations) return screen;
+  const size_t stride = use.size() / kScreenObservations;
+  for (size_t k = 0; k < use.size(); k += stride) screen.push_back(use[k]);
   return screen;
 }
 
@@ -111,14 +131,12 @@ StageScreens ScreenStage(const std::vector<std::string>& names, const Observatio
   StageScreens out;
   out.fits.resize(names.size());
   out.seconds.assign(names.size(), 0.0);
-  ParallelFor(names.size(), per.threads, [&](size_t b, size_t e) {
-    for (size_t k = b; k < e; ++k) {
-      const auto start = std::chrono::steady_clock::now();
-      JointFitOptions one = per;
-      one.threads = 1;
-      out.fits[k] = FitCandidate(names[k], data, screen, light0, one, false);
-      out.seconds[k] = SecondsSince(start);
-    }
+  JointFitOptions one = per;
+  one.threads = 1;
+  ForEachCandidate(names, per.threads, [&](size_t k) {
+    const auto start = std::chrono::steady_clock::now();
+    out.fits[k] = FitCandidate(names[k], data, screen, light0, one, false);
+    out.seconds[k] = SecondsSince(start);
   });
   return out;
 }
@@ -151,21 +169,18 @@ std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
   per.threads = 1;
   const bool cross_validate = options.criterion == Criterion::kCv;
   std::mutex mutex;
-  ParallelFor(names.size(), options.threads, [&](size_t b, size_t e) {
-    for (size_t k = b; k < e; ++k) {
-      const auto start = std::chrono::steady_clock::now();
-      const JointFitResult* warm = k < screens.fits.size() && screens.fits[k].material.converged
-                                       ? &screens.fits[k]
-                                       : nullptr;
-      if (warm && PerResidual(*warm) > kDecisiveRatio * best) {
-        fits[k] = ScreenedOut(*warm, best, data, use, per);
-      } else {
-        fits[k] = FitCandidate(names[k], data, use, light0, per, cross_validate, warm);
-      }
-      (*seconds)[k] += SecondsSince(start);
-      std::lock_guard<std::mutex> lock(mutex);
-      progress->Step();
+  ForEachCandidate(names, options.threads, [&](size_t k) {
+    const auto start = std::chrono::steady_clock::now();
+    const JointFitResult* warm =
+        k < screens.fits.size() && screens.fits[k].material.converged ? &screens.fits[k] : nullptr;
+    if (warm && PerResidual(*warm) > kDecisiveRatio * best) {
+      fits[k] = ScreenedOut(*warm, best, data, use, per);
+    } else {
+      fits[k] = FitCandidate(names[k], data, use, light0, per, cross_validate, warm);
     }
+    (*seconds)[k] += SecondsSince(start);
+    std::lock_guard<std::mutex> lock(mutex);
+    progress->Step();
   });
   return fits;
 }
@@ -394,26 +409,34 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   };
   std::vector<Trial> trials = {{false, false, criterion(chosen)}};
   for (int mask = 1; mask < 4; ++mask) {
-    Trial t{(mask & 1) != 0, (mask & 2) != 0};
-    if ((t.ambient && !ambient) || (t.height && !height)) continue;
-    JointFitOptions o = search;
-    if (t.ambient) o.ambient = AmbientTerm::kFit;
-    if (t.height) o.sample_height = NuisanceTerm::kFit;
-    // From the chosen fit (the terms start at zero): the same minimum as from the defaults
-    // when the terms are small, in a few iterations instead of the whole descent.
-    const JointFitResult f =
-        FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false, &chosen);
-    // Every term of the combination must stand out of its own error bar, which the noise model
-    // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
-    // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
-    // The bar is the one the final fit on `final_n` observations will have (1 / sqrt(n)).
-    const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
-                                   static_cast<double>(std::max<size_t>(use.size(), 1)));
-    const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
-                             (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
-    t.value = significant ? criterion(f) : INFINITY;
-    trials.push_back(t);
+    const Trial t{(mask & 1) != 0, (mask & 2) != 0};
+    if ((!t.ambient || ambient) && (!t.height || height)) trials.push_back(t);
   }
+  // The trials in parallel (each solve single-threaded), each from the chosen fit (the terms
+  // start at zero): the same minimum as from the defaults when the terms are small, in a few
+  // iterations instead of the whole descent.
+  ParallelFor(trials.size() - 1, options.threads, [&](size_t b, size_t e) {
+    for (size_t k = b + 1; k < e + 1; ++k) {
+      Trial& t = trials[k];
+      JointFitOptions o = search;
+      o.threads = 1;
+      if (t.ambient) o.ambient = AmbientTerm::kFit;
+      if (t.height) o.sample_height = NuisanceTerm::kFit;
+      const JointFitResult f =
+          FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false, &chosen);
+      // Every term of the combination must stand out of its own error bar, which the noise
+      // model (pixel noise and the calibration floor) sets: the criterion alone, with the
+      // empirical scatter of thousands of residuals, takes a calibration error's smooth bend for
+      // a nuisance. The bar is the one the final fit on `final_n` observations will have
+      // (1 / sqrt(n)).
+      const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
+                                     static_cast<double>(std::max<size_t>(use.size(), 1)));
+      const bool significant =
+          (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
+          (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
+      t.value = significant ? criterion(f) : INFINITY;
+    }
+  });
   double best = INFINITY;
   for (const auto& t : trials) best = std::min(best, t.value);
   auto terms = [](const Trial& t) { return int(t.ambient) + int(t.height); };
