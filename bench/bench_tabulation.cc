@@ -162,8 +162,9 @@ size_t BuildAll(Table& table, int n_first, double lo, double hi) {
   for (int k = 0; k < n_first; ++k) {
     const double x0 = lo + (hi - lo) * k / (n_first - 1);
     if constexpr (std::is_same_v<Table, tabulation::Table4>) {
-      table.BuildAll();  // built by (x0, x1) planes: every one
-      return table.Stats().bytes;
+      const double x[4] = {x0, 0.5, 0.5, 0.5};
+      double df[4];
+      table.Evaluate(x, df);
     } else {
       const double x[3] = {x0, 0.5, 0.5};
       double f[6], d0[6], d1[6], d2[6];

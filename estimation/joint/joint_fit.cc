@@ -462,28 +462,22 @@ State StateFromResult(const ModelInfo& info, const JointFitResult& r, const Obse
 }
 
 // One model on the `use` observations from `light_start` (or from `warm`, a converged fit of
-// the same model and options): solve (or, with `solve` false, keep `warm`'s state as it is),
-// uncertainty, the lamp distance's contrast check, metrics and (optionally) cross-validation
-// over frames.
+// the same model and options): solve, uncertainty, the lamp distance's contrast check, metrics
+// and (optionally) cross-validation over frames.
 template <typename M>
 JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
                         const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
                         const JointFitOptions& o, bool cross_validate,
-                        const JointFitResult* warm = nullptr, bool solve = true) {
+                        const JointFitResult* warm = nullptr) {
   using Fast = typename Tabulated<M>::type;  // estimation/joint/tabulated_models.h
   if constexpr (!std::is_same_v<Fast, M>) {
     if (o.tabulated_models) {
-      return FitModel<Fast>(info, data, use, light_start, o, cross_validate, warm, solve);
+      return FitModel<Fast>(info, data, use, light_start, o, cross_validate, warm);
     }
   }
-  const bool from_warm = warm && warm->material.converged;
-  State s = from_warm ? StateFromResult(info, *warm, data, o)
-                      : InitialState<M>(info, data, use, light_start, o);
-  if (solve || !from_warm) {
-    Solve<M>(data, use, info, o, &s);
-  } else {
-    s.usable = true;
-  }
+  State s = warm && warm->material.converged ? StateFromResult(info, *warm, data, o)
+                                             : InitialState<M>(info, data, use, light_start, o);
+  Solve<M>(data, use, info, o, &s);
   JointFitResult r = ResultFromState(info, s, o, use.size());
   r.material.n_samples = CountResiduals(data, use, o);
   if (!s.usable) return r;
@@ -507,19 +501,6 @@ JointFitResult joint_fit_internal::FitCandidate(const std::string& model,
   VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     r = FitModel<M>(FindModel(model), data, use, light_start, options, cross_validate, warm);
-  });
-  return r;
-}
-
-JointFitResult joint_fit_internal::EvaluateCandidate(const JointFitResult& fitted,
-                                                     const ObservationSet& data,
-                                                     const std::vector<size_t>& use,
-                                                     const JointFitOptions& options) {
-  JointFitResult r;
-  VisitModel(fitted.material.model, [&](auto tag) {
-    using M = typename decltype(tag)::type;
-    r = FitModel<M>(FindModel(fitted.material.model), data, use, fitted.light_position, options,
-                    false, &fitted, false);
   });
   return r;
 }

@@ -80,10 +80,6 @@ struct JointFitOptions {
   // Fit every candidate (a comparison table, `--models all`) instead of the staged search,
   // which stops at the first parameter count whose best model explains the data to the noise.
   bool exhaustive = false;
-  // Screen each stage's candidates on about 500 observations of the selection subsample and refit
-  // only those not decisively worse than the best (docs/pipeline.md "Staged search"); off: every
-  // candidate of a stage fitted on the whole subsample (the reference the tests compare with).
-  bool screen_candidates = true;
   // Fit van-ginneken and oren-nayar-vcavity through their smooth tables
   // (estimation/joint/tabulated_models.h): same model within the tabulation error, many times
   // faster.
@@ -133,9 +129,6 @@ struct JointFitResult {
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
   size_t n_observations = 0;
-  // The model search screened this candidate out (docs/pipeline.md "Staged search"): fitted on
-  // a subsample only and judged on the selection subsample at that solution (material.message).
-  bool screened_out = false;
 
   nlohmann::json ToJson() const;
   nlohmann::json AmbientJson() const;  // fit.json "ambient" (docs/formats.md)

@@ -96,21 +96,6 @@ struct SampleRadianceResidual {
   }
 };
 
-// The same without the ambient and height blocks, for a problem that fits neither (the model
-// search's): ceres::Jet carries a derivative per parameter of every block of the residual,
-// held constant or not, so leaving the two out makes each Jet two entries shorter (12 -> 10
-// for a three-parameter model). `ambient` and `height_offset` are the held values.
-template <typename M>
-struct SampleRadianceResidualNoNuisance {
-  SampleRadianceResidual<M> full;
-  double ambient, height_offset;
-  template <typename T>
-  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity, T* r) const {
-    const T a(ambient), h(height_offset);
-    return full(shared, chan, light, intensity, &a, &h, r);
-  }
-};
-
 struct WhiteRadianceResidual {
   const Observation* o;
   int channel;
@@ -179,8 +164,6 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
                   const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
   std::array<bool, 16> per_channel{};
   for (int k = 0; k < M::kNumParams; ++k) per_channel[k] = info.params[k].per_channel;
-  // Neither nuisance fitted: the sample residuals leave their (constant) blocks out.
-  const bool no_nuisance = o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit;
   for (size_t idx : use) {
     const Observation& obs = data.observations[idx];
     if (!HasResidual(obs, o)) continue;
@@ -193,15 +176,6 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
             new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1, 1>(
                 new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.light_frame}),
             loss, s->light.data(), &s->intensity, &s->ambient_irradiance[c]);
-      } else if (no_nuisance) {
-        problem->AddResidualBlock(
-            new ceres::AutoDiffCostFunction<SampleRadianceResidualNoNuisance<M>, 1, M::kNumParams,
-                                            M::kNumParams, 3, 1>(
-                new SampleRadianceResidualNoNuisance<M>{
-                    {&obs, c, inv_sigma, o.light_frame, per_channel},
-                    s->ambient_sample[c],
-                    s->height_offset}),
-            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity);
       } else {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
@@ -354,10 +328,5 @@ JointFitResult FitCandidate(const std::string& model, const ObservationSet& data
                             const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
                             const JointFitOptions& options, bool cross_validate,
                             const JointFitResult* warm = nullptr);
-
-// `fitted` (a converged FitCandidate result, e.g. on a screening subsample) as it stands, not
-// refitted, judged on the `use` observations: uncertainty, metrics and criteria over them.
-JointFitResult EvaluateCandidate(const JointFitResult& fitted, const ObservationSet& data,
-                                 const std::vector<size_t>& use, const JointFitOptions& options);
 
 }  // namespace gonio::joint_fit_internal

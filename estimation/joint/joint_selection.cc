@@ -3,8 +3,6 @@
 // rule, practical significance, and the final refit. One candidate's fit is FitCandidate
 // (joint_fit.cc).
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -47,140 +45,22 @@ bool ExplainsToTheNoise(const JointFitResult& f) {
          f.material.weighted_ssr / n <= 1.0 + 3.0 * std::sqrt(2.0 / n);
 }
 
-double PerResidual(const JointFitResult& f) {
-  return f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1);
-}
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// fn(k) for every candidate k of `names` on up to `threads` threads, each thread taking the
-// next one when done, the costliest (ModelInfo::cost_rank) first: the candidates' costs differ
-// by 30x, so fixed chunks, or a costly one started last, would leave a thread idle.
-template <typename Fn>
-void ForEachCandidate(const std::vector<std::string>& names, int threads, Fn&& fn) {
-  std::vector<size_t> order(names.size());
-  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return FindModel(names[a]).cost_rank > FindModel(names[b]).cost_rank;
-  });
-  std::atomic<size_t> next{0};
-  const size_t workers = std::min<size_t>(ResolveThreads(threads), order.size());
-  ParallelFor(workers, static_cast<int>(workers), [&](size_t, size_t) {
-    for (size_t k = next++; k < order.size(); k = next++) fn(order[k]);
-  });
-}
-
-// Screening (docs/pipeline.md "Staged search"): the candidates of a stage are first fitted on
-// about kScreenObservations of the selection subsample (every 4th or sparser: screening needs
-// a subsample of 4 x kScreenObservations). One whose weighted residual
-// per residual there exceeds kDecisiveRatio times the best so far (the earlier stages' fits,
-// this stage's screens and, when this stage's best screen is kDecisiveRatio beyond explaining
-// the data, so that the search goes on, the next stage's screens) is not refitted: on n
-// residuals its criterion would lose by about n ln 2 (over 1000 for the 2000 or more
-// observations screening needs), far beyond the rule's margin of 2 and any parameter-count
-// penalty, so it can be neither selected nor explain data its better rival does not. It stays
-// a candidate, judged on the whole selection subsample at its screening solution (its
-// criterion only overstates how badly it fits); the practical-significance test refits it if
-// it is the best simpler model and could be within the floor (RefitScreenedSimpler). The
-// others are refitted on the whole selection subsample from their screening solution. Not
-// with cross-validation (held-out errors are not residual sums) nor for `--models all` (a
-// comparison table of full fits).
-constexpr size_t kScreenObservations = 500;
-constexpr size_t kMinScreenStride = 4;
-constexpr double kDecisiveRatio = 2.0;
-
-std::vector<size_t> ScreenSubsample(const std::vector<size_t>& use, const JointFitOptions& o) {
-  std::vector<size_t> screen;
-  if (!o.screen_candidates || o.criterion == Criterion::kCv || o.exhaustive) return screen;
-  if (use.size() < kMinScreenStride * kScreenObservations) return screen;
-  const size_t stride = use.size() / kScreenObservations;
-  for (size_t k = 0; k < use.size(); k += stride) screen.push_back(use[k]);
-  return screen;
-}
-
-// The weighted residual per residual at which a fit explains its data to the noise (below).
-double ExplainLimit(double n) { return 1.0 + 3.0 * std::sqrt(2.0 / n); }
-
-// One stage's screening fits (empty when not screened) and their wall times.
-struct StageScreens {
-  std::vector<JointFitResult> fits;
-  std::vector<double> seconds;
-  double Best() const {
-    double best = INFINITY;
-    for (const auto& f : fits) {
-      if (f.material.converged) best = std::min(best, PerResidual(f));
-    }
-    return best;
-  }
-  // No screen comes within kDecisiveRatio of explaining its data: no full fit of the stage
-  // will explain them, so the search goes on to the next stage.
-  bool DecisivelyUnexplained() const {
-    for (const auto& f : fits) {
-      if (!f.material.converged) return false;
-      if (PerResidual(f) <= kDecisiveRatio * ExplainLimit(f.material.n_samples)) return false;
-    }
-    return !fits.empty();
-  }
-};
-
-StageScreens ScreenStage(const std::vector<std::string>& names, const ObservationSet& data,
-                         const std::vector<size_t>& screen, const Eigen::Vector3d& light0,
-                         const JointFitOptions& per) {
-  StageScreens out;
-  out.fits.resize(names.size());
-  out.seconds.assign(names.size(), 0.0);
-  JointFitOptions one = per;
-  one.threads = 1;
-  ForEachCandidate(names, per.threads, [&](size_t k) {
-    const auto start = std::chrono::steady_clock::now();
-    out.fits[k] = FitCandidate(names[k], data, screen, light0, one, false);
-    out.seconds[k] = SecondsSince(start);
-  });
-  return out;
-}
-
-// A screened-out candidate: its screening fit judged on the whole selection subsample, with
-// the reason in its message.
-JointFitResult ScreenedOut(const JointFitResult& screened, double best, const ObservationSet& data,
-                           const std::vector<size_t>& use, const JointFitOptions& o) {
-  JointFitResult r = joint_fit_internal::EvaluateCandidate(screened, data, use, o);
-  r.screened_out = true;
-  r.material.message = fmt::format(
-      "screened out: fitted on {} of the {} observations only (weighted residual {:.3g} per "
-      "residual there, more than {:g}x the best so far, {:.3g}); criteria over all {}",
-      screened.n_observations, use.size(), PerResidual(screened), kDecisiveRatio, best, use.size());
-  return r;
-}
-
-// The candidates of one stage, in parallel (each solve single-threaded): with `screens`, the
-// ones beyond kDecisiveRatio x `best` screened out and the others refitted from their screen;
-// without, fitted from the registry defaults. Wall time per candidate into `seconds`.
+// The candidates of one stage, in parallel (each solve single-threaded).
 std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
                                      const ObservationSet& data, const std::vector<size_t>& use,
                                      const Eigen::Vector3d& light0, const JointFitOptions& options,
-                                     const StageScreens& screens, double best, Progress* progress,
-                                     std::vector<double>* seconds) {
+                                     Progress* progress) {
   std::vector<JointFitResult> fits(names.size());
-  *seconds = screens.seconds;
-  seconds->resize(names.size(), 0.0);
   JointFitOptions per = options;
   per.threads = 1;
   const bool cross_validate = options.criterion == Criterion::kCv;
   std::mutex mutex;
-  ForEachCandidate(names, options.threads, [&](size_t k) {
-    const auto start = std::chrono::steady_clock::now();
-    const JointFitResult* warm =
-        k < screens.fits.size() && screens.fits[k].material.converged ? &screens.fits[k] : nullptr;
-    if (warm && PerResidual(*warm) > kDecisiveRatio * best) {
-      fits[k] = ScreenedOut(*warm, best, data, use, per);
-    } else {
-      fits[k] = FitCandidate(names[k], data, use, light0, per, cross_validate, warm);
+  ParallelFor(names.size(), options.threads, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      fits[k] = FitCandidate(names[k], data, use, light0, per, cross_validate);
+      std::lock_guard<std::mutex> lock(mutex);
+      progress->Step();
     }
-    (*seconds)[k] += SecondsSince(start);
-    std::lock_guard<std::mutex> lock(mutex);
-    progress->Step();
   });
   return fits;
 }
@@ -234,45 +114,6 @@ double MaxRelativeDifference(const JointFitResult& a, const JointFitResult& b,
   return worst;
 }
 
-// The candidate with the best criterion among the converged ones with fewer parameters than
-// the selected one; -1 if none.
-int BestSimpler(const JointSelectionResult& out) {
-  const auto& rich = out.fits[out.selection.selected].material;
-  int simpler = -1;
-  for (int k = 0; k < static_cast<int>(out.fits.size()); ++k) {
-    const auto& c = out.fits[k].material;
-    if (!c.converged || c.n_params >= rich.n_params) continue;
-    if (simpler < 0 || out.selection.CriterionValue(c) <
-                           out.selection.CriterionValue(out.fits[simpler].material)) {
-      simpler = k;
-    }
-  }
-  return simpler;
-}
-
-// When the best simpler model was screened out and could still be within the noise floor of
-// the selected one, refits it on `use` from its screening solution, so the practical
-// significance test compares two full fits; true if it did. Within the floor everywhere, the
-// simpler model's weighted residuals would exceed the selected one's by at most about 1 each
-// (the floor is part of every residual's sigma), so its weighted residual per residual would
-// be at most (sqrt(selected's) + 1)^2; a screened-out fit beyond kDecisiveRatio times that
-// cannot be within the floor.
-bool RefitScreenedSimpler(const ObservationSet& data, const std::vector<size_t>& use,
-                          const JointFitOptions& o, JointSelectionResult* out) {
-  const int simpler = BestSimpler(*out);
-  if (simpler < 0 || !out->fits[simpler].screened_out) return false;
-  const double rich = PerResidual(out->fits[out->selection.selected]);
-  const double limit = kDecisiveRatio * std::pow(1.02 * std::sqrt(rich) + 1.02, 2);
-  if (PerResidual(out->fits[simpler]) > limit) return false;
-  const JointFitResult screened = out->fits[simpler];
-  out->fits[simpler] = FitCandidate(screened.material.model, data, use, screened.light_position, o,
-                                    false, &screened);
-  out->selection.candidates[simpler] = out->fits[simpler].material;
-  spdlog::info("{}: refitted on all {} observations for the practical-significance test",
-               screened.material.model, use.size());
-  return true;
-}
-
 // Practical significance: a richer model chosen by the criterion wins only if its prediction
 // differs from the best simpler model's somewhere in the observed domain by more than the
 // relative noise floor (the calibration uncertainty the fit assumes); otherwise the simpler
@@ -281,7 +122,15 @@ void ApplyPracticalSignificance(const ObservationSet& data, const std::vector<si
                                 const JointFitOptions& o, JointSelectionResult* out) {
   const int chosen = out->selection.selected;
   const auto& rich = out->fits[chosen];
-  const int simpler = BestSimpler(*out);
+  int simpler = -1;
+  for (int k = 0; k < static_cast<int>(out->fits.size()); ++k) {
+    const auto& c = out->fits[k].material;
+    if (!c.converged || c.n_params >= rich.material.n_params) continue;
+    if (simpler < 0 || out->selection.CriterionValue(c) <
+                           out->selection.CriterionValue(out->fits[simpler].material)) {
+      simpler = k;
+    }
+  }
   if (simpler < 0) return;
   const double diff = MaxRelativeDifference(rich, out->fits[simpler], data, use);
   if (diff > o.relative_noise_floor) return;
@@ -308,35 +157,14 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
   out->selection = {};
   Progress progress("joint fit candidates", names.size());
   std::string stopped;
-  const auto stages = Stages(names);
-  const std::vector<size_t> screen = ScreenSubsample(use, search);
-  std::vector<StageScreens> screens(stages.size());
-  auto screen_stage = [&](size_t k) {
-    if (!screen.empty() && screens[k].fits.empty()) {
-      screens[k] = ScreenStage(stages[k], data, screen, light0, search);
-    }
-  };
-  for (size_t si = 0; si < stages.size(); ++si) {
-    const auto& stage = stages[si];
-    screen_stage(si);
-    double best = screens[si].Best();
-    for (const auto& f : out->fits) {
-      if (f.material.converged && !f.screened_out) best = std::min(best, PerResidual(f));
-    }
-    if (si + 1 < stages.size() && screens[si].DecisivelyUnexplained()) {
-      screen_stage(si + 1);  // the search goes on: the next stage's screens count
-      best = std::min(best, screens[si + 1].Best());
-    }
-    std::vector<double> seconds;
-    const auto fits =
-        FitStage(stage, data, use, light0, search, screens[si], best, &progress, &seconds);
+  for (const auto& stage : Stages(names)) {
+    const auto fits = FitStage(stage, data, use, light0, search, &progress);
     bool explained = false;
-    for (size_t k = 0; k < fits.size(); ++k) {
-      const JointFitResult& f = fits[k];
+    for (const auto& f : fits) {
       explained = explained || ExplainsToTheNoise(f);
-      spdlog::info("{}: weighted residual {:.3g} per residual{}{} ({:.2f} s)", f.material.model,
-                   PerResidual(f), ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "",
-                   f.material.message.empty() ? "" : "; " + f.material.message, seconds[k]);
+      spdlog::info("{}: weighted residual {:.3g} per residual{}", f.material.model,
+                   f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1),
+                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "");
       out->fits.push_back(f);
     }
     if (explained && !search.exhaustive && FindModel(stage[0]).params.size() >= min_stage_params) {
@@ -355,7 +183,6 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
   ModelSelectionOptions sel;
   sel.criterion = search.criterion;
   ChooseSimplestAdequate(sel, &out->selection);
-  while (RefitScreenedSimpler(data, use, search, out)) ChooseSimplestAdequate(sel, &out->selection);
   ApplyPracticalSignificance(data, use, search, out);
   out->selection.reason += stopped;
 }
@@ -409,34 +236,24 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   };
   std::vector<Trial> trials = {{false, false, criterion(chosen)}};
   for (int mask = 1; mask < 4; ++mask) {
-    const Trial t{(mask & 1) != 0, (mask & 2) != 0};
-    if ((!t.ambient || ambient) && (!t.height || height)) trials.push_back(t);
+    Trial t{(mask & 1) != 0, (mask & 2) != 0};
+    if ((t.ambient && !ambient) || (t.height && !height)) continue;
+    JointFitOptions o = search;
+    if (t.ambient) o.ambient = AmbientTerm::kFit;
+    if (t.height) o.sample_height = NuisanceTerm::kFit;
+    const JointFitResult f =
+        FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false);
+    // Every term of the combination must stand out of its own error bar, which the noise model
+    // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
+    // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
+    // The bar is the one the final fit on `final_n` observations will have (1 / sqrt(n)).
+    const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
+                                   static_cast<double>(std::max<size_t>(use.size(), 1)));
+    const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
+                             (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
+    t.value = significant ? criterion(f) : INFINITY;
+    trials.push_back(t);
   }
-  // The trials in parallel (each solve single-threaded), each from the chosen fit (the terms
-  // start at zero): the same minimum as from the defaults when the terms are small, in a few
-  // iterations instead of the whole descent.
-  ParallelFor(trials.size() - 1, options.threads, [&](size_t b, size_t e) {
-    for (size_t k = b + 1; k < e + 1; ++k) {
-      Trial& t = trials[k];
-      JointFitOptions o = search;
-      o.threads = 1;
-      if (t.ambient) o.ambient = AmbientTerm::kFit;
-      if (t.height) o.sample_height = NuisanceTerm::kFit;
-      const JointFitResult f =
-          FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false, &chosen);
-      // Every term of the combination must stand out of its own error bar, which the noise
-      // model (pixel noise and the calibration floor) sets: the criterion alone, with the
-      // empirical scatter of thousands of residuals, takes a calibration error's smooth bend for
-      // a nuisance. The bar is the one the final fit on `final_n` observations will have
-      // (1 / sqrt(n)).
-      const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
-                                     static_cast<double>(std::max<size_t>(use.size(), 1)));
-      const bool significant =
-          (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
-          (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
-      t.value = significant ? criterion(f) : INFINITY;
-    }
-  });
   double best = INFINITY;
   for (const auto& t : trials) best = std::min(best, t.value);
   auto terms = [](const Trial& t) { return int(t.ambient) + int(t.height); };

@@ -13,9 +13,8 @@
 // symmetry (the function is even about that edge, e.g. phi = 0 and pi by isotropy) or by
 // quadratic extrapolation (3 f0 - 3 f1 + f2: a second-order one-sided slope at the edge).
 //
-// Slabs of the first axis (3-D) or planes of the first two axes (4-D) are built on first use
-// (std::call_once each, thread-safe), so a fit that only visits a few values of its parameter,
-// and the angles its observations cover, pays for only those.
+// Slabs of the first axis are built on first use (std::call_once per slab, thread-safe), so a
+// fit that only visits a few values of its parameter pays for only a few slabs.
 #pragma once
 
 #include <algorithm>
@@ -61,9 +60,9 @@ inline void SetGhosts(double* line, int n, long stride, int dims, const Axis& ax
 
 // What a table has cost so far.
 struct TableStats {
-  int slabs_built = 0, slabs_total = 0;  // Table3: x0 slabs; Table4: (x0, x1) planes
-  double build_seconds = 0;              // summed over them (ghosts included)
-  size_t bytes = 0;                      // of the slabs built
+  int slabs_built = 0, slabs_total = 0;
+  double build_seconds = 0;  // summed over slabs (ghost slabs included)
+  size_t bytes = 0;          // of the slabs built
 };
 
 // Builds slab k of the first axis from `fill`; shared by the 3-D and 4-D tables.
@@ -166,91 +165,33 @@ class Table3 {
   SlabStore store_;
 };
 
-// Planes (x0 node i, x1 node j) of a 4-D table, each the (x2, x3) grid with its ghosts, built
-// on first use (std::call_once per plane): a fit visits a few values of its parameter and, at
-// each, the range of angles its observations cover, so building whole x0 slabs would fill
-// mostly planes no evaluation reads (a slab of the van Ginneken table is 91 planes; a scene's
-// observations span about 40 of them).
-struct PlaneStore {
-  PlaneStore(const Axis& a0, const Axis& a1, size_t plane_values)
-      : axis0(a0),
-        axis1(a1),
-        values(plane_values),
-        planes(size_t(a0.n + 2) * (a1.n + 2)),
-        once(planes.size()) {}
-  Axis axis0, axis1;
-  size_t values;  // doubles per plane, ghosts included
-  std::vector<std::vector<double>> planes;
-  std::vector<std::once_flag> once;
-  std::atomic<long> build_ns{0};
-  std::atomic<int> built{0};
-
-  // Plane (i, j), i in [-1, n0], j in [-1, n1]; `build(i, j, data)` fills a core plane (its
-  // x2 and x3 ghosts included). Ghost planes are the edge rule applied to core planes, so
-  // they equal the ghosts a whole-slab build gives.
-  const std::vector<double>& Get(int i, int j,
-                                 const std::function<void(int, int, double*)>& build) {
-    const size_t index = size_t(i + 1) * (axis1.n + 2) + (j + 1);
-    std::call_once(once[index], [&] {
-      const auto t0 = std::chrono::steady_clock::now();
-      std::vector<double> data(values);
-      const bool ghost0 = i < 0 || i >= axis0.n, ghost1 = j < 0 || j >= axis1.n;
-      if (!ghost0 && !ghost1) {
-        build(i, j, data.data());
-      } else {
-        const Axis& a = ghost0 ? axis0 : axis1;
-        const int k = ghost0 ? i : j;
-        const bool low = k < 0;
-        const Edge e = low ? a.lo_edge : a.hi_edge;
-        const int e0 = low ? 0 : a.n - 1, s = low ? 1 : -1;
-        auto at = [&](int m) -> const std::vector<double>& {
-          return ghost0 ? Get(e0 + m * s, j, build) : Get(i, e0 + m * s, build);
-        };
-        const auto& f0 = at(0);
-        const auto& f1 = at(1);
-        const auto& f2 = at(2);
-        for (size_t v = 0; v < values; ++v) {
-          data[v] = e == Edge::kMirror ? f1[v] : 3 * f0[v] - 3 * f1[v] + f2[v];
-        }
-      }
-      planes[index] = std::move(data);
-      built.fetch_add(1);
-      build_ns.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                             std::chrono::steady_clock::now() - t0)
-                             .count());
-    });
-    return planes[index];
-  }
-  // slabs_* count planes here.
-  TableStats Stats() const {
-    return {built.load(), int(planes.size()), build_ns.load() * 1e-9,
-            size_t(built.load()) * values * sizeof(double)};
-  }
-  size_t FullBytes() const { return planes.size() * values * sizeof(double); }
-};
-
-// f(x0, x1, x2, x3) -> R on a regular grid, built lazily by (x0, x1) planes.
+// f(x0, x1, x2, x3) -> R on a regular grid.
 class Table4 {
  public:
   using Fill = std::function<double(const double* x)>;
   Table4(const Axis& a0, const Axis& a1, const Axis& a2, const Axis& a3, Fill fill)
-      : a2_(a2), a3_(a3), fill_(std::move(fill)), store_(a0, a1, size_t(a2.n + 2) * (a3.n + 2)) {}
+      : a1_(a1),
+        a2_(a2),
+        a3_(a3),
+        fill_(std::move(fill)),
+        store_(a0, size_t(a1.n + 2) * (a2.n + 2) * (a3.n + 2)) {}
 
   // Value and its partial derivatives (per unit of x) at x.
   double Evaluate(const double x[4], double df[4]) {
     using Vec3 = Eigen::Matrix<double, 3, 1>;
     using Vec4 = Eigen::Matrix<double, 4, 1>;
-    const Axis& a0 = store_.axis0;
-    const Axis& a1 = store_.axis1;
-    const double u0 = a0.ToGrid(x[0]), u1 = a1.ToGrid(x[1]);
+    const Axis& a0 = store_.axis;
+    const double u0 = a0.ToGrid(x[0]), u1 = a1_.ToGrid(x[1]);
     const double u2 = a2_.ToGrid(x[2]), u3 = a3_.ToGrid(x[3]);
-    const int i = std::min(int(u0), a0.n - 2), j = std::min(int(u1), a1.n - 2);
+    const int i = std::min(int(u0), a0.n - 2), j = std::min(int(u1), a1_.n - 2);
+    const long plane = long(a2_.n + 2) * (a3_.n + 2);
     Vec4 q[4];
     for (int k = 0; k < 4; ++k) {
+      const std::vector<double>& s = Slab(i - 1 + k);
       Vec3 p[4];  // (f, df/du2, df/du3) on the 4 neighbouring x1 nodes
       for (int m = 0; m < 4; ++m) {
-        const std::vector<double>& s = Plane(i - 1 + k, j - 1 + m);
-        const ceres::Grid2D<double, 1> grid(s.data(), -1, a2_.n + 1, -1, a3_.n + 1);
+        const ceres::Grid2D<double, 1> grid(s.data() + (j + m) * plane, -1, a2_.n + 1, -1,
+                                            a3_.n + 1);
         const ceres::BiCubicInterpolator<ceres::Grid2D<double, 1>> interp(grid);
         interp.Evaluate(u2, u3, &p[m][0], &p[m][1], &p[m][2]);
       }
@@ -261,41 +202,39 @@ class Table4 {
     Vec4 v, dv;
     ceres::CubicHermiteSpline<4>(q[0], q[1], q[2], q[3], u0 - i, v.data(), dv.data());
     df[0] = dv[0] / a0.step();
-    df[1] = v[1] / a1.step();
+    df[1] = v[1] / a1_.step();
     df[2] = v[2] / a2_.step();
     df[3] = v[3] / a3_.step();
     return v[0];
-  }
-
-  // Every plane, ghosts included (the whole table's cost, for the bench).
-  void BuildAll() {
-    for (int i = -1; i <= store_.axis0.n; ++i) {
-      for (int j = -1; j <= store_.axis1.n; ++j) Plane(i, j);
-    }
   }
 
   TableStats Stats() const { return store_.Stats(); }
   size_t FullBytes() const { return store_.FullBytes(); }
 
  private:
-  const std::vector<double>& Plane(int i, int j) {
-    return store_.Get(i, j, [this](int i0, int j1, double* data) {
-      const long row = a3_.n + 2;
-      double x[4] = {store_.axis0.Node(i0), store_.axis1.Node(j1), 0, 0};
-      for (int l = 0; l < a2_.n; ++l) {
-        x[2] = a2_.Node(l);
-        for (int m = 0; m < a3_.n; ++m) {
-          x[3] = a3_.Node(m);
-          data[(l + 1) * row + m + 1] = fill_(x);
+  const std::vector<double>& Slab(int k) {
+    return store_.Get(k, [this](int i, double* data) {
+      const long row = a3_.n + 2, plane = long(a2_.n + 2) * row;
+      double x[4] = {store_.axis.Node(i), 0, 0, 0};
+      for (int j = 0; j < a1_.n; ++j) {
+        x[1] = a1_.Node(j);
+        double* s = data + (j + 1) * plane;
+        for (int l = 0; l < a2_.n; ++l) {
+          x[2] = a2_.Node(l);
+          for (int m = 0; m < a3_.n; ++m) {
+            x[3] = a3_.Node(m);
+            s[(l + 1) * row + m + 1] = fill_(x);
+          }
+          SetGhosts(s + (l + 1) * row, a3_.n, 1, 1, a3_);
         }
-        SetGhosts(data + (l + 1) * row, a3_.n, 1, 1, a3_);
+        for (int m = -1; m <= a3_.n; ++m) SetGhosts(s + m + 1, a2_.n, row, 1, a2_);
       }
-      for (int m = -1; m <= a3_.n; ++m) SetGhosts(data + m + 1, a2_.n, row, 1, a2_);
+      for (long e = 0; e < plane; ++e) SetGhosts(data + e, a1_.n, plane, 1, a1_);
     });
   }
-  Axis a2_, a3_;
+  Axis a1_, a2_, a3_;
   Fill fill_;
-  PlaneStore store_;
+  SlabStore store_;
 };
 
 // The chain rule from a table's partial derivatives to the caller's scalar type: f + sum_k

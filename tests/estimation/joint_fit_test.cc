@@ -90,37 +90,6 @@ using testing::InputErrorOf;
 
 // Option words (--criterion, --robust, --light-frame) parse to enums and print back unchanged;
 // an unknown word is an InputError naming the option and the accepted words.
-// Screening the candidates (docs/pipeline.md "Staged search") must not change what the staged
-// search selects nor the fitted values beyond their standard deviations: on a specular (tson)
-// and a pitted (pitted-exact) sample, the search with and without it, 40 views (2000
-// observations, the least that is screened).
-TEST(JointFit, ScreeningSelectsWhatTheFullSearchSelects) {
-  const std::vector<std::pair<std::string, std::vector<double>>> samples = {
-      {"tson", {0.5, DegToRad(20), 0.3, 0.15}}, {"pitted-exact", {0.7, DegToRad(60), 0.8}}};
-  for (const auto& [model, params] : samples) {
-    const ObservationSet data = testing_obs::SynthesizeModel(40, model, params);
-    JointFitOptions o;
-    o.white_albedo = 0.8;
-    o.ambient = AmbientTerm::kNone;
-    o.sample_height = NuisanceTerm::kNone;
-    const JointSelectionResult screened = FitAndSelect(data, o);
-    o.screen_candidates = false;
-    const JointSelectionResult full = FitAndSelect(data, o);
-    const BrdfFitResult& a = screened.final_fit.material;
-    const BrdfFitResult& b = full.final_fit.material;
-    EXPECT_EQ(a.model, model);
-    EXPECT_EQ(a.model, b.model);
-    size_t screened_out = 0;
-    for (const auto& f : screened.fits) screened_out += f.screened_out;
-    EXPECT_GT(screened_out, 0u) << model << ": the screening was not exercised";
-    ASSERT_EQ(a.params.size(), b.params.size());
-    for (size_t k = 0; k < a.params.size(); ++k) {
-      ASSERT_TRUE(b.stddev[k].has_value()) << model << " " << k;
-      EXPECT_LT(std::abs(a.params[k] - b.params[k]), *b.stddev[k]) << model << " " << k;
-    }
-  }
-}
-
 TEST(OptionWords, RoundTripAndUnknownWordsNameTheOption) {
   for (const char* w : {"aic", "bic", "cv"}) EXPECT_EQ(ToString(ParseCriterion(w, "-c")), w);
   for (const char* w : {"none", "huber", "cauchy"}) {

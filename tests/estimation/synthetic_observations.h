@@ -4,8 +4,6 @@
 
 #include <cmath>
 #include <random>
-#include <string>
-#include <vector>
 
 #include <fmt/format.h>
 
@@ -13,7 +11,6 @@
 #include "estimation/extract/observations.h"
 #include "reflectance/angles.h"
 #include "reflectance/oren_nayar.h"
-#include "reflectance/registry.h"
 
 namespace gonio::testing_obs {
 
@@ -63,51 +60,6 @@ inline ObservationSet Synthesize(int views, int channels, bool with_white, doubl
         }
         // Drawn either way, so both sets see the same noise on the sample.
         if (with_white || !o.white) set.observations.push_back(o);
-      }
-    }
-  }
-  return set;
-}
-
-// The same geometry with any registry model: `views` cameras, 5 x 7 sample patches and 5 x 3
-// white-reference patches per frame, one channel, relative noise `noise`.
-inline ObservationSet SynthesizeModel(int views, const std::string& model,
-                                      const std::vector<double>& params, double noise = 0.01) {
-  std::mt19937 rng(11);
-  std::normal_distribution<double> gauss(0, 1);
-  ObservationSet set;
-  set.channels = 1;
-  const double rings[] = {15, 32, 48, 62};
-  for (int f = 0; f < views; ++f) {
-    const double polar = DegToRad(rings[f % 4]), az = 2 * kPi * f / views + 0.3;
-    const Eigen::Vector3d cam =
-        kSampleCentre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
-                                               std::sin(polar) * std::sin(az), -std::cos(polar));
-    set.frame_files.push_back(fmt::format("view_{}", f));
-    for (int iy = 0; iy < 5; ++iy) {
-      for (int ix = 0; ix < 10; ++ix) {
-        Observation o;
-        o.frame = f;
-        o.white = ix < 3;
-        o.p_in_board = o.white ? Eigen::Vector3d(0.04 + 0.01 * ix, 0.045 + 0.016 * iy, 0)
-                               : Eigen::Vector3d(0.08 + 0.015 * (ix - 3), 0.045 + 0.016 * iy, 0);
-        o.camera_in_board = cam;
-        o.board_from_cam_aa = Eigen::Vector3d::Zero();
-        o.px = 640 + 110.0 * (ix - 4.5);
-        o.py = 480 + 200.0 * (iy - 2);
-        const Eigen::Vector3d l = kLight - o.p_in_board, v = cam - o.p_in_board;
-        const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
-        double f_r = 0.8 * kInvPi;
-        if (!o.white) {
-          VisitModel(model, [&](auto tag) {
-            using M = typename decltype(tag)::type;
-            f_r = M::Evaluate(params.data(), AnglesFromDirections(ls, vs));
-          });
-        }
-        const double radiance = f_r * ls[2] / std::pow(l.norm(), 3);
-        o.radiance.push_back(radiance * (1 + noise * gauss(rng)));
-        o.variance.push_back(std::pow(noise * radiance, 2));
-        set.observations.push_back(o);
       }
     }
   }
