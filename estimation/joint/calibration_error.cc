@@ -16,17 +16,21 @@
 namespace gonio {
 namespace {
 
-// v centred and scaled to an RMS of 1; empty when v does not vary (the mode is a pure scale,
-// which the lamp intensity absorbs).
-std::vector<double> Normalised(std::vector<double> v) {
+// v times `scale`, less its mean (a common scale is the lamp's intensity).
+std::vector<double> Centred(std::vector<double> v, double scale = 1.0) {
   double mean = 0;
   for (double x : v) mean += x;
   mean /= std::max<size_t>(v.size(), 1);
+  for (double& x : v) x = scale * (x - mean);
+  return v;
+}
+
+// v centred and scaled to an RMS of 1; empty when v does not vary (the mode is a pure scale,
+// which the lamp intensity absorbs).
+std::vector<double> Normalised(std::vector<double> v) {
+  v = Centred(std::move(v));
   double ss = 0;
-  for (double& x : v) {
-    x -= mean;
-    ss += x * x;
-  }
+  for (double x : v) ss += x * x;
   const double rms = std::sqrt(ss / std::max<size_t>(v.size(), 1));
   if (!(rms > 1e-12)) return {};
   for (double& x : v) x /= rms;
@@ -52,12 +56,7 @@ std::vector<double> EndMode(const ObservationSet& data, const std::vector<size_t
     reached = reached || w > 0;
     m.push_back(end.error * w);
   }
-  if (!reached) return {};
-  double mean = 0;
-  for (double x : m) mean += x;
-  mean /= m.size();
-  for (double& x : m) x -= mean;
-  return m;
+  return reached ? Centred(std::move(m)) : std::vector<double>{};
 }
 
 // The modes of calibration_error.h at the observations in `use`.
@@ -86,15 +85,8 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
   }
   ErrorModes m;
   // In octaves, not normalised: the slope error is drawn per octave (calibration_error.h).
-  const auto centred = [](std::vector<double> v, double scale) {
-    double mean = 0;
-    for (double x : v) mean += x;
-    mean /= std::max<size_t>(v.size(), 1);
-    for (double& x : v) x = scale * (x - mean);
-    return v;
-  };
-  m.response.push_back(centred(u, 1.0));
-  m.response.push_back(centred(u2, 0.5));
+  m.response.push_back(Centred(u));
+  m.response.push_back(Centred(u2, 0.5));
   for (auto* v : {&r2, &r4, &tx, &ty}) {
     auto n = Normalised(*v);
     if (!n.empty()) m.vignette.push_back(std::move(n));

@@ -40,6 +40,25 @@ ObservationSet WithCalibrationError(ObservationSet data, double ratio_per_octave
   return data;
 }
 
+// The propagation's model for this geometry (the image's principal point and half-diagonal)
+// with no calibration error yet.
+CalibrationErrorModel ModelForTheImage() {
+  CalibrationErrorModel e;
+  e.principal_point = kPrincipalPoint;
+  e.radius_px = kRadiusPx;
+  return e;
+}
+
+// Ten refits under `e`, reported on the console.
+CalibrationPropagation PropagateTen(const ObservationSet& data, const JointFitResult& fit,
+                                    const JointFitOptions& o, const CalibrationErrorModel& e) {
+  CalibrationPropagationOptions po;
+  po.draws = 10;
+  const CalibrationPropagation p = PropagateCalibrationError(data, fit, o, e, po);
+  std::cout << p.Report();
+  return p;
+}
+
 struct Errors {
   double sigma_z, albedo_z, light_z;  // |fit - truth| / stddev (worst lamp coordinate)
 };
@@ -74,16 +93,11 @@ TEST(CalibrationError, BarsCoverTheTruthOnlyWithTheCalibrationPart) {
   // The statistical bars alone do not cover the truth: the calibration error is systematic.
   EXPECT_GT(std::max({before.sigma_z, before.albedo_z, before.light_z}), 4.0);
 
-  CalibrationErrorModel e;
+  CalibrationErrorModel e = ModelForTheImage();
   e.response_ratio_error = ratio_error;
   e.vignette_rms = vignette_rms;
-  e.principal_point = kPrincipalPoint;
-  e.radius_px = kRadiusPx;
-  CalibrationPropagationOptions po;
-  po.draws = 10;
-  const CalibrationPropagation p = PropagateCalibrationError(data, fit, o, e, po);
+  const CalibrationPropagation p = PropagateTen(data, fit, o, e);
   EXPECT_EQ(p.draws, 10);
-  std::cout << p.Report();
   JointFitResult with = fit;
   AddCalibrationUncertainty(p, &with);
   const Errors after = ZScores(with);
@@ -128,15 +142,10 @@ TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
   const JointFitResult base = FitJoint("oren-nayar", clean, kLight, o);
   const JointFitResult fit = FitJoint("oren-nayar", data, kLight, o);
   ASSERT_TRUE(base.material.converged && fit.material.converged);
-  CalibrationErrorModel e;
-  e.principal_point = kPrincipalPoint;
-  e.radius_px = kRadiusPx;
+  CalibrationErrorModel e = ModelForTheImage();
   e.response_wiggle = kWiggle;
   e.response_knot_spacing = kSpacing;
-  CalibrationPropagationOptions po;
-  po.draws = 10;
-  const CalibrationPropagation p = PropagateCalibrationError(data, fit, o, e, po);
-  std::cout << p.Report();
+  const CalibrationPropagation p = PropagateTen(data, fit, o, e);
   std::vector<double> z = {(fit.material.params[1] - base.material.params[1]) / p.param_stddev[1],
                            (fit.material.params[0] - base.material.params[0]) / p.param_stddev[0]};
   for (int k = 0; k < 3; ++k) {
