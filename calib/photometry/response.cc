@@ -468,8 +468,8 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   const auto supported = FinishResponse(frames, fits, setups, o, &result);
   for (auto& cs : setups) cs.usable = s.usable;
   result.knot_spacing = s.max_value / (s.num_knots - 1.0);
-  result.smoothing_sensitivity = SmoothingSensitivity(planes, frames, free_time, setups, pixels,
-                                                      fits, result, o, supported, &result.ends);
+  MeasureSmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, o, supported,
+                              &result);
   return result;
 }
 
