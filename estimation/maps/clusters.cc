@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 #include <random>
+#include <stdexcept>
 
 #include <Eigen/Cholesky>
 
@@ -291,6 +292,52 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
     if (best_a < 0) return;
     MergeInto(best_a, best_b, features, c);
   }
+}
+
+std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
+                                 const std::vector<double>& sd, size_t residuals) {
+  std::array<int, 2> best = {-1, -1};
+  double best_z2 = std::log(static_cast<double>(std::max<size_t>(residuals, 2)));
+  const int k = static_cast<int>(std::min(roughness.size(), sd.size()));
+  for (int a = 0; a < k; ++a) {
+    for (int b = a + 1; b < k; ++b) {
+      const double var = sd[a] * sd[a] + sd[b] * sd[b];
+      const double d = roughness[a] - roughness[b];
+      if (!(var > 0) || !std::isfinite(d)) continue;
+      const double z2 = d * d / var;
+      if (z2 < best_z2) {
+        best_z2 = z2;
+        best = {a, b};
+      }
+    }
+  }
+  return best;
+}
+
+void JoinClusters(int keep, int gone, ClusterResult* c, std::vector<int>* texel_label) {
+  if (keep == gone || keep < 0 || gone < 0 || keep >= c->k || gone >= c->k) {
+    throw std::invalid_argument("JoinClusters: clusters out of range");
+  }
+  const auto renumber = [&](int x) {
+    if (x == gone) x = keep;
+    return x > gone ? x - 1 : x;
+  };
+  for (int& l : c->label) l = renumber(l);
+  for (int& l : c->component_cluster) l = renumber(l);
+  if (texel_label) {
+    for (int& l : *texel_label) l = l < 0 ? l : renumber(l);
+  }
+  if (static_cast<int>(c->weight.size()) == c->k && static_cast<int>(c->mean.size()) == c->k) {
+    const double w = c->weight[keep] + c->weight[gone];
+    if (w > 0) {
+      c->mean[keep] = (c->weight[keep] * c->mean[keep] + c->weight[gone] * c->mean[gone]) / w;
+    }
+    c->weight[keep] = w;
+    c->weight.erase(c->weight.begin() + gone);
+    c->mean.erase(c->mean.begin() + gone);
+  }
+  c->k -= 1;
+  c->joined += 1;
 }
 
 std::vector<uint8_t> MaterialEdges(const std::vector<int>& label, int width, int height,

@@ -4,6 +4,7 @@
 // the number chosen by BIC (-2 log L + p ln N, p = k (d + d (d + 1) / 2) + k - 1).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -33,6 +34,7 @@ struct ClusterResult {
   std::vector<Eigen::VectorXd> mean;  // per cluster, in the features' own units
   int mixture_k = 1;                  // the mixture's count before merging
   int merged = 0;                     // pairs merged by MergeContinuousClusters
+  int joined = 0;                     // pairs joined by JoinClusters (roughness alike)
   // The mixture (standardised features: (x - mu) / sd) and each component's cluster, so that
   // texels not in the fitted set can be assigned (Assign).
   Eigen::RowVectorXd mu, sd;
@@ -58,6 +60,18 @@ ClusterResult ClusterByBic(const Eigen::MatrixXd& features, const ClusterOptions
 void MergeContinuousClusters(const Eigen::MatrixXd& features,
                              const std::vector<size_t>& texel_of_row, int width, int height,
                              double jump_ratio, ClusterResult* clusters);
+
+// The two clusters whose fitted roughness values (`roughness`, `sd` per cluster) the data
+// cannot tell apart, most alike first: z^2 = (r_a - r_b)^2 / (sd_a^2 + sd_b^2) below ln
+// `residuals`, BIC's price of the one roughness value that joining them saves (docs/maps.md
+// "Roughness by evidence"). {-1, -1} when every pair differs.
+std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
+                                 const std::vector<double>& sd, size_t residuals);
+
+// Cluster `gone` joined to `keep`: the mixture's components of `gone` assign to `keep`, the
+// clusters above `gone` are renumbered one down, in the result and in `texel_label` (per
+// texel, -1 for none; may be null); weights and means combined, `joined` counted.
+void JoinClusters(int keep, int gone, ClusterResult* clusters, std::vector<int>* texel_label);
 
 // The texels whose samples mix two materials: a fitted texel (label >= 0, row-major grid of
 // `width` x `height`) with a texel of another cluster whose centre is nearer than `reach` +

@@ -140,6 +140,26 @@ void FindMaterials(const TexelData& data, const TexelFit& fit, const ClusterOpti
   }
 }
 
+// The pair of clusters the per-cluster fit `fit` finds alike in roughness (AlikeClusters)
+// joined (JoinClusters), with the texels' labels and the material edges under `features`
+// updated; false when every pair differs. Such a pair is a mixture's split of one material's
+// texture that the boundary test (MergeContinuousClusters) kept, or two materials of one
+// roughness: albedo and normal are per texel, so to the maps they are one material
+// (docs/maps.md "Roughness by evidence").
+bool JoinAlikePair(const TexelData& data, const TexelFit& fit, const TexelFit& features,
+                   MapsResult* r, std::vector<int>* label, std::vector<uint8_t>* edge) {
+  const std::array<int, 2> pair = AlikeClusters(fit.cluster_r, fit.cluster_r_sd, fit.residuals);
+  if (pair[0] < 0) return false;
+  spdlog::info(
+      "maps: clusters {} and {} alike in roughness ({:.4f} +- {:.4f}, {:.4f} +- {:.4f}): "
+      "joined",
+      pair[0], pair[1], fit.cluster_r[pair[0]], fit.cluster_r_sd[pair[0]], fit.cluster_r[pair[1]],
+      fit.cluster_r_sd[pair[1]]);
+  JoinClusters(pair[0], pair[1], &r->clusters, label);
+  *edge = EdgesOf(data, features, *label, r->clusters.k);
+  return true;
+}
+
 // A start for FitTexels with only the shared roughness values set (no texel fitted).
 TexelFit RoughnessSeed(const TexelData& d, const std::vector<double>& roughness) {
   TexelFit seed;
@@ -176,12 +196,13 @@ void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& 
   std::vector<int> label;
   std::vector<uint8_t> edge;
   FindMaterials(data, *features, o.clusters, r, &label, &edge);
-  if (!edge.empty()) {
-    // Texels on material edges fit no one material: the noise is measured without them.
+  // Texels on material edges fit no one material: the noise is measured without them.
+  const auto noise_without_edges = [&] {
     TexelFit inner = *features;
     inner.edge = edge;
-    noise = EstimateNoise(data, inner, o.relative_noise_floor, so);
-  }
+    return EstimateNoise(data, inner, o.relative_noise_floor, so);
+  };
+  if (!edge.empty()) noise = noise_without_edges();
   // Several materials: the lamp placed with one roughness for all of them absorbs their
   // difference in roughness, so it is placed again (without the edge texels) with the first
   // hypothesis that can hold them, per cluster when fitted, and the others keep it.
@@ -201,6 +222,16 @@ void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& 
   if (want_clusters && info.has_roughness && r->clusters.k > 1) {
     spdlog::info("maps: one roughness per material cluster ({} clusters)", r->clusters.k);
     clusters = fit(RoughnessMode::kClusters, start);
+    // Clusters alike in roughness are one material to the maps: joined, then refitted.
+    while (JoinAlikePair(data, *clusters, *features, r, &label, &edge)) {
+      noise = noise_without_edges();
+      hypothesis_lamp.refine_position = lamp.refine_position && r->clusters.k > 1;
+      if (r->clusters.k < 2) {
+        clusters.reset();
+        break;
+      }
+      clusters = fit(RoughnessMode::kClusters, start);
+    }
   }
   std::vector<TexelFit> fits;
   if (o.roughness == RoughnessChoice::kAuto || o.roughness == RoughnessChoice::kSample) {

@@ -74,9 +74,11 @@ json ClustersJson(const MapsResult& r) {
   return {{"k", r.clusters.k},
           {"chosen_by",
            "BIC of a Gaussian mixture over the per-texel albedo and roughness, then touching "
-           "clusters without a jump across their boundary merged"},
+           "clusters without a jump across their boundary merged, and clusters whose fitted "
+           "roughness the data cannot tell apart joined"},
           {"mixture_k", r.clusters.mixture_k},
           {"merged", r.clusters.merged},
+          {"joined", r.clusters.joined},
           {"bic_per_k", bic},
           {"materials", materials}};
 }

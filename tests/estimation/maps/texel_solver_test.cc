@@ -1,8 +1,10 @@
 // The maps' solver on texel data synthesized straight from the geometry (no rendering): the
 // registry's Oren-Nayar at known per-texel albedo, relief and roughness, Gaussian noise of a
 // known read + shot model. Truth is the synthesis; the solver never sees it.
+#include <array>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include <gtest/gtest.h>
 
@@ -210,6 +212,46 @@ TEST(Clusters, FindsTheComponentCount) {
     const ClusterResult r = ClusterByBic(X, ClusterOptions());
     EXPECT_EQ(r.k, k_true);
   }
+}
+
+// Roughness values the data cannot tell apart (docs/maps.md "Roughness by evidence"): joined
+// when z^2 is below ln(residuals), BIC's price of one parameter. The figures are the 3-material
+// scene's, where a fourth cluster of 907 texels split off the sigma-15 material.
+TEST(Clusters, JoinsOnlyRoughnessTheDataCannotTellApart) {
+  const std::vector<double> r = {0.2553, 0.7812, 0.5274, 0.3202};
+  std::vector<double> sd = {0.0024, 0.0036, 0.0024, 0.0656};
+  EXPECT_EQ(AlikeClusters(r, sd, 122070), (std::array<int, 2>{0, 3}));  // z = 0.99
+  sd[3] = 0.01;                                                         // z = 6.3
+  EXPECT_EQ(AlikeClusters(r, sd, 122070), (std::array<int, 2>{-1, -1}));
+  // z^2 = 9 against ln n: joined from n = e^9 = 8103 on.
+  EXPECT_EQ(AlikeClusters({0, 3}, {1, 0}, 8000), (std::array<int, 2>{-1, -1}));
+  EXPECT_EQ(AlikeClusters({0, 3}, {1, 0}, 8200), (std::array<int, 2>{0, 1}));
+  // No standard deviation: no evidence either way, never joined.
+  EXPECT_EQ(AlikeClusters({0.3, 0.3}, {0, 0}, 8200), (std::array<int, 2>{-1, -1}));
+}
+
+TEST(Clusters, JoinRenumbersClustersComponentsAndTexels) {
+  ClusterResult c;
+  c.k = 4;
+  c.label = {0, 1, 2, 3, 3};
+  c.component_cluster = {0, 1, 2, 3, 3, 1};
+  c.weight = {0.4, 0.3, 0.2, 0.1};
+  for (int k = 0; k < 4; ++k) c.mean.push_back(Eigen::VectorXd::Constant(2, k));
+  std::vector<int> texel = {-1, 0, 3, 2, 1};
+  JoinClusters(0, 3, &c, &texel);
+  EXPECT_EQ(c.k, 3);
+  EXPECT_EQ(c.joined, 1);
+  EXPECT_EQ(c.label, (std::vector<int>{0, 1, 2, 0, 0}));
+  EXPECT_EQ(c.component_cluster, (std::vector<int>{0, 1, 2, 0, 0, 1}));
+  EXPECT_EQ(texel, (std::vector<int>{-1, 0, 0, 2, 1}));
+  ASSERT_EQ(c.weight.size(), 3u);
+  EXPECT_DOUBLE_EQ(c.weight[0], 0.5);
+  EXPECT_DOUBLE_EQ(c.mean[0](0), (0.4 * 0 + 0.1 * 3) / 0.5);
+  // A join below the removed cluster renumbers those above it.
+  JoinClusters(1, 0, &c, &texel);
+  EXPECT_EQ(texel, (std::vector<int>{-1, 0, 0, 1, 0}));
+  EXPECT_EQ(c.k, 2);
+  EXPECT_THROW(JoinClusters(0, 2, &c, &texel), std::invalid_argument);
 }
 
 TexelSolveOptions Options() {
