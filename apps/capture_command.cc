@@ -1,20 +1,17 @@
 // gonio capture: list cameras, take exposure brackets from a V4L2 or libcamera camera, or
 // import photos or a video, into a session folder (docs/formats.md, docs/capture.md).
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
-
-#include <opencv2/highgui.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
 #include "capture/bracket.h"
 #include "capture/cameras.h"
 #include "capture/file_sources.h"
+#include "capture/interactive.h"
 #include "capture/libcamera_source.h"
 #include "capture/raw_file.h"
 #include "capture/session_writer.h"
@@ -36,47 +33,6 @@ struct CaptureArgs {
   bool interactive = false;
   std::string from_folder, exposures_from, from_video, board, out;
 };
-
-bool HaveDisplay() {
-  for (const char* var : {"DISPLAY", "WAYLAND_DISPLAY"}) {
-    const char* v = std::getenv(var);
-    if (v != nullptr && *v != '\0') return true;
-  }
-  return false;
-}
-
-// Interactive capture: before each bracket, wait for the user to place the board. With a
-// display, a live preview at the middle exposure (SPACE or ENTER captures, Q or ESC stops);
-// without one, ENTER on stdin captures and "q" or end of input stops.
-BeforeBracket Interactive(FrameSource& source, const BracketOptions& options) {
-  if (!HaveDisplay()) return PromptBeforeBracket(std::cin, std::cerr, options.brackets);
-  std::vector<double> sorted = options.exposures_s;
-  std::sort(sorted.begin(), sorted.end());
-  const double preview_exposure = sorted[sorted.size() / 2];
-  return [&source, &options, preview_exposure](int bracket) {
-    const std::string window = "gonio capture";
-    cv::namedWindow(window, cv::WINDOW_NORMAL);
-    source.SetExposure(preview_exposure, options.gain);
-    for (;;) {
-      std::optional<CapturedFrame> frame = source.Grab();
-      if (!frame) return false;
-      cv::Mat shown = frame->image;
-      if (shown.depth() == CV_16U) shown.convertTo(shown, CV_8U, 1.0 / 256.0);
-      if (shown.channels() == 1) cv::cvtColor(shown, shown, cv::COLOR_GRAY2BGR);
-      const std::string text = "bracket " + std::to_string(bracket + 1) + "/" +
-                               std::to_string(options.brackets) + ": SPACE capture, Q stop (" +
-                               FormatDuration(frame->exposure_s) + ")";
-      cv::putText(shown, text, {10, 30}, cv::FONT_HERSHEY_SIMPLEX, 0.8, {0, 255, 0}, 2);
-      cv::imshow(window, shown);
-      const int key = cv::waitKey(1) & 0xff;
-      if (key == ' ' || key == 13 || key == 10) return true;
-      if (key == 'q' || key == 'Q' || key == 27) {
-        cv::destroyWindow(window);
-        return false;
-      }
-    }
-  };
-}
 
 void Summarize(const SessionWriter& writer) {
   const Session& s = writer.session();
@@ -105,7 +61,8 @@ void RunFromCamera(const CaptureArgs& args) {
       *std::max_element(options.exposures_s.begin(), options.exposures_s.end());
   const std::unique_ptr<FrameSource> source = OpenCamera(request);
   SessionWriter writer(args.out, source->Id(), source->GainUnit(), args.board);
-  const BeforeBracket wait = args.interactive ? Interactive(*source, options) : BeforeBracket();
+  const BeforeBracket wait =
+      args.interactive ? InteractiveBeforeBracket(*source, options) : BeforeBracket();
   CaptureBrackets(*source, options, writer, wait);
   if (writer.session().frames.empty()) {
     throw InputError(args.out + ": no frame was captured, so no session was written");

@@ -56,7 +56,7 @@ struct VignetteArgs {
 void RunVignette(const VignetteArgs& args) {
   SessionVignetteOptions o;
   o.vignette = args.options;
-  o.vignette.model = args.model;
+  o.vignette.model = ParseVignetteModel(args.model, "--model");
   o.vignette.Check();
   o.light_frame = ParseLightFrame(args.light_frame, "--light-frame");
   o.session = args.session;

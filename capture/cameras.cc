@@ -1,5 +1,7 @@
 #include "capture/cameras.h"
 
+#include <cmath>
+
 #include <spdlog/spdlog.h>
 
 #include "capture/libcamera_source.h"
@@ -39,7 +41,16 @@ nlohmann::json ListCameras() {
   return {{"devices", devices}, {"skipped", skipped}, {"libcamera", HaveLibcamera()}};
 }
 
+void CameraRequest::Check() const {
+  if (device.empty()) throw InputError("--device: give the camera");
+  if (buffers < 2 || buffers > 32) throw InputError("--buffers: must be in 2..32");
+  if (!(longest_exposure_s >= 0 && std::isfinite(longest_exposure_s))) {
+    throw InputError("--exposures: the longest exposure must be a finite value >= 0");
+  }
+}
+
 std::unique_ptr<FrameSource> OpenCamera(const CameraRequest& request) {
+  request.Check();
   if (request.backend == CaptureBackend::kV4l2) {
     V4l2Source::Options o;
     o.device = request.device;

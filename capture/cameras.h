@@ -27,6 +27,7 @@ struct CameraRequest {
   FormatRequest format;
   int buffers = 4;                  // streaming buffers in the ring
   double longest_exposure_s = 0.0;  // v4l2: the frame period must allow it
+  void Check() const;               // InputError naming the option
 };
 
 std::unique_ptr<FrameSource> OpenCamera(const CameraRequest& request);

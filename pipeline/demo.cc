@@ -166,7 +166,7 @@ void CalibrateLikeAUser(const fs::path& session_dir, const fs::path& sweep_dir, 
       cal.num_views, cal.rms_px, cal.uncertainty_centre_px, response.bit_depth,
       response.black_level.empty() ? 0.0 : response.black_level[0],
       BlackLevelSourceName(response.black_level_source), 100 * response.consistency.median_pair,
-      100 * response.consistency.worst_band_bias, vignette.model_used,
+      100 * response.consistency.worst_band_bias, ToString(vignette.model_used),
       100 * vignette.rms_relative_residual, 100 * vignette.Accuracy(), 100 * *p.relative_accuracy);
 }
 

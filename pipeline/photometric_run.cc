@@ -109,7 +109,7 @@ nlohmann::json VignetteJson(const SessionVignette& v, const std::string& out) {
   return {{"format", "gonio-vignette"},
           {"version", 1},
           {"map", fs::path(out).filename().string()},
-          {"model", r.model_used},
+          {"model", ToString(r.model_used)},
           {"radial",
            {{"coefficients", r.radial},
             {"center", {camera.intrinsics[2], camera.intrinsics[3]}},
@@ -136,7 +136,22 @@ nlohmann::json VignetteJson(const SessionVignette& v, const std::string& out) {
 
 }  // namespace
 
+void SweepResponseOptions::Check() const {
+  if (sweep.empty()) throw InputError("--sweep: give the sweep's folder");
+  if (bit_depth != 0 && (bit_depth < 8 || bit_depth > 16)) {
+    throw InputError("--bit-depth: must be 8 to 16 (or left out: the sweep's)");
+  }
+  if (black_level && !(*black_level >= 0 && std::isfinite(*black_level))) {
+    throw InputError("--black-level: must be a finite value >= 0");
+  }
+  if (!(exposure_tolerance > 0 && exposure_tolerance < 1)) {
+    throw InputError("--exposure-tolerance: must be in (0, 1)");
+  }
+  response.Check();
+}
+
 SweepResponse CalibrateSweepResponse(const SweepResponseOptions& o) {
+  o.Check();
   SweepResponse out;
   ExposureSweep& sweep = out.sweep;
   sweep = LoadSweepFolder(o.sweep, o.list);
@@ -226,7 +241,15 @@ PhotometricCalibration RawFramesCalibration(int channels, double white_level, do
   return p;
 }
 
+void SessionVignetteOptions::Check() const {
+  if (session.empty()) throw InputError("--session: give the session folder");
+  if (camera.empty()) throw InputError("--camera: give the camera model");
+  if (response.empty()) throw InputError("--response: give the response.json");
+  vignette.Check();
+}
+
 SessionVignette CalibrateSessionVignette(const SessionVignetteOptions& o) {
+  o.Check();
   SessionVignette v;
   std::optional<PaperRegion> board;
   v.flat_field = IsFlatField(o, &board);

@@ -37,6 +37,7 @@ struct SweepResponseOptions {
   // which read 8-bit frames only: another depth is refused before the work.
   bool compare_opencv = false;
   ResponseOptions response;  // knots, pixels, smoothness
+  void Check() const;        // InputError naming the option
 };
 
 struct SweepResponse {
@@ -77,6 +78,7 @@ struct SessionVignetteOptions {
   std::string session, camera, board, poses, response;  // board: needed with poses
   LightFrame light_frame = LightFrame::kBoard;          // kCamera is refused (docs/photometric.md)
   VignetteOptions vignette;
+  void Check() const;  // InputError naming the option
 };
 
 struct SessionVignette {

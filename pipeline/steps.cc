@@ -14,7 +14,15 @@ namespace fs = std::filesystem;
 
 namespace gonio {
 
+void ExtractFiles::Check() const {
+  if (session.empty()) throw InputError("--session: give the session folder");
+  if (camera.empty()) throw InputError("--camera: give the camera model");
+  if (poses.empty()) throw InputError("--poses: give the poses file (gonio locate)");
+}
+
 ObservationSet ExtractSessionObservations(const ExtractFiles& f, const ExtractOptions& o) {
+  f.Check();
+  o.Check();
   const Session session = ReadSession(f.session);
   const Board board =
       Board::Read(f.board.empty() ? (fs::path(f.session) / "board.json").string() : f.board);

@@ -18,6 +18,7 @@ namespace gonio {
 struct ExtractFiles {
   std::string session, camera, photometric, poses, board;
   bool assume_linear = false;
+  void Check() const;  // InputError naming the option
 };
 ObservationSet ExtractSessionObservations(const ExtractFiles& files, const ExtractOptions& o);
 

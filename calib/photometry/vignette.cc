@@ -370,8 +370,8 @@ void ChooseModel(const std::vector<int>& cell_count, const VignetteOptions& opti
   for (int c : cell_count) covered += c >= options.min_samples_per_cell;
   result->coverage = static_cast<double>(covered) / cell_count.size();
   result->model_used = options.model;
-  if (options.model == "map" && result->coverage < options.min_coverage) {
-    result->model_used = "radial";
+  if (options.model == VignetteModel::kMap && result->coverage < options.min_coverage) {
+    result->model_used = VignetteModel::kRadial;
     result->note = fmt::format(
         "the board covered {:.0f}% of the image grid (< {:.0f}%): radial polynomial fallback",
         100 * result->coverage, 100 * options.min_coverage);
@@ -503,7 +503,7 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
       set.samples, [&](const Sample& s) { return RadialVignettingAtR2(v, grid.pixels[s.ray].r2); },
       &C);
   if (test_lamp) result->lamp_test = CheckLampFixedToBoard(set.samples, grid, v, C);
-  if (result->model_used == "map") {
+  if (result->model_used == VignetteModel::kMap) {
     FinishMap(camera, grid, std::move(set), v, std::move(C), options, result);
   } else {
     FinishRadial(camera, grid, set, v, C, options, result);
@@ -514,10 +514,15 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
 
 using namespace vignette_internal;
 
+const char* ToString(VignetteModel m) { return m == VignetteModel::kMap ? "map" : "radial"; }
+
+VignetteModel ParseVignetteModel(const std::string& word, const std::string& option) {
+  if (word == "map") return VignetteModel::kMap;
+  if (word == "radial") return VignetteModel::kRadial;
+  throw InputError(option + " must be 'map' or 'radial', got '" + word + "'");
+}
+
 void VignetteOptions::Check() const {
-  if (model != "map" && model != "radial") {
-    throw InputError("--model must be 'map' or 'radial', got '" + model + "'");
-  }
   if (cell_px < 2) throw InputError("vignette cell_px must be >= 2");
   if (sample_step_px < 1) throw InputError("vignette sample_step_px must be >= 1");
   if (!(albedo_cell_m > 0)) throw InputError("vignette albedo_cell_m must be > 0");
@@ -560,10 +565,12 @@ std::string VignetteResult::Report() const {
   std::string s = fmt::format(
       "vignetting ({}): {}, {} samples, coverage {:.0f}% of the grid, {} iterations, relative "
       "residual {:.2f}%\n",
-      model_used, source, samples, 100 * coverage, iterations, 100 * rms_relative_residual);
+      ToString(model_used), source, samples, 100 * coverage, iterations,
+      100 * rms_relative_residual);
   s += fmt::format("radial fit: V = 1 + {:.4f} r^2 + {:.4f} r^4 + {:.4f} r^6", radial[0], radial[1],
                    radial[2]);
-  if (model_used == "map") s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
+  if (model_used == VignetteModel::kMap)
+    s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
   s += "\n";
   s += std::isfinite(map_error_rms)
            ? fmt::format(

@@ -33,8 +33,15 @@
 
 namespace gonio {
 
+// The vignetting's form: a grid map with the radial polynomial filling in where the board did
+// not reach, or the radial polynomial only.
+enum class VignetteModel { kMap, kRadial };
+const char* ToString(VignetteModel m);  // "map", "radial"
+// "map" or "radial"; InputError naming `option` otherwise.
+VignetteModel ParseVignetteModel(const std::string& word, const std::string& option);
+
 struct VignetteOptions {
-  std::string model = "map";     // "map" (grid, radial fill-in) or "radial" (polynomial only)
+  VignetteModel model = VignetteModel::kMap;
   int cell_px = 16;              // vignette grid cell, pixels
   int sample_step_px = 2;        // pixels sampled per axis
   double albedo_cell_m = 0.002;  // board texture grid cell, metres
@@ -57,7 +64,7 @@ struct VignetteFrame {
 
 struct VignetteResult {
   cv::Mat map;  // CV_32F, image size, V(pixel), 1 at the principal point
-  std::string model_used;
+  VignetteModel model_used = VignetteModel::kMap;
   std::string note;                // why the fallback was taken, if it was
   std::array<double, 3> radial{};  // v1, v2, v3 of the radial fit (always fitted)
   double coverage = 0;             // fraction of vignette cells with enough samples

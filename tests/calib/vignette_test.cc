@@ -73,7 +73,7 @@ TEST_F(VignetteSynthetic, FlatFieldMapWithinOnePercentRms) {
 
   const VignetteResult r =
       CalibrateVignette(flat_.camera, board, testing::TruthCalibration(flat_), frames, o);
-  ASSERT_EQ(r.model_used, "map") << r.Report();
+  ASSERT_EQ(r.model_used, VignetteModel::kMap) << r.Report();
   EXPECT_GT(r.coverage, 0.95) << r.Report();
   const double rms = testing::RmsRelative(r.map, testing::TruthVignette(flat_));
   EXPECT_LT(rms, 0.01) << r.Report();
@@ -96,7 +96,7 @@ TEST_F(VignetteSynthetic, BoardSceneFallsBackToRadialWithinOnePercentRms) {
   o.albedo_cell_m = kAlbedoCell;
   const VignetteResult r =
       CalibrateVignette(board_.camera, board, testing::TruthCalibration(board_), frames, o);
-  EXPECT_EQ(r.model_used, "radial") << r.Report();
+  EXPECT_EQ(r.model_used, VignetteModel::kRadial) << r.Report();
   EXPECT_FALSE(r.note.empty());
   const cv::Mat truth = testing::TruthVignette(board_);
   const double rd = 0.5 * std::hypot(board_.camera.width, board_.camera.height);
@@ -127,7 +127,7 @@ TEST_F(VignetteSynthetic, FlatFieldWithoutPosesWithinOnePercentRms) {
   o.cell_px = 8;
   const VignetteResult r =
       CalibrateFlatFieldVignette(flat_.camera, testing::TruthCalibration(flat_), frames, o);
-  ASSERT_EQ(r.model_used, "map") << r.Report();
+  ASSERT_EQ(r.model_used, VignetteModel::kMap) << r.Report();
   EXPECT_FALSE(r.lamp_test.run);
   EXPECT_EQ(r.frames_used, static_cast<int>(frames.size()));
   const double rms = testing::RmsRelative(r.map, testing::TruthVignette(flat_));
