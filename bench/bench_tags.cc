@@ -151,8 +151,12 @@ std::vector<TruthImage> ReferencePhotos(const fs::path& dir) {
 }
 
 // Matches detections to the truth: same id, every corner within a quarter of the tag's edge.
+// `matched`: per truth tag present, the corner errors of the detection matched to it (empty:
+// not found).
 void Score(const TruthImage& im, const std::vector<TagDetection>& found, bool reference,
-           TagBenchRow* row, std::vector<double>* errors) {
+           TagBenchRow* row, std::vector<double>* errors,
+           std::vector<std::vector<double>>* matched) {
+  matched->assign(im.tags.size(), {});
   std::vector<bool> taken(im.tags.size(), false);
   row->present += static_cast<int>(std::count(im.present.begin(), im.present.end(), true));
   for (const TagDetection& d : found) {
@@ -180,6 +184,7 @@ void Score(const TruthImage& im, const std::vector<TagDetection>& found, bool re
     for (int c = 0; c < 4; ++c) {
       const Eigen::Vector2d e = d.corners[c] - im.tags[best].second[c];
       errors->push_back(e.norm());
+      (*matched)[best].push_back(e.norm());
       worst_coordinate = std::max({worst_coordinate, std::abs(e.x()), std::abs(e.y())});
     }
     if (reference && worst_coordinate <= 0.1) ++row->within_reference_tolerance;
@@ -191,6 +196,7 @@ std::vector<TagBenchRow> MeasureScene(const std::string& scene, const std::vecto
   const std::vector<Detector> detectors = Detectors();
   std::vector<TagBenchRow> rows(detectors.size());
   std::vector<std::vector<double>> errors(detectors.size());
+  std::vector<double> beyond;  // corner errors of the tags only gonio (detector 0) finds
   for (size_t d = 0; d < detectors.size(); ++d) {
     rows[d].scene = scene;
     rows[d].detector = detectors[d].name;
@@ -207,15 +213,27 @@ std::vector<TagBenchRow> MeasureScene(const std::string& scene, const std::vecto
         best[d] = std::min(best[d], Seconds(start));
       }
     }
+    std::vector<std::vector<std::vector<double>>> matched(detectors.size());
     for (size_t d = 0; d < detectors.size(); ++d) {
       rows[d].seconds += best[d];
-      Score(im, found[d], reference, &rows[d], &errors[d]);
+      Score(im, found[d], reference, &rows[d], &errors[d], &matched[d]);
+    }
+    for (size_t k = 0; k < im.tags.size(); ++k) {
+      bool alone = !matched[0][k].empty();
+      for (size_t d = 1; d < detectors.size(); ++d) alone = alone && matched[d][k].empty();
+      if (!alone) continue;
+      ++rows[0].found_beyond_libapriltag;
+      beyond.insert(beyond.end(), matched[0][k].begin(), matched[0][k].end());
     }
   }
   for (size_t d = 0; d < detectors.size(); ++d) {
     if (errors[d].empty()) continue;
     rows[d].median_corner_error_px = Median(errors[d]);
     rows[d].max_corner_error_px = *std::max_element(errors[d].begin(), errors[d].end());
+  }
+  if (!beyond.empty()) {
+    rows[0].beyond_median_corner_error_px = Median(beyond);
+    rows[0].beyond_max_corner_error_px = *std::max_element(beyond.begin(), beyond.end());
   }
   return rows;
 }
@@ -272,6 +290,9 @@ nlohmann::json TagBenchRow::ToJson() const {
           {"median_corner_error_px", median_corner_error_px},
           {"max_corner_error_px", max_corner_error_px},
           {"within_reference_tolerance", within_reference_tolerance},
+          {"found_beyond_libapriltag", found_beyond_libapriltag},
+          {"beyond_median_corner_error_px", beyond_median_corner_error_px},
+          {"beyond_max_corner_error_px", beyond_max_corner_error_px},
           {"seconds", seconds}};
 }
 

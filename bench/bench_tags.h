@@ -32,6 +32,9 @@ struct TagBenchRow {
   double median_corner_error_px = 0, max_corner_error_px = 0;  // of the found tags
   // apriltag_ref only: found tags with every coordinate within 0.1 px of the reference.
   int within_reference_tolerance = 0;
+  // gonio only: tags no libapriltag row finds on that image, and their corner errors.
+  int found_beyond_libapriltag = 0;
+  double beyond_median_corner_error_px = 0, beyond_max_corner_error_px = 0;
   double seconds = 0;  // detection only (images decoded beforehand), summed over the images
   double recall() const { return present > 0 ? static_cast<double>(found) / present : 0; }
   nlohmann::json ToJson() const;

@@ -24,11 +24,15 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/geometry/detect_internal.h"
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/stats.h"
 
 namespace gonio {
+
+using detect_internal::AprilTagDetector;
+
 namespace {
 
 struct Family {
@@ -96,53 +100,41 @@ cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth) {
   return out;
 }
 
-namespace {
+AprilTagDetector::AprilTagDetector(const AprilTagOptions& options)
+    : family_(Families().at(options.family).create(), Families().at(options.family).destroy),
+      detector_(apriltag_detector_create(), apriltag_detector_destroy) {
+  apriltag_detector_add_family_bits(detector_.get(), family_.get(), options.max_hamming);
+  detector_->quad_sigma = static_cast<float>(options.sigma);
+  detector_->nthreads = options.threads;
+  detector_->decode_sharpening = options.decode_sharpening;
+}
 
-// libapriltag's detector and family, made once per image and run on several regions.
-class AprilTagDetector {
- public:
-  explicit AprilTagDetector(const AprilTagOptions& options)
-      : family_(Families().at(options.family).create(), Families().at(options.family).destroy),
-        detector_(apriltag_detector_create(), apriltag_detector_destroy) {
-    apriltag_detector_add_family_bits(detector_.get(), family_.get(), options.max_hamming);
-    detector_->quad_sigma = static_cast<float>(options.sigma);
-    detector_->nthreads = options.threads;
-    detector_->decode_sharpening = options.decode_sharpening;
-  }
-
-  // The least black-white difference libapriltag thresholds (its quad_thresh parameter).
-  int MinContrast() const { return detector_->qtp.min_white_black_diff; }
-
-  // Tags in `roi` of `grey`, corners in whole-image gonio pixels.
-  std::vector<TagDetection> Detect(const cv::Mat& grey, const cv::Rect& roi, double decimate,
-                                   bool refine_edges) {
-    detector_->quad_decimate = static_cast<float>(decimate);
-    detector_->refine_edges = refine_edges;
-    const cv::Mat region = grey(roi);
-    image_u8_t im{region.cols, region.rows, static_cast<int32_t>(region.step[0]), region.data};
-    zarray_t* detections = apriltag_detector_detect(detector_.get(), &im);
-    std::vector<TagDetection> out;
-    for (int i = 0; i < zarray_size(detections); ++i) {
-      apriltag_detection_t* det;
-      zarray_get(detections, i, &det);
-      TagDetection t;
-      t.id = det->id;
-      t.hamming = det->hamming;
-      t.decision_margin = det->decision_margin;
-      for (int c = 0; c < 4; ++c) {
-        t.corners[c] = Eigen::Vector2d(det->p[c][0] + roi.x + kAprilTagToGonioPixels,
-                                       det->p[c][1] + roi.y + kAprilTagToGonioPixels);
-      }
-      out.push_back(t);
+std::vector<TagDetection> AprilTagDetector::Detect(const cv::Mat& grey, const cv::Rect& roi,
+                                                   double decimate, bool refine_edges) {
+  detector_->quad_decimate = static_cast<float>(decimate);
+  detector_->refine_edges = refine_edges;
+  const cv::Mat region = grey(roi);
+  image_u8_t im{region.cols, region.rows, static_cast<int32_t>(region.step[0]), region.data};
+  zarray_t* detections = apriltag_detector_detect(detector_.get(), &im);
+  std::vector<TagDetection> out;
+  for (int i = 0; i < zarray_size(detections); ++i) {
+    apriltag_detection_t* det;
+    zarray_get(detections, i, &det);
+    TagDetection t;
+    t.id = det->id;
+    t.hamming = det->hamming;
+    t.decision_margin = det->decision_margin;
+    for (int c = 0; c < 4; ++c) {
+      t.corners[c] = Eigen::Vector2d(det->p[c][0] + roi.x + kAprilTagToGonioPixels,
+                                     det->p[c][1] + roi.y + kAprilTagToGonioPixels);
     }
-    apriltag_detections_destroy(detections);
-    return out;
+    out.push_back(t);
   }
+  apriltag_detections_destroy(detections);
+  return out;
+}
 
- private:
-  std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family_;
-  std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> detector_;
-};
+namespace {
 
 double ShortestEdge(const TagDetection& t) {
   double e = INFINITY;
@@ -242,53 +234,29 @@ std::vector<cv::Rect> UnexplainedContrastRegions(const cv::Mat& grey,
   return MergeRegions(out, grey.size());
 }
 
-// With a board: where the board's missing tags are, from a homography fitted to the (up to
-// four) found tags nearest to each on the board, so lens distortion bends the prediction
-// little. A region is the predicted quad's bounding box grown by half its size (the white
-// border and the prediction's error); tags predicted partly outside the image or under 6 px
-// across (too small for any pass) are not searched.
+// With a board: where the board's missing tags are (detect_internal::PredictMissingTags). A
+// region is the predicted quad's bounding box grown by half its size (the white border and the
+// prediction's error); tags predicted partly outside the image or under 6 px across (too small
+// for any pass) are not searched.
+std::vector<detect_internal::PredictedTag> Searchable(
+    std::vector<detect_internal::PredictedTag> predicted) {
+  predicted.erase(std::remove_if(predicted.begin(), predicted.end(),
+                                 [](const detect_internal::PredictedTag& p) {
+                                   const cv::Rect2d box = cv::boundingRect(std::vector<cv::Point2f>(
+                                       p.corners.begin(), p.corners.end()));
+                                   return !p.inside || std::max(box.width, box.height) < 6;
+                                 }),
+                  predicted.end());
+  return predicted;
+}
+
 std::vector<cv::Rect> MissingBoardTagRegions(const Board& board,
                                              const std::vector<TagDetection>& found,
                                              const cv::Size& size) {
-  std::vector<int> found_k;
-  for (const auto& t : found) found_k.push_back(board.TagIndex(t.id));
-  auto board_centre = [&](int k) -> Eigen::Vector2d {
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (int i = 0; i < 4; ++i) c += 0.25 * board.Points()[Board::TagPointIndex(k, i)];
-    return c.head<2>();
-  };
   std::vector<cv::Rect> out;
-  for (size_t k = 0; k < board.ids().size(); ++k) {
-    if (board.ids()[k] < 0 || std::count(found_k.begin(), found_k.end(), k) > 0) continue;
-    std::vector<size_t> nearest(found.size());
-    for (size_t i = 0; i < nearest.size(); ++i) nearest[i] = i;
-    std::sort(nearest.begin(), nearest.end(), [&](size_t a, size_t b) {
-      return (board_centre(found_k[a]) - board_centre(k)).norm() <
-             (board_centre(found_k[b]) - board_centre(k)).norm();
-    });
-    nearest.resize(std::min<size_t>(nearest.size(), 4));
-    std::vector<cv::Point2d> from, to;
-    for (size_t i : nearest) {
-      for (int c = 0; c < 4; ++c) {
-        const Eigen::Vector3d& p = board.Points()[Board::TagPointIndex(found_k[i], c)];
-        from.emplace_back(p.x(), p.y());
-        to.emplace_back(found[i].corners[c].x(), found[i].corners[c].y());
-      }
-    }
-    const cv::Mat h = cv::findHomography(from, to, 0);
-    if (h.empty()) continue;
-    std::vector<cv::Point2d> corners, predicted;
-    for (int c = 0; c < 4; ++c) {
-      const Eigen::Vector3d& p = board.Points()[Board::TagPointIndex(k, c)];
-      corners.emplace_back(p.x(), p.y());
-    }
-    cv::perspectiveTransform(corners, predicted, h);
-    cv::Rect2d box = cv::boundingRect(std::vector<cv::Point2f>(predicted.begin(), predicted.end()));
-    const bool inside = std::all_of(predicted.begin(), predicted.end(), [&](const cv::Point2d& p) {
-      return std::isfinite(p.x) && std::isfinite(p.y) && p.x >= 0 && p.y >= 0 &&
-             p.x <= size.width - 1 && p.y <= size.height - 1;
-    });
-    if (!inside || std::max(box.width, box.height) < 6) continue;
+  for (const auto& p : Searchable(detect_internal::PredictMissingTags(board, found, size))) {
+    const cv::Rect2d box =
+        cv::boundingRect(std::vector<cv::Point2f>(p.corners.begin(), p.corners.end()));
     const double grow = 0.5 * std::max(box.width, box.height);
     out.emplace_back(cvFloor(box.x - grow), cvFloor(box.y - grow), cvCeil(box.width + 2 * grow),
                      cvCeil(box.height + 2 * grow));
@@ -296,9 +264,10 @@ std::vector<cv::Rect> MissingBoardTagRegions(const Board& board,
   return MergeRegions(out, size);
 }
 
-void SortById(std::vector<TagDetection>* tags) {
-  std::sort(tags->begin(), tags->end(),
+std::vector<TagDetection> SortById(std::vector<TagDetection> tags) {
+  std::sort(tags.begin(), tags.end(),
             [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
+  return tags;
 }
 
 void CheckGrey(const cv::Mat& grey) {
@@ -321,26 +290,36 @@ std::vector<TagDetection> OnBoard(const Board& board, const std::vector<TagDetec
 using SearchRegions =
     std::function<std::vector<cv::Rect>(const std::vector<TagDetection>&, int, int)>;
 
-// The passes: decimated, then full resolution in the regions `where` returns for the tags found
-// so far, once per entry of `refine_edges` (that pass's edge refinement).
+// Tags found where a board's layout says tags are missing, given those found so far.
+using GuidedSearch =
+    std::function<std::vector<TagDetection>(const std::vector<TagDetection>&, AprilTagDetector*)>;
+
+// The passes: decimated; with a board, `guided` where its layout says tags are missing; then
+// full resolution in the regions `where` returns for the tags found so far, once per entry of
+// `refine_edges` (that pass's edge refinement), and `guided` again from the tags these passes
+// added.
 std::vector<TagDetection> DetectInPasses(const cv::Mat& grey, const AprilTagOptions& options,
                                          const std::vector<bool>& refine_edges,
-                                         const SearchRegions& where) {
+                                         const SearchRegions& where,
+                                         const GuidedSearch& guided = nullptr) {
   options.Check();
   CheckGrey(grey);
   AprilTagDetector detector(options);
   const cv::Rect image(0, 0, grey.cols, grey.rows);
   std::vector<TagDetection> tags =
       detector.Detect(grey, image, options.decimate, options.refine_edges);
-  if (options.full_resolution_search && options.decimate > 1) {
+  if (!options.full_resolution_search) return SortById(tags);
+  if (guided) AddNew(guided(tags, &detector), &tags);
+  if (options.decimate > 1) {
+    const size_t before = tags.size();
     for (size_t pass = 0; pass < refine_edges.size(); ++pass) {
       for (const cv::Rect& roi : where(tags, detector.MinContrast(), static_cast<int>(pass))) {
         AddNew(detector.Detect(grey, roi, 1.0, refine_edges[pass]), &tags);
       }
     }
+    if (guided && tags.size() > before) AddNew(guided(tags, &detector), &tags);
   }
-  SortById(&tags);
-  return tags;
+  return SortById(tags);
 }
 
 std::atomic<size_t> board_detections{0};
@@ -384,16 +363,21 @@ BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
   opt.family = board.family();
   // Full resolution without edge refinement (as AprilTag's tests detect), then with it where
   // tags are still missing: each finds tags the other loses (docs/calibration.md).
-  const auto tags =
-      DetectInPasses(grey, opt, {false, true},
-                     [&](const std::vector<TagDetection>& found, int contrast, int pass) {
-                       const auto anchors = OnBoard(board, found);
-                       if (!anchors.empty())
-                         return MissingBoardTagRegions(board, anchors, grey.size());
-                       // Nothing to predict from: one pass where the image has contrast.
-                       return pass == 0 ? UnexplainedContrastRegions(grey, found, contrast)
-                                        : std::vector<cv::Rect>();
-                     });
+  const auto tags = DetectInPasses(
+      grey, opt, {false, true},
+      [&](const std::vector<TagDetection>& found, int contrast, int pass) {
+        const auto anchors = OnBoard(board, found);
+        if (!anchors.empty()) return MissingBoardTagRegions(board, anchors, grey.size());
+        // Nothing to predict from: one pass where the image has contrast.
+        return pass == 0 ? UnexplainedContrastRegions(grey, found, contrast)
+                         : std::vector<cv::Rect>();
+      },
+      [&](const std::vector<TagDetection>& found, AprilTagDetector* detector) {
+        const auto anchors = OnBoard(board, found);
+        return detect_internal::DetectRectified(
+            grey, board,
+            Searchable(detect_internal::PredictMissingTags(board, anchors, grey.size())), detector);
+      });
   for (const TagDetection& t : tags) {
     const int k = board.TagIndex(t.id);
     if (k < 0) {

@@ -29,12 +29,14 @@ struct AprilTagOptions {
   int threads = 1;
   double decode_sharpening = 0.25;
   int max_hamming = 1;  // bit errors corrected (0..2); more finds more false positives
-  // After the decimated pass (decimate > 1), a second pass at full resolution (decimation 1,
-  // libapriltag's edge refinement off, as AprilTag's own tests detect) where tags may be
-  // missing: with a board, around the places its layout puts the tags the first pass did not
-  // find; without a board (or with no board tag found), in the parts of the image whose
-  // contrast no found tag explains. Small and steeply foreshortened tags, lost on the
-  // decimated image, are found there (docs/calibration.md "Tag detection").
+  // After the decimated pass, where tags may be missing: with a board, each board tag its
+  // layout predicts but no pass found is searched on a fronto-parallel, upsampled view warped
+  // through a homography from the nearest found tags (only the id the layout puts there); then,
+  // when decimate > 1, a pass at full resolution (decimation 1, edge refinement off, as
+  // AprilTag's own tests detect) around the board tags still missing, or without a board (or
+  // with no board tag found) in the parts of the image whose contrast no found tag explains.
+  // Small and steeply foreshortened tags, lost on the decimated image, are found there
+  // (docs/calibration.md "Tag detection").
   bool full_resolution_search = true;
   void Check() const;  // InputError naming the option
 };
@@ -76,8 +78,8 @@ struct BoardObservation {
 // Detects the board in an image. Chessboards: all inner corners or none (empty observation).
 // AprilTag grids: the board's tags that were found (options.family is ignored: the board's
 // family is used); with options.full_resolution_search the board's tags the decimated pass
-// missed are searched at full resolution where a homography from the nearest found tags puts
-// them.
+// missed are searched where a homography from the nearest found tags puts them, on a rectified
+// view and at full resolution.
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name);
 

@@ -182,56 +182,154 @@ TEST(TagSearch, WithoutABoardSmallTagsAreFoundWhereTheImageHasUnexplainedContras
   for (int c = 0; c < 4; ++c) EXPECT_EQ(both[0].corners[c], decimated[0].corners[c]);
 }
 
-// A full 10 x 8 grid rendered 72 deg off its normal: the decimated pass loses the thin far
-// tags, the board's layout sends the full-resolution pass to them.
-TEST(TagSearch, SteepObliqueGridFindsWhatEitherDecimationFinds) {
-  synth::Scene s = synth::PresetScene("default");
-  s.material = {"lambert", {{"albedo", 0.5}}};
-  s.board.columns = 10;
-  s.board.rows = 8;
-  s.board.pitch = 0.0375;
-  s.board.ids.clear();
-  for (int k = 0; k < 80; ++k) s.board.ids.push_back(k);
-  s.board.sample_region = {-1.95, -1.95, -1.9, -1.9};
-  s.board.white_region = {-1.5, -1.5, -1.45, -1.45};
-  s.views.target = {0.184, 0.146, 0.0};
-  s.views.rings_deg = {72};
-  s.views.per_ring = 2;
-  testing::TempDir dir;
-  synth::RenderBoardSession(s, dir.path(), 2);
-  const Board board = Board::Read(dir.path() / "board.json");
-  const Session session = ReadSession(dir.path());
-  const CameraModel camera = CameraModel::Read(dir.path() / "camera.cameramodel");
-  const nlohmann::json truth = ReadJsonFile(dir.path() / "truth.json");
-  int gonio = 0, d1 = 0, d2 = 0;
-  std::vector<double> errors;
+// A full 10 x 8 grid of 30 mm tags seen 75 deg off its normal from 0.45 m, two views from
+// opposite sides (the "oblique" scene of bench/bench_tags.cc, one ring): libapriltag loses the thin
+// far tags at decimation 2, and at decimation 1 too some whose black border, 1 px wide and drawn
+// diagonally, libapriltag's segmentation breaks (docs/calibration.md "Tag detection").
+class SteepObliqueGrid : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    synth::Scene s = synth::PresetScene("default");
+    s.material = {"lambert", {{"albedo", 0.5}}};
+    s.board.columns = 10;
+    s.board.rows = 8;
+    s.board.pitch = 0.0375;
+    s.board.ids.clear();
+    for (int k = 0; k < 80; ++k) s.board.ids.push_back(k);
+    s.board.sample_region = {-1.95, -1.95, -1.9, -1.9};
+    s.board.white_region = {-1.5, -1.5, -1.45, -1.45};
+    s.views.target = {0.184, 0.146, 0.0};
+    s.views.rings_deg = {75};
+    s.views.per_ring = 2;
+    s.views.roll_deg = 5;
+    s.views.distance = 0.45;
+    dir_ = new testing::TempDir;
+    synth::RenderBoardSession(s, dir_->path(), 2);
+  }
+  static void TearDownTestSuite() { delete dir_; }
+
+  static testing::TempDir* dir_;
+};
+testing::TempDir* SteepObliqueGrid::dir_ = nullptr;
+
+int TagsIn(const BoardObservation& obs) { return static_cast<int>(obs.tag_ids.size()); }
+
+// The truth: the board's tag corners through the true camera and pose.
+std::array<Eigen::Vector2d, 4> TrueCorners(const Board& board, const CameraModel& camera,
+                                           const Rigid3d& cam_from_board, int k) {
+  std::array<Eigen::Vector2d, 4> out;
+  for (int c = 0; c < 4; ++c) {
+    out[c] = camera.Project(cam_from_board * board.Points()[Board::TagPointIndex(k, c)]);
+  }
+  return out;
+}
+
+bool WhollyInside(const std::array<Eigen::Vector2d, 4>& q, const CameraModel& camera) {
+  return std::all_of(q.begin(), q.end(), [&](const Eigen::Vector2d& p) {
+    return p.x() >= 1 && p.y() >= 1 && p.x() <= camera.width - 2 && p.y() <= camera.height - 2;
+  });
+}
+
+// Counted as the bench counts (bench/bench_tags.cc): tags wholly inside the image; tags cut by
+// its border are neither found nor missed (libapriltag reports some of them with corners where
+// the border cuts them).
+TEST_F(SteepObliqueGrid, TheDefaultsFindMoreTagsThanEitherDecimation) {
+  const Board board = Board::Read(dir_->path() / "board.json");
+  const Session session = ReadSession(dir_->path());
+  const CameraModel camera = CameraModel::Read(dir_->path() / "camera.cameramodel");
+  const nlohmann::json truth = ReadJsonFile(dir_->path() / "truth.json");
+  int present = 0, gonio = 0, d1 = 0, d2 = 0;
+  // Corner errors: of gonio's tags, of those d=1 does not find, of d=1's tags.
+  std::vector<double> errors, beyond_d1, d1_errors;
   for (size_t f = 0; f < session.frames.size(); ++f) {
     const cv::Mat grey = GreyForDetection(
         cv::imread(session.FramePath(f).string(), cv::IMREAD_UNCHANGED), session.bit_depth);
     const Rigid3d cam_from_board = RigidFromJson(truth["frames"][f]["cam_from_board"]);
     const BoardObservation obs = DetectBoard(grey, board, AprilTagOptions(), "frame");
-    gonio += static_cast<int>(obs.tag_ids.size());
-    for (size_t i = 0; i < obs.pixels.size(); ++i) {
-      errors.push_back(
-          (obs.pixels[i] - camera.Project(cam_from_board * board.Points()[obs.point_index[i]]))
-              .norm());
-    }
     AprilTagOptions single;
     single.full_resolution_search = false;
-    d2 += static_cast<int>(DetectBoard(grey, board, single, "frame").tag_ids.size());
+    const BoardObservation at_d2 = DetectBoard(grey, board, single, "frame");
     single.decimate = 1;
-    d1 += static_cast<int>(DetectBoard(grey, board, single, "frame").tag_ids.size());
+    const BoardObservation at_d1 = DetectBoard(grey, board, single, "frame");
+    auto has = [](const BoardObservation& o, int id) {
+      return std::count(o.tag_ids.begin(), o.tag_ids.end(), id) > 0;
+    };
+    for (size_t k = 0; k < board.ids().size(); ++k) {
+      const int id = board.ids()[k];
+      const auto corners = TrueCorners(board, camera, cam_from_board, static_cast<int>(k));
+      if (!WhollyInside(corners, camera)) continue;
+      ++present;
+      d1 += has(at_d1, id);
+      d2 += has(at_d2, id);
+      if (has(at_d1, id)) {
+        const size_t t =
+            std::find(at_d1.tag_ids.begin(), at_d1.tag_ids.end(), id) - at_d1.tag_ids.begin();
+        for (int c = 0; c < 4; ++c)
+          d1_errors.push_back((at_d1.pixels[4 * t + c] - corners[c]).norm());
+      }
+      if (!has(obs, id)) continue;
+      ++gonio;
+      const size_t t = std::find(obs.tag_ids.begin(), obs.tag_ids.end(), id) - obs.tag_ids.begin();
+      for (int c = 0; c < 4; ++c) {
+        const double e = (obs.pixels[4 * t + c] - corners[c]).norm();
+        errors.push_back(e);
+        if (!has(at_d1, id)) beyond_d1.push_back(e);
+      }
+    }
   }
   std::printf(
-      "oblique grid, 2 views at 72 deg: gonio %d tags, libapriltag d=2 %d, d=1 %d; corner "
-      "error median %.3f px, max %.3f px\n",
-      gonio, d2, d1, Median(errors), *std::max_element(errors.begin(), errors.end()));
-  EXPECT_GE(gonio, d1);
-  EXPECT_GT(gonio, d2 + 20);  // measured: about 70 more over the two views
-  // Every corner where the truth puts it (the full-resolution pass has no edge refinement:
-  // measured median 0.22 px, at most 1.8 px).
-  EXPECT_LT(Median(errors), 0.3);
-  EXPECT_LT(*std::max_element(errors.begin(), errors.end()), 2.5);
+      "oblique grid, 2 views at 75 deg, %d tags present: gonio %d, libapriltag d=2 %d, d=1 %d; "
+      "corner error "
+      "median %.3f px, max %.3f px (d=1: %.3f, %.3f); the %zu tags beyond d=1: median %.3f px, max "
+      "%.3f px\n",
+      present, gonio, d2, d1, Median(errors), *std::max_element(errors.begin(), errors.end()),
+      Median(d1_errors), *std::max_element(d1_errors.begin(), d1_errors.end()),
+      beyond_d1.size() / 4, beyond_d1.empty() ? 0.0 : Median(beyond_d1),
+      beyond_d1.empty() ? 0.0 : *std::max_element(beyond_d1.begin(), beyond_d1.end()));
+  EXPECT_GE(gonio, d1 + 5);   // measured: 6 more (129 of 152 against 123)
+  EXPECT_GE(gonio, d2 + 50);  // measured: 62 more
+  // Every corner where the truth puts it, no further than d=1's (measured: median 0.17 px
+  // against d=1's 0.19, both at most 2.83 px, on a tag both take from a libapriltag pass). The
+  // tags only the rectified search finds are thin parallelograms (down to 20 deg corners, where
+  // an edge's error moves the corner about 3 times as far along the other edge); their corners,
+  // refitted in the image, are measured at median 0.13 px, at most 0.34 px.
+  const double max_error = *std::max_element(errors.begin(), errors.end());
+  EXPECT_LT(Median(errors), 0.2);
+  EXPECT_LE(Median(errors), Median(d1_errors));
+  EXPECT_LE(max_error, *std::max_element(d1_errors.begin(), d1_errors.end()) + 0.1);
+  EXPECT_LT(max_error, 3.0);
+  ASSERT_GE(beyond_d1.size(), 20u);
+  EXPECT_LT(Median(beyond_d1), 0.2);
+  EXPECT_LT(*std::max_element(beyond_d1.begin(), beyond_d1.end()), 0.5);
+}
+
+// The rectified search accepts only the id the board's layout puts at that place: on a board
+// file whose layout names another id there, the tag printed there is not reported, neither as
+// the board's id nor as its own.
+TEST_F(SteepObliqueGrid, ATagWhoseIdDisagreesWithTheLayoutIsNotAccepted) {
+  const Board board = Board::Read(dir_->path() / "board.json");
+  const Session session = ReadSession(dir_->path());
+  const cv::Mat grey = GreyForDetection(
+      cv::imread(session.FramePath(0).string(), cv::IMREAD_UNCHANGED), session.bit_depth);
+  const BoardObservation right = DetectBoard(grey, board, AprilTagOptions(), "frame");
+  AprilTagOptions single;
+  single.full_resolution_search = false;
+  single.decimate = 1;
+  const BoardObservation at_d1 = DetectBoard(grey, board, single, "frame");
+  // A tag only the rectified search finds.
+  int id = -1;
+  for (int t : right.tag_ids) {
+    if (std::count(at_d1.tag_ids.begin(), at_d1.tag_ids.end(), t) == 0) id = t;
+  }
+  ASSERT_GE(id, 0);
+  nlohmann::json j = board.ToJson();
+  j["ids"][board.TagIndex(id)] = 80;  // an id printed nowhere on this board
+  const Board wrong = Board::FromJson(j, "board with one id changed");
+  const BoardObservation obs = DetectBoard(grey, wrong, AprilTagOptions(), "frame");
+  EXPECT_EQ(TagsIn(obs), TagsIn(right) - 1);
+  EXPECT_EQ(std::count(obs.tag_ids.begin(), obs.tag_ids.end(), 80), 0);
+  EXPECT_EQ(std::count(obs.tag_ids.begin(), obs.tag_ids.end(), id), 0);
+  EXPECT_TRUE(obs.foreign_tag_ids.empty());
 }
 
 }  // namespace
