@@ -321,12 +321,7 @@ std::vector<double> BuildTable(const ChannelFit& fit, const Setup& s, double* bl
   std::vector<double> w(K);
   for (int k = 0; k < K; ++k) w[k] = fit.counts[k] + 1e-6;
   const std::vector<double> h = Isotonic(fit.h, w);
-  auto X = [&](double z) {
-    const double pos = KnotPosition(s, z);
-    const int k = std::clamp(static_cast<int>(pos), 0, K - 2);
-    const double a = pos - k;
-    return std::exp((1 - a) * h[k] + a * h[k + 1]);
-  };
+  auto X = [&](double z) { return std::exp(KnotCurveAt(s, h, z)); };
   // Lowest and highest values the data support.
   int k_lo = 0, k_hi = K - 1;
   while (k_lo < K - 1 && fit.counts[k_lo] < 1.0) ++k_lo;
@@ -471,6 +466,13 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   MeasureSmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, o, supported,
                               &result);
   return result;
+}
+
+double KnotCurveAt(const Setup& s, const std::vector<double>& h, double z) {
+  const double pos = std::clamp(KnotPosition(s, z), 0.0, s.num_knots - 1.0);
+  const int k = std::min(static_cast<int>(pos), s.num_knots - 2);
+  const double a = pos - k;
+  return (1 - a) * h[k] + a * h[k + 1];
 }
 
 }  // namespace gonio

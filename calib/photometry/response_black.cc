@@ -180,12 +180,7 @@ BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
                                       const std::vector<double>& counts, double rms, const Setup& s,
                                       double z_lo, double z_hi) {
   const int K = s.num_knots;
-  auto ln_x = [&](double z) {
-    const double pos = z / s.max_value * (K - 1);
-    const int k = std::clamp(static_cast<int>(pos), 0, K - 2);
-    const double a = pos - k;
-    return (1 - a) * h[k] + a * h[k + 1];
-  };
+  auto ln_x = [&](double z) { return KnotCurveAt(s, h, z); };
   // Near the dark end a response behaves like a power law, X = c (Z - black)^p (p = 1 for a
   // linear sensor, p ~ 2.2 for a gamma curve): choose the black level whose log-log fit over
   // the lowest supported fifth of the range is straightest.

@@ -64,6 +64,10 @@ struct Setup {
   bool darkest_piled = false;
 };
 
+// The knot curve `h` (one value per knot, ln X in the fit) at value z, linear between knots;
+// z is clamped to [0, max_value] (response.cc).
+double KnotCurveAt(const Setup& s, const std::vector<double>& h, double z);
+
 // Before the fit (response_setup.cc). InputError unless the frames share size and type, have
 // exposure times > 0 and differ in exposure.
 void CheckSweep(const std::vector<ExposureFrame>& frames);

@@ -18,10 +18,7 @@ namespace {
 // h's change under the stiffer prior at value z, linear between knots.
 double ChangeAt(const Setup& s, const std::vector<double>& h, const std::vector<double>& stiff,
                 double z) {
-  const double pos = std::clamp(z / s.max_value * (s.num_knots - 1), 0.0, s.num_knots - 1.0);
-  const int k = std::min(static_cast<int>(pos), s.num_knots - 2);
-  const double a = pos - k;
-  return (1 - a) * (stiff[k] - h[k]) + a * (stiff[k + 1] - h[k + 1]);
+  return KnotCurveAt(s, stiff, z) - KnotCurveAt(s, h, z);
 }
 
 // The channel's two ResponseEnds: the change at the lowest and highest supported values, the
