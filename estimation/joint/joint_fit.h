@@ -125,7 +125,13 @@ struct JointFitResult {
   // (metres, > 0: the top stands further out) and its standard deviation.
   std::optional<double> sample_height_offset, sample_height_offset_stddev;
   std::string sample_height_reason;  // kAuto: why the correction was kept or left out
-  size_t lamp_off_frames = 0;        // frames whose lamp-off radiance extraction subtracted
+  // kAuto: a term left out ("ambient" or "height") whose trial stood between 2 and
+  // nuisance_min_z of its final standard deviations out and moved the lamp by more than 3 of
+  // the lamp's: the data can neither keep nor exclude it, and the result depends on it
+  // (pipeline/checks.cc warns). Empty: none.
+  std::string unresolved_nuisance;
+  double unresolved_z = 0, unresolved_lamp_shift_m = 0, unresolved_shift_in_sd = 0;
+  size_t lamp_off_frames = 0;  // frames whose lamp-off radiance extraction subtracted
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
   size_t n_observations = 0;

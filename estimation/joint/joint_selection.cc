@@ -208,6 +208,41 @@ double NuisanceZ(const JointFitResult& f, bool ambient_term) {
   return best;
 }
 
+// One combination of nuisance terms refitted by ChooseNuisances.
+struct NuisanceTrial {
+  bool ambient = false, height = false;
+  double value = INFINITY;  // the criterion; INFINITY: a term within its error bar
+  double z = 0;             // the first term's |value| / sd at the final size
+  Eigen::Vector3d light = Eigen::Vector3d::Zero();
+  bool converged = false;
+};
+
+// When no term was kept: a single term whose trial stood between 2 and nuisance_min_z of its
+// final standard deviations out, and moved the lamp by more than 3 of the lamp's (the chosen
+// fit's, at the final size: divided by `scale`), is unresolved: the data neither keep nor
+// exclude it, and the result depends on it (BenchEffects: room light at 5 % of the lamp, z 2.5,
+// moves the lamp by 6 % of its distance). Noted in `unresolved` for the run's warning.
+void NoteUnresolved(const std::vector<NuisanceTrial>& trials, const JointFitResult& chosen,
+                    double scale, const JointFitOptions& options, JointFitResult* unresolved) {
+  for (const NuisanceTrial& t : trials) {
+    if (t.ambient == t.height || !t.converged || !(t.z > 2.0 && t.z <= options.nuisance_min_z)) {
+      continue;
+    }
+    const Eigen::Vector3d shift = t.light - chosen.light_position;
+    const Eigen::Vector3d sd = *chosen.light_stddev / scale;
+    double in_sd = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (sd[k] > 0) in_sd = std::max(in_sd, std::abs(shift[k]) / sd[k]);
+    }
+    if (in_sd > 3.0 && in_sd > unresolved->unresolved_shift_in_sd) {
+      unresolved->unresolved_nuisance = t.ambient ? "ambient" : "height";
+      unresolved->unresolved_z = t.z;
+      unresolved->unresolved_lamp_shift_m = shift.norm();
+      unresolved->unresolved_shift_in_sd = in_sd;
+    }
+  }
+}
+
 // The nuisances (docs/pipeline.md "Nuisances chosen by evidence"): every combination of the
 // kAuto ones refitted with the selected model on the selection subsample `use`, from its lamp.
 // As models are chosen: the best criterion (BIC, or AIC) among the fit without them and the
@@ -219,7 +254,7 @@ double NuisanceZ(const JointFitResult& f, bool ambient_term) {
 JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
                                 size_t final_n, const JointFitResult& chosen,
                                 const JointFitOptions& search, const JointFitOptions& options,
-                                std::string* reason) {
+                                std::string* reason, JointFitResult* unresolved) {
   const bool ambient = options.ambient == AmbientTerm::kAuto && data.lamp_off_frames == 0;
   const bool height = options.sample_height == NuisanceTerm::kAuto;
   if (options.ambient == AmbientTerm::kAuto && data.lamp_off_frames > 0) {
@@ -230,13 +265,11 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   auto criterion = [&](const JointFitResult& f) {
     return !f.material.converged ? INFINITY : aic ? f.material.aic : f.material.bic;
   };
-  struct Trial {
-    bool ambient = false, height = false;
-    double value = INFINITY;
-  };
-  std::vector<Trial> trials = {{false, false, criterion(chosen)}};
+  const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
+                                 static_cast<double>(std::max<size_t>(use.size(), 1)));
+  std::vector<NuisanceTrial> trials = {{false, false, criterion(chosen)}};
   for (int mask = 1; mask < 4; ++mask) {
-    Trial t{(mask & 1) != 0, (mask & 2) != 0};
+    NuisanceTrial t{(mask & 1) != 0, (mask & 2) != 0};
     if ((t.ambient && !ambient) || (t.height && !height)) continue;
     JointFitOptions o = search;
     if (t.ambient) o.ambient = AmbientTerm::kFit;
@@ -247,17 +280,24 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
     // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
     // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
     // The bar is the one the final fit on `final_n` observations will have (1 / sqrt(n)).
-    const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
-                                   static_cast<double>(std::max<size_t>(use.size(), 1)));
     const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
                              (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
     t.value = significant ? criterion(f) : INFINITY;
+    t.z = scale * NuisanceZ(f, t.ambient);
+    t.light = f.light_position;
+    t.converged = f.material.converged;
+    spdlog::info(
+        "nuisance trial {}{}: {} {:.1f}, z ambient {:.2f}, height {:.2f} (x {:.2f} at the "
+        "final size){}",
+        t.ambient ? "ambient" : "", t.height ? (t.ambient ? " and height" : "height") : "",
+        aic ? "AIC" : "BIC", criterion(f), NuisanceZ(f, true), NuisanceZ(f, false), scale,
+        f.material.converged ? "" : ", not converged");
     trials.push_back(t);
   }
   double best = INFINITY;
   for (const auto& t : trials) best = std::min(best, t.value);
-  auto terms = [](const Trial& t) { return int(t.ambient) + int(t.height); };
-  const Trial* pick = &trials[0];
+  auto terms = [](const NuisanceTrial& t) { return int(t.ambient) + int(t.height); };
+  const NuisanceTrial* pick = &trials[0];
   for (const auto& t : trials) {
     if (t.value > best + options.nuisance_margin) continue;
     if (pick->value > best + options.nuisance_margin || terms(t) < terms(*pick) ||
@@ -284,6 +324,9 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
       : pick->ambient                 ? "ambient light kept"
                                       : "sample height kept");
   spdlog::info("{}", *reason);
+  if (terms(*pick) == 0 && chosen.light_stddev) {
+    NoteUnresolved(trials, chosen, scale, options, unresolved);
+  }
   JointFitOptions out = search;
   if (pick->ambient) out.ambient = AmbientTerm::kFit;
   if (pick->height) out.sample_height = NuisanceTerm::kFit;
@@ -354,10 +397,11 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   JointSelectionResult out;
   SearchModels(data, names, use, light0, search, &out);
   std::string nuisance_reason;
+  JointFitResult unresolved;  // only its unresolved_* fields
   const auto final_use = Subsample(data, options.final_max_observations);
   const JointFitOptions chosen_options =
       ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
-                      options, &nuisance_reason);
+                      options, &nuisance_reason, &unresolved);
   const JointSelectionResult without_nuisances = out;
   if (chosen_options.ambient != search.ambient ||
       chosen_options.sample_height != search.sample_height) {
@@ -380,6 +424,10 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
                                chosen_options, false, &chosen);
   DropUnsupportedNuisances(data, final_use, search, options, without_nuisances, &nuisance_reason,
                            &out);
+  out.final_fit.unresolved_nuisance = unresolved.unresolved_nuisance;
+  out.final_fit.unresolved_z = unresolved.unresolved_z;
+  out.final_fit.unresolved_lamp_shift_m = unresolved.unresolved_lamp_shift_m;
+  out.final_fit.unresolved_shift_in_sd = unresolved.unresolved_shift_in_sd;
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
   if (options.sample_height == NuisanceTerm::kAuto) {
     out.final_fit.sample_height_reason = nuisance_reason;

@@ -42,6 +42,7 @@ double LampIrradianceAtCentre(const synth::Scene& scene) {
 
 struct Outcome {
   JointFitResult fit;
+  std::vector<RunWarning> warnings;
   double albedo = 0, lamp_error = 0, intensity = 0;  // lamp_error: fraction of its distance
   std::string report;
 };
@@ -60,6 +61,7 @@ Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, Ambie
   const RunResult run = gonio::Run(in, o);
   Outcome out;
   out.fit = run.fit.final_fit;
+  out.warnings = run.warnings;
   out.report = run.Report();
   out.albedo = out.fit.material.params.at(0);  // albedo is the first parameter of both
   const double distance = (scene.light.position - SampleCentre(scene)).norm();
@@ -117,7 +119,10 @@ TEST(BenchEffects, RaisedSampleNeedsItsHeight) {
 // to the eye (residuals at the noise) but the lamp is more than 3% of its distance off
 // (measured 5.9%) and the intensity more than 10% high (measured +18%). The fitted constant
 // (--ambient fit) brings lamp and intensity back to within 1.5% and reports the ambient at its
-// true size within 3 standard deviations; --ambient auto keeps it here.
+// true size within 3 standard deviations. With --ambient auto, 5% sits at the edge of what 12
+// views resolve (the term's z on all observations 2.5 to 3.2, depending on the detected poses):
+// auto keeps the term, or warns that room light cannot be excluded, naming the lamp's shift
+// (measured: z 2.5, 23 mm, 14 lamp standard deviations).
 TEST(BenchEffects, AmbientLightNeedsLampOffFramesOrAFittedTerm) {
   synth::Scene scene = LambertScene();
   const double lamp_e = LampIrradianceAtCentre(scene);
@@ -144,13 +149,20 @@ TEST(BenchEffects, AmbientLightNeedsLampOffFramesOrAFittedTerm) {
   EXPECT_GT(none.lamp_error, 0.03) << none.report;
   EXPECT_GT(none.intensity / intensity, 1.10) << none.report;
 
-  const Outcome fit = RunOn(dir.path(), scene, AmbientTerm::kAuto);
+  Outcome fit = RunOn(dir.path(), scene, AmbientTerm::kAuto);
   std::printf(
       "ambient 5%%: lamp error %.2f%% (lamp-off) / %.2f%% (none) / %.2f%% (fit); "
       "intensity %.4f / %.4f / %.4f; albedo %.4f / %.4f / %.4f +- %.4f\n",
       100 * off.lamp_error, 100 * none.lamp_error, 100 * fit.lamp_error, off.intensity,
       none.intensity, fit.intensity, off.albedo, none.albedo, fit.albedo,
       fit.fit.material.stddev[0].value_or(NAN));
+  if (fit.fit.ambient != AmbientTerm::kFit) {
+    bool warned = false;
+    for (const RunWarning& w : fit.warnings) warned |= w.cause == WarningCause::kAmbientLight;
+    EXPECT_TRUE(warned) << fit.report;
+    EXPECT_EQ(fit.fit.unresolved_nuisance, "ambient") << fit.report;
+    fit = RunOn(dir.path(), scene, AmbientTerm::kFit);
+  }
   ASSERT_EQ(fit.fit.ambient, AmbientTerm::kFit) << fit.report;
   EXPECT_LT(fit.lamp_error, 0.015) << fit.report;
   EXPECT_NEAR(fit.intensity / intensity, 1.0, 0.015) << fit.report;
@@ -175,6 +187,7 @@ TEST(BenchEffects, AmbientAutoLeavesTheTermOutInADarkRoom) {
   const Outcome r = RunOn(dir.path(), scene, AmbientTerm::kAuto);
   EXPECT_EQ(r.fit.ambient, AmbientTerm::kNone) << r.report;
   EXPECT_NE(r.fit.ambient_reason.find("none kept"), std::string::npos) << r.report;
+  EXPECT_TRUE(r.fit.unresolved_nuisance.empty()) << r.report;
   EXPECT_NEAR(r.albedo, kAlbedo, 0.003) << r.report;
 }
 
