@@ -211,17 +211,6 @@ T HemisphereSingleScatter(const T& theta_l, const T& theta_v, const T& phi, int 
   return mean * TwoDeltaOverSin(delta > T(0) ? delta : T(0)) / cos_v;
 }
 
-// The sines and cosines of the incidence and view angles that CapSingleScatter's rings use,
-// and the cosine of the aperture.
-template <typename T>
-struct CapRingForm {
-  T c;                   // cos Psi
-  T sl, cl, sv, cv;      // of theta_l, theta_v
-  T cp, sp;              // of phi
-  T s2l, c2l, s2v, c2v;  // of the shadow axes' polar angles 2 theta_l, 2 theta_v
-  T phi;
-};
-
 // Half-width of the arc of a ring where m.axis >= -c, axis at polar angle with sin/cos
 // (sa, ca): sin g sa cos w + cos g ca >= -c.
 template <typename T>
@@ -239,12 +228,12 @@ T CapRingHalfWidth(const T& c, const T& sg, const T& cg, const T& sa, const T& c
 // The w-integral over the ring of polar angle g, times sin g: the integrand over the arcs
 // where the ring is lit and visible.
 template <typename T>
-T CapRing(const CapRingForm<T>& r, const T& g) {
+T CapRing(const CapAngles<T>& r, const T& phi, const T& g) {
   using std::cos;
   using std::sin;
   const T sg = sin(g), cg = cos(g);
-  const T ws = CapRingHalfWidth(r.c, sg, cg, r.s2l, r.c2l);
-  const T wt = CapRingHalfWidth(r.c, sg, cg, r.s2v, r.c2v);
+  const T ws = CapRingHalfWidth(r.c, sg, cg, r.S_l, r.C_l);
+  const T wt = CapRingHalfWidth(r.c, sg, cg, r.S_v, r.C_v);
   const T a1 = sg * r.sl, b1 = cg * r.cl, a2 = sg * r.sv, b2 = cg * r.cv;
   const T& cp = r.cp;
   const T& sp = r.sp;
@@ -256,7 +245,7 @@ T CapRing(const CapRingForm<T>& r, const T& g) {
   };
   T sum(0);
   for (int shift = -1; shift <= 1; ++shift) {
-    const T lo2 = r.phi - wt + T(2 * kPi * shift), hi2 = r.phi + wt + T(2 * kPi * shift);
+    const T lo2 = phi - wt + T(2 * kPi * shift), hi2 = phi + wt + T(2 * kPi * shift);
     const T lo = lo2 > -ws ? lo2 : -ws;
     const T hi = hi2 < ws ? hi2 : ws;
     if (hi > lo) sum += F(hi) - F(lo);
@@ -269,7 +258,7 @@ T CapRing(const CapRingForm<T>& r, const T& g) {
 // g + a = pi - Psi, g + a = pi + Psi, and the two shadow circles cross (there the two arcs'
 // ends meet). Returns their number (at most 16).
 template <typename T>
-int CapRingBreaks(const CapRingForm<T>& r, const T& psi, const T& theta_l, const T& theta_v,
+int CapRingBreaks(const CapAngles<T>& r, const T& psi, const T& theta_l, const T& theta_v,
                   T breaks[16]) {
   using std::acos;
   using std::sqrt;
@@ -283,7 +272,7 @@ int CapRingBreaks(const CapRingForm<T>& r, const T& psi, const T& theta_l, const
   }
   // Where the shadow circles cross, m.s = m.t = -c gives m = x (s + t) + z (s x t),
   // x = -c / (1 + s.t), z^2 = (1 - 2 c x') / (1 - (s.t)^2).
-  const T sx = r.s2l, sz = r.c2l, tx = r.s2v * r.cp, ty = r.s2v * r.sp, tz = r.c2v;
+  const T sx = r.S_l, sz = r.C_l, tx = r.S_v * r.cp, ty = r.S_v * r.sp, tz = r.C_v;
   const T G = sx * tx + sz * tz;
   const T one_m_g2 = T(1) - G * G;
   if (one_m_g2 > T(1e-12) && G > T(-1) + T(1e-12)) {
@@ -317,21 +306,8 @@ int CapRingBreaks(const CapRingForm<T>& r, const T& psi, const T& theta_l, const
 // integrated smoothly.
 template <typename T>
 T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& phi, int nodes) {
-  using std::cos;
-  using std::sin;
-  CapRingForm<T> r;
-  r.c = cos(psi);
-  r.sl = sin(theta_l);
-  r.cl = cos(theta_l);
-  r.sv = sin(theta_v);
-  r.cv = cos(theta_v);
-  r.cp = cos(phi);
-  r.sp = sin(phi);
-  r.s2l = T(2) * r.sl * r.cl;
-  r.c2l = r.cl * r.cl - r.sl * r.sl;
-  r.s2v = T(2) * r.sv * r.cv;
-  r.c2v = r.cv * r.cv - r.sv * r.sv;
-  r.phi = phi;
+  // The sines and cosines the rings use, shared with the closed form (pitted_cap.h).
+  const CapAngles<T> r = CapAnglesOf(psi, theta_l, theta_v, phi);
   T breaks[16];
   const int nb = CapRingBreaks(r, psi, theta_l, theta_v, breaks);
   const auto& gl = GaussLegendre01(nodes);
@@ -343,7 +319,7 @@ T CapSingleScatter(const T& psi, const T& theta_l, const T& theta_v, const T& ph
       const double u = q[0];
       // Smoothstep g = lo + w (3u^2 - 2u^3), dg = 6 w u (1 - u) du.
       total += T(q[1] * 6.0 * u * (1.0 - u)) * w *
-               CapRing(r, breaks[k] + w * T(u * u * (3.0 - 2.0 * u)));
+               CapRing(r, phi, breaks[k] + w * T(u * u * (3.0 - 2.0 * u)));
     }
   }
   return total;
