@@ -5,11 +5,13 @@
 // board with `gonio photometric vignette`) and then `gonio run`. truth.json only judges.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "bench/maps_truth.h"
 #include "common/io.h"
 #include "common/math.h"
 #include "data_synth/board_renderer.h"
@@ -51,10 +53,14 @@ struct UserChainDirs {
   fs::path session, sweep, cal;
 };
 
-// Renders session and sweep of one camera and calibrates them like a user, with the CLI.
-UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind) {
+// Renders session and sweep of one camera and calibrates them like a user, with the CLI. The
+// session's scene: `session_scene` when given (its camera's photometry set to the kind's), else
+// the small oren-nayar board.
+UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind,
+                                 const synth::Scene* session_scene = nullptr) {
   UserChainDirs d;
-  d.scene = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
+  d.scene = session_scene ? *session_scene
+                          : SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
   d.scene.photometric.bit_depth = kind.bit_depth;
   d.scene.photometric.response = kind.response;
   d.scene.photometric.black_level = kind.black_level;
@@ -64,6 +70,10 @@ UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind) {
   synth::Scene sweep = synth::PresetScene("exposure-sweep");
   sweep.camera = d.scene.camera;
   sweep.photometric = d.scene.photometric;
+  if (d.scene.texture.enabled()) {  // a colour camera's sweep: RGB frames as its session's
+    sweep.texture = d.scene.texture;
+    sweep.material = d.scene.material;
+  }
   sweep.views.dark_frames = kind.dark_frames;
   sweep.views.exposures_s.clear();
   for (int k = 0; k < 40; ++k) sweep.views.exposures_s.push_back(0.0005 * std::exp2(k / 3.0));
@@ -208,6 +218,42 @@ INSTANTIATE_TEST_SUITE_P(Cameras, UserChain,
                                            CameraKind{"srgb8black64dark", 8, "srgb", 64, 4},
                                            CameraKind{"srgb8black64", 8, "srgb", 64, 0}),
                          [](const auto& info) { return std::string(info.param.name); });
+
+// Maps through the user's own calibrations (issue 27's second target: within twice the targets
+// met with the renderer's calibrations, MapsCli.TexturedSessionOneMaterial): the textured preset
+// at 640x480, 12 views, a 12-bit gamma camera with black level 64; camera model, poses, response
+// and vignetting calibrated with the CLI as above, then `gonio maps`. Measured 2026-12-02:
+// albedo 0.59% RMS (z 1.09), normal 0.85 deg (z 1.03), sigma 30.20 +- 0.04 deg (0.20 deg off:
+// z 4.5, open: the shared roughness's standard deviation holds the pixel noise only, not the
+// calibrations' error, which gonio run propagates and gonio maps does not yet), one material.
+TEST(UserChainMaps, TexturedSampleWithinTwiceTheRenderersCalibrationTargets) {
+  testing::TempDir dir;
+  synth::Scene scene = synth::PresetScene("textured");
+  scene.camera.width = 640;
+  scene.camera.height = 480;
+  scene.camera.intrinsics[0] = scene.camera.intrinsics[1] = 550.0;
+  scene.camera.intrinsics[2] = 319.5;
+  scene.camera.intrinsics[3] = 239.5;
+  scene.views.per_ring = 3;
+  const UserChainDirs d =
+      RenderAndCalibrate(dir.path(), CameraKind{"gamma12in16", 12, "gamma", 64}, &scene);
+  const fs::path out = dir.path() / "maps";
+  const testing::CommandResult r = testing::RunGonio(fmt::format(
+      "maps --session {} --camera {} --photometric {} --white-albedo 0.8 --texel 1.2 --out {}",
+      Q(d.session), Q(d.cal / "camera.cameramodel"), Q(d.cal / "photometric.json"), Q(out)));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const bench::MapsTruthComparison c = bench::CompareMapsWithTruth(out, d.session);
+  std::printf("%s\n%s\n", r.out.c_str(), c.Report().c_str());
+  EXPECT_EQ(c.materials_found, 1);
+  EXPECT_LT(c.albedo_rel_rms, 0.02);
+  EXPECT_LT(c.normal_rms_deg, 4.0);
+  EXPECT_LT(c.roughness_rms_deg, 2.0);
+  // Standard deviations: RMS z within twice the renderer's-calibration band (0.6-1.6).
+  EXPECT_GT(c.albedo_rms_z, 0.3);
+  EXPECT_LT(c.albedo_rms_z, 3.2);
+  EXPECT_GT(c.normal_rms_z, 0.3);
+  EXPECT_LT(c.normal_rms_z, 3.2);
+}
 
 }  // namespace
 }  // namespace gonio
