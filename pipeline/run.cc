@@ -160,11 +160,10 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   e.response_ends = response.ends;
   // Its wiggles between knots: the smoothing sensitivity is the change under a prior
   // kSmoothingSensitivityFactor times stiffer, (factor - 1) times the prior's bias where the
-  // data hold the curve (the bias grows in proportion to the prior's weight there); read in
-  // the bands the observations' values fall in, like the slope error above.
+  // data hold the curve (the bias grows in proportion to the prior's weight there).
   if (std::isfinite(response.knot_spacing)) {
-    e.response_wiggle = PhotometricCalibration::SmoothingErrorAt(response, values) /
-                        (kSmoothingSensitivityFactor - 1.0);
+    e.response_wiggle =
+        PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
     e.response_knot_spacing = response.knot_spacing;
   }
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part

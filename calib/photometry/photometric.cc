@@ -92,33 +92,19 @@ double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) 
   return n > 0 ? std::min(std::sqrt(sum / n), 0.99) : ResponseAccuracy(response);
 }
 
-namespace {
-
-// The RMS over `values` (raw pixel values) of a per-band figure in the self-check's bands of
-// `check` (PairConsistency); a band without a figure counts as `missing`. NaN when there is
-// nothing to read (no values, no bands, an empty range): the caller's whole-range figure.
-double BandRmsAt(const std::vector<double>& band, const PairConsistency& check,
-                 const std::vector<double>& values, double missing) {
-  const int bands = static_cast<int>(band.size());
-  const double width = (check.range_hi - check.range_lo) / std::max(bands, 1);
-  if (values.empty() || bands == 0 || !(width > 0)) return NAN;
-  double sum = 0;
-  for (double z : values) {
-    const int b =
-        std::clamp(static_cast<int>(std::floor((z - check.range_lo) / width)), 0, bands - 1);
-    const double v = std::isfinite(band[b]) ? band[b] : missing;
-    sum += v * v;
-  }
-  return std::min(std::sqrt(sum / values.size()), 0.99);
-}
-
-}  // namespace
-
 double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response,
                                                   const std::vector<double>& values) {
-  const double at = BandRmsAt(response.consistency.band_bias, response.consistency, values,
-                              ResponseAccuracy(response));
-  return std::isfinite(at) ? at : ResponseFieldRms(response);
+  const PairConsistency& c = response.consistency;
+  const int bands = static_cast<int>(c.band_bias.size());
+  const double width = (c.range_hi - c.range_lo) / std::max(bands, 1);
+  if (values.empty() || bands == 0 || !(width > 0)) return ResponseFieldRms(response);
+  double sum = 0;
+  for (double z : values) {
+    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, bands - 1);
+    const double bias = std::isfinite(c.band_bias[b]) ? c.band_bias[b] : ResponseAccuracy(response);
+    sum += bias * bias;
+  }
+  return std::min(std::sqrt(sum / values.size()), 0.99);
 }
 
 double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& response,
@@ -140,14 +126,6 @@ double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& respon
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
   const double s = response.smoothing_sensitivity;
   return std::isfinite(s) ? std::min(s, 0.99) : 0.0;
-}
-
-double PhotometricCalibration::SmoothingErrorAt(const ResponseResult& response,
-                                                const std::vector<double>& values) {
-  if (response.smoothing_bands.size() != PairConsistency::kBands) return SmoothingError(response);
-  const double at =
-      BandRmsAt(response.smoothing_bands, response.consistency, values, SmoothingError(response));
-  return std::isfinite(at) ? at : SmoothingError(response);
 }
 
 double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) {

@@ -57,10 +57,6 @@ struct PhotometricCalibration {
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.
   static double SmoothingError(const ResponseResult& response);
-  // The same where the data are: the RMS of the smoothing sensitivity's bands
-  // (ResponseResult::smoothing_bands) that hold `values`, as ResponseFieldRmsAt reads the band
-  // biases; a band without a figure, and a file without bands, count as SmoothingError.
-  static double SmoothingErrorAt(const ResponseResult& response, const std::vector<double>& values);
   // sqrt(response^2 + smoothing^2 + vignetting^2): ResponseAccuracy, SmoothingError and the
   // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);

@@ -463,8 +463,8 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   const auto supported = FinishResponse(frames, fits, setups, o, &result);
   for (auto& cs : setups) cs.usable = s.usable;
   result.knot_spacing = s.max_value / (s.num_knots - 1.0);
-  MeasureSmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, o, supported,
-                              &result);
+  result.smoothing_sensitivity = SmoothingSensitivity(planes, frames, free_time, setups, pixels,
+                                                      fits, result, o, supported, &result.ends);
   return result;
 }
 

@@ -118,7 +118,7 @@ constexpr double kSmoothingSensitivityFactor = 4.0;
 // black level, anchored at that value's knot; near the highest, the curve rests on few samples.
 // There the smoothing prior, not the data, holds the curve up, and a ratio self-check cannot see
 // a gain error of a whole segment. `error`: the relative change of the table at `end` under the
-// stiffer prior MeasureSmoothingSensitivity refits with (the common offset removed), taken as the
+// stiffer prior SmoothingSensitivity refits with (the common offset removed), taken as the
 // 1-sigma error of every value beyond `end`, tapering linearly to 0 at `taper_to` (two knots
 // inside). Measured on the flash preset's 12-bit sweep: 4.0 % at the dark end for a table 3.0 %
 // off there.
@@ -150,14 +150,10 @@ struct ResponseResult {
   // frames (fraction of the range; see RegionalMappingDifference).
   double regional_mapping_difference = 0;
   // Relative change of the curve when refitted with a 4x stiffer smoothing prior, worst value
-  // band (MeasureSmoothingSensitivity, docs/photometric.md): the part of its error between the
-  // values the sweep holds, which the self-check cannot see. NaN: not measured (older files,
+  // band (SmoothingSensitivity, docs/photometric.md): the part of its error between the values
+  // the sweep holds, which the self-check cannot see. NaN: not measured (older files,
   // smoothness 0).
   double smoothing_sensitivity = NAN;
-  // The same per band of the self-check (consistency's range_lo..range_hi in kBands equal
-  // parts; NaN where no knot falls), so that a fit reads the figure of the values its
-  // observations hold (PhotometricCalibration::SmoothingErrorAt). Empty in older files.
-  std::vector<double> smoothing_bands;
   // The table's ends where the prior holds it (see ResponseEnd): empty in older files and with
   // smoothness 0.
   std::vector<ResponseEnd> ends;

@@ -125,19 +125,18 @@ double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int b
                     bool* piled = nullptr);
 
 // Relative change of the inverse response when every channel is refitted with the smoothness
-// times kSmoothingSensitivityFactor, frames and times as in `fits`, into `result`: per band of
-// the self-check (result->consistency's range, PairConsistency::kBands equal parts) the median
-// change over a channel's knots, the largest over channels (smoothing_bands), and the worst band
-// (smoothing_sensitivity); NaN and no bands with smoothness 0 (response_smoothing.cc). Each
-// channel's two ResponseEnds are appended to result->ends: the change at the lowest and highest
-// values the data support (`supported`, per channel [low, high]).
-void MeasureSmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
-                                 const std::vector<ExposureFrame>& frames,
-                                 const std::vector<bool>& free_time,
-                                 const std::vector<Setup>& setups,
-                                 const std::vector<std::vector<cv::Point>>& pixels,
-                                 const std::vector<ChannelFit>& fits, const ResponseOptions& o,
-                                 const std::vector<std::array<double, 2>>& supported,
-                                 ResponseResult* result);
+// times kSmoothingSensitivityFactor, frames and times as in `fits`: per band of the self-checked
+// range (black + 2 % of the range to saturation, PairConsistency::kBands equal parts) the median
+// change, and the worst band (response_smoothing.cc); NaN with smoothness 0. `ends` (may be
+// null) gets each channel's two ResponseEnds: the change at the lowest and highest values the
+// data support (`supported`, per channel [low, high]).
+double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
+                            const std::vector<ExposureFrame>& frames,
+                            const std::vector<bool>& free_time, const std::vector<Setup>& setups,
+                            const std::vector<std::vector<cv::Point>>& pixels,
+                            const std::vector<ChannelFit>& fits, const ResponseResult& result,
+                            const ResponseOptions& o,
+                            const std::vector<std::array<double, 2>>& supported,
+                            std::vector<ResponseEnd>* ends);
 
 }  // namespace gonio

@@ -259,33 +259,6 @@ nlohmann::json EndsToJson(const std::vector<ResponseEnd>& ends) {
   return out;
 }
 
-// The smoothing sensitivity per band: null where no knot fell (NaN in memory).
-nlohmann::json BandsToJson(const std::vector<double>& bands) {
-  nlohmann::json out = nlohmann::json::array();
-  for (double b : bands) out.push_back(std::isfinite(b) ? nlohmann::json(b) : nlohmann::json());
-  return out;
-}
-
-// What BandsToJson wrote: PairConsistency::kBands entries, each null or a non-negative number
-// (they set error bars); InputError naming `source` otherwise.
-std::vector<double> BandsFromJson(const nlohmann::json& j, const std::string& source) {
-  const std::string what = source + ": 'smoothing_bands' must be " +
-                           std::to_string(PairConsistency::kBands) +
-                           " non-negative numbers or nulls";
-  if (!j.is_array() || (!j.empty() && j.size() != PairConsistency::kBands)) throw InputError(what);
-  std::vector<double> out;
-  for (const auto& v : j) {
-    if (v.is_null()) {
-      out.push_back(NAN);
-    } else if (v.is_number() && std::isfinite(v.get<double>()) && v.get<double>() >= 0) {
-      out.push_back(v.get<double>());
-    } else {
-      throw InputError(what);
-    }
-  }
-  return out;
-}
-
 // What EndsToJson wrote; InputError naming `source` on a wrong type, a channel out of range or
 // an error outside [0, 1).
 std::vector<ResponseEnd> EndsFromJson(const nlohmann::json& j, int channels,
@@ -336,7 +309,6 @@ nlohmann::json ResponseResult::ToJson() const {
           {"smoothing_sensitivity", std::isfinite(smoothing_sensitivity)
                                         ? nlohmann::json(smoothing_sensitivity)
                                         : nlohmann::json()},
-          {"smoothing_bands", BandsToJson(smoothing_bands)},
           {"ends", EndsToJson(ends)},
           {"knot_spacing",
            std::isfinite(knot_spacing) ? nlohmann::json(knot_spacing) : nlohmann::json()},
@@ -382,9 +354,6 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
       throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
     }
     r.smoothing_sensitivity = v.get<double>();
-  }
-  if (j.contains("smoothing_bands")) {
-    r.smoothing_bands = BandsFromJson(j["smoothing_bands"], source);
   }
   if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
   if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {

@@ -40,27 +40,20 @@ void AddEnds(int channel, const Setup& s, const std::vector<double>& h,
 
 }  // namespace
 
-void MeasureSmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
-                                 const std::vector<ExposureFrame>& frames,
-                                 const std::vector<bool>& free_time,
-                                 const std::vector<Setup>& setups,
-                                 const std::vector<std::vector<cv::Point>>& pixels,
-                                 const std::vector<ChannelFit>& fits, const ResponseOptions& o,
-                                 const std::vector<std::array<double, 2>>& supported,
-                                 ResponseResult* result) {
+double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
+                            const std::vector<ExposureFrame>& frames,
+                            const std::vector<bool>& free_time, const std::vector<Setup>& setups,
+                            const std::vector<std::vector<cv::Point>>& pixels,
+                            const std::vector<ChannelFit>& fits, const ResponseResult& result,
+                            const ResponseOptions& o,
+                            const std::vector<std::array<double, 2>>& supported,
+                            std::vector<ResponseEnd>* ends) {
   // Without a prior there is nothing to compare against (knots without data stay where the
   // solver started); the result then says "not measured".
-  result->smoothing_sensitivity = NAN;
-  result->smoothing_bands.clear();
-  if (!(o.smoothness > 0)) return;
+  if (!(o.smoothness > 0)) return NAN;
   ResponseOptions stiff = o;
   stiff.smoothness = o.smoothness * kSmoothingSensitivityFactor;
-  // The self-check's bands (PairConsistency), so that a fit can read both figures where its
-  // observations' values lie (PhotometricCalibration::SmoothingErrorAt).
-  const PairConsistency& check = result->consistency;
-  const int bands = PairConsistency::kBands;
-  const double width = (check.range_hi - check.range_lo) / bands;
-  std::vector<double> band_change(bands, NAN);
+  double worst = 0;
   for (size_t c = 0; c < fits.size(); ++c) {
     const Setup& s = setups[c];
     const ChannelFit refit = FitChannel(planes[c], frames, free_time, false, s, pixels[c], stiff);
@@ -68,8 +61,8 @@ void MeasureSmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes
     // bands: per band the median change, so a band's figure is what its values typically
     // suffer (the last values above black, where ln X falls without bound, do not decide it);
     // the common offset (an exposure scale, which no radiance ratio sees) removed.
-    const double lo = result->black_level[c] + 0.02 * s.max_value;
-    const double hi = result->saturation_level[c] - 1;
+    const double lo = result.black_level[c] + 0.02 * s.max_value;
+    const double hi = result.saturation_level[c] - 1;
     std::vector<double> z_of, d;
     for (int k = 0; k < s.num_knots; ++k) {
       const double z = k * s.max_value / (s.num_knots - 1.0);
@@ -78,26 +71,20 @@ void MeasureSmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes
         d.push_back(refit.h[k] - fits[c].h[k]);
       }
     }
-    if (d.size() < 2 || !(width > 0)) continue;
+    if (d.size() < 2) continue;
     const double mid = Median(d);
+    const int bands = PairConsistency::kBands;
     std::vector<std::vector<double>> in_band(bands);
     for (size_t q = 0; q < d.size(); ++q) {
-      const int b = std::clamp(static_cast<int>((z_of[q] - check.range_lo) / width), 0, bands - 1);
+      const int b = std::min(bands - 1, static_cast<int>((z_of[q] - lo) / (hi - lo) * bands));
       in_band[b].push_back(std::abs(d[q] - mid));
     }
-    for (int b = 0; b < bands; ++b) {
-      if (in_band[b].empty()) continue;
-      const double change = std::expm1(Median(in_band[b]));
-      band_change[b] = std::isfinite(band_change[b]) ? std::max(band_change[b], change) : change;
+    for (const auto& v : in_band) {
+      if (!v.empty()) worst = std::max(worst, Median(v));
     }
-    AddEnds(static_cast<int>(c), s, fits[c].h, refit.h, mid, supported[c], &result->ends);
+    if (ends) AddEnds(static_cast<int>(c), s, fits[c].h, refit.h, mid, supported[c], ends);
   }
-  double worst = 0;
-  for (double v : band_change) {
-    if (std::isfinite(v)) worst = std::max(worst, v);
-  }
-  result->smoothing_sensitivity = worst;
-  result->smoothing_bands = band_change;
+  return std::expm1(worst);
 }
 
 }  // namespace gonio

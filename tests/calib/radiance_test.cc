@@ -156,24 +156,6 @@ TEST(PhotometricAccuracy, ResponseFieldIsTheBandBiasWhereTheValuesAre) {
   EXPECT_DOUBLE_EQ(PhotometricCalibration::ResponseFieldRmsAt(r, {}), all);
 }
 
-// The smoothing sensitivity where the data are (PhotometricCalibration::SmoothingErrorAt):
-// like the band biases, the RMS of the bands the values fall in; a band without a figure, and
-// a file without bands, count as the whole-range figure (the worst band).
-TEST(PhotometricAccuracy, SmoothingErrorIsTheBandsWhereTheValuesAre) {
-  ResponseResult r;
-  r.consistency.range_lo = 0;
-  r.consistency.range_hi = 800;
-  r.smoothing_sensitivity = 0.009;
-  EXPECT_DOUBLE_EQ(PhotometricCalibration::SmoothingErrorAt(r, {150}), 0.009);  // no bands
-  r.smoothing_bands = {0.009, 0.001, 0.002, NAN, 0.001, 0.001, 0.001, 0.003};
-  EXPECT_NEAR(PhotometricCalibration::SmoothingErrorAt(r, {150, 250}), std::sqrt(2.5) * 1e-3,
-              1e-12);
-  EXPECT_NEAR(PhotometricCalibration::SmoothingErrorAt(r, {350}), 0.009, 1e-12);
-  EXPECT_NEAR(PhotometricCalibration::SmoothingErrorAt(r, {-5, 50, 799}),
-              std::sqrt((81 + 81 + 9) / 3.0) * 1e-3, 1e-12);
-  EXPECT_DOUBLE_EQ(PhotometricCalibration::SmoothingErrorAt(r, {}), 0.009);
-}
-
 // Per octave (PhotometricCalibration::ResponseSlopeErrorAt): the band biases are ratio errors
 // of neighbouring exposures, so a third-stop sweep's figure is a third of the slope error per
 // octave and a whole-stop sweep's is the figure itself. Unused frames and repeated exposures
