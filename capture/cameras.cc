@@ -41,9 +41,9 @@ nlohmann::json ListCameras() {
   return {{"devices", devices}, {"skipped", skipped}, {"libcamera", HaveLibcamera()}};
 }
 
+// The buffer count is each backend's to check (v4l2 2..32, libcamera 1..32).
 void CameraRequest::Check() const {
   if (device.empty()) throw InputError("--device: give the camera");
-  if (buffers < 2 || buffers > 32) throw InputError("--buffers: must be in 2..32");
   if (!(longest_exposure_s >= 0 && std::isfinite(longest_exposure_s))) {
     throw InputError("--exposures: the longest exposure must be a finite value >= 0");
   }

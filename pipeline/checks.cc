@@ -305,15 +305,15 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                       "(session.json lamp_off) remove it exactly",
                   all});
   }
-  if (!f.unresolved_nuisance.empty()) {
-    const bool ambient = f.unresolved_nuisance == "ambient";
+  if (const auto& u = f.unresolved_nuisance) {
+    const bool ambient = u->term == UnresolvedNuisance::Term::kAmbient;
     m->push_back(
         {ambient ? WarningCause::kAmbientLight : WarningCause::kSampleHeight,
          fmt::format("{} cannot be excluded: fitted, it stands {:.1f} standard deviations out "
                      "(too few to keep it) and moves the lamp by {:.1f} mm, {:.0f} times the "
                      "lamp's standard deviation; {}",
-                     ambient ? "room light" : "a sample height off board.json's", f.unresolved_z,
-                     1e3 * f.unresolved_lamp_shift_m, f.unresolved_shift_in_sd,
+                     ambient ? "room light" : "a sample height off board.json's", u->z,
+                     1e3 * u->lamp_shift_m, u->shift_in_sd,
                      ambient ? "lamp-off frames (session.json lamp_off) settle it"
                              : "measure the sample's thickness into board.json sample_height_m"),
          all});

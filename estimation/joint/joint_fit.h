@@ -99,6 +99,18 @@ struct FrameResidual {
   double mean_relative = 0;  // mean of (model - measured) / measured
 };
 
+// A nuisance term --ambient auto / --sample-height auto left out although the data could not
+// exclude it (joint_selection.cc NoteUnresolved): its trial stood between 2 and nuisance_min_z
+// of its final standard deviations out and moved the lamp by more than 3 of the lamp's, so the
+// result depends on it (pipeline/checks.cc warns).
+struct UnresolvedNuisance {
+  enum class Term { kAmbient, kHeight };
+  Term term = Term::kAmbient;
+  double z = 0;             // the term's |value| / sd at the final size
+  double lamp_shift_m = 0;  // how far fitting it moved the lamp
+  double shift_in_sd = 0;   // the same in the lamp's standard deviations (worst axis)
+};
+
 struct JointFitResult {
   BrdfFitResult material;  // grey or channel-0 parameters, their stddev, metrics
   // The parameters fitted per colour channel (ParamInfo::per_channel: albedo-like ones) and,
@@ -125,12 +137,7 @@ struct JointFitResult {
   // (metres, > 0: the top stands further out) and its standard deviation.
   std::optional<double> sample_height_offset, sample_height_offset_stddev;
   std::string sample_height_reason;  // kAuto: why the correction was kept or left out
-  // kAuto: a term left out ("ambient" or "height") whose trial stood between 2 and
-  // nuisance_min_z of its final standard deviations out and moved the lamp by more than 3 of
-  // the lamp's: the data can neither keep nor exclude it, and the result depends on it
-  // (pipeline/checks.cc warns). Empty: none.
-  std::string unresolved_nuisance;
-  double unresolved_z = 0, unresolved_lamp_shift_m = 0, unresolved_shift_in_sd = 0;
+  std::optional<UnresolvedNuisance> unresolved_nuisance;  // kAuto: see UnresolvedNuisance
   size_t lamp_off_frames = 0;  // frames whose lamp-off radiance extraction subtracted
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;

@@ -221,9 +221,13 @@ struct NuisanceTrial {
 // final standard deviations out, and moved the lamp by more than 3 of the lamp's (the chosen
 // fit's, at the final size: divided by `scale`), is unresolved: the data neither keep nor
 // exclude it, and the result depends on it (BenchEffects: room light at 5 % of the lamp, z 2.5,
-// moves the lamp by 6 % of its distance). Noted in `unresolved` for the run's warning.
-void NoteUnresolved(const std::vector<NuisanceTrial>& trials, const JointFitResult& chosen,
-                    double scale, const JointFitOptions& options, JointFitResult* unresolved) {
+// moves the lamp by 6 % of its distance). The one that moved the lamp most, for the run's
+// warning; none when the chosen fit has no lamp standard deviation.
+std::optional<UnresolvedNuisance> NoteUnresolved(const std::vector<NuisanceTrial>& trials,
+                                                 const JointFitResult& chosen, double scale,
+                                                 const JointFitOptions& options) {
+  std::optional<UnresolvedNuisance> worst;
+  if (!chosen.light_stddev) return worst;
   for (const NuisanceTrial& t : trials) {
     if (t.ambient == t.height || !t.converged || !(t.z > 2.0 && t.z <= options.nuisance_min_z)) {
       continue;
@@ -234,13 +238,37 @@ void NoteUnresolved(const std::vector<NuisanceTrial>& trials, const JointFitResu
     for (int k = 0; k < 3; ++k) {
       if (sd[k] > 0) in_sd = std::max(in_sd, std::abs(shift[k]) / sd[k]);
     }
-    if (in_sd > 3.0 && in_sd > unresolved->unresolved_shift_in_sd) {
-      unresolved->unresolved_nuisance = t.ambient ? "ambient" : "height";
-      unresolved->unresolved_z = t.z;
-      unresolved->unresolved_lamp_shift_m = shift.norm();
-      unresolved->unresolved_shift_in_sd = in_sd;
+    if (in_sd > 3.0 && (!worst || in_sd > worst->shift_in_sd)) {
+      worst = UnresolvedNuisance{
+          t.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight, t.z,
+          shift.norm(), in_sd};
     }
   }
+  return worst;
+}
+
+// ChooseNuisances' reason: the criterion of every combination ("-": a term within its error
+// bar) and the one kept.
+std::string NuisanceReason(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
+                           const JointFitResult& chosen, size_t n, const JointFitOptions& options) {
+  std::string list;
+  for (const auto& t : trials) {
+    const std::string name = t.ambient && t.height ? "ambient and height"
+                             : t.ambient           ? "ambient"
+                             : t.height            ? "height"
+                                                   : "neither";
+    list += fmt::format("{}{} {}", list.empty() ? "" : ", ", name,
+                        std::isfinite(t.value) ? fmt::format("{:.1f}", t.value) : "-");
+  }
+  return fmt::format(
+      "nuisances by {} ({} on {} observations; kept when lower by more than {:g} and each "
+      "term beyond {:g} standard deviations): {}: {}",
+      options.criterion == Criterion::kAic ? "AIC" : "BIC", chosen.material.model, n,
+      options.nuisance_margin, options.nuisance_min_z, list,
+      !pick.ambient && !pick.height ? "none kept"
+      : pick.ambient && pick.height ? "ambient light and sample height kept"
+      : pick.ambient                ? "ambient light kept"
+                                    : "sample height kept");
 }
 
 // The nuisances (docs/pipeline.md "Nuisances chosen by evidence"): every combination of the
@@ -254,7 +282,8 @@ void NoteUnresolved(const std::vector<NuisanceTrial>& trials, const JointFitResu
 JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
                                 size_t final_n, const JointFitResult& chosen,
                                 const JointFitOptions& search, const JointFitOptions& options,
-                                std::string* reason, JointFitResult* unresolved) {
+                                std::string* reason,
+                                std::optional<UnresolvedNuisance>* unresolved) {
   const bool ambient = options.ambient == AmbientTerm::kAuto && data.lamp_off_frames == 0;
   const bool height = options.sample_height == NuisanceTerm::kAuto;
   if (options.ambient == AmbientTerm::kAuto && data.lamp_off_frames > 0) {
@@ -305,28 +334,9 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
       pick = &t;
     }
   }
-  std::string list;
-  for (const auto& t : trials) {
-    const std::string name = t.ambient && t.height ? "ambient and height"
-                             : t.ambient           ? "ambient"
-                             : t.height            ? "height"
-                                                   : "neither";
-    list += fmt::format("{}{} {}", list.empty() ? "" : ", ", name,
-                        std::isfinite(t.value) ? fmt::format("{:.1f}", t.value) : "-");
-  }
-  *reason = fmt::format(
-      "nuisances by {} ({} on {} observations; kept when lower by more than {:g} and each "
-      "term beyond {:g} standard deviations): {}: {}",
-      aic ? "AIC" : "BIC", chosen.material.model, use.size(), options.nuisance_margin,
-      options.nuisance_min_z, list,
-      terms(*pick) == 0               ? "none kept"
-      : pick->ambient && pick->height ? "ambient light and sample height kept"
-      : pick->ambient                 ? "ambient light kept"
-                                      : "sample height kept");
+  *reason = NuisanceReason(trials, *pick, chosen, use.size(), options);
   spdlog::info("{}", *reason);
-  if (terms(*pick) == 0 && chosen.light_stddev) {
-    NoteUnresolved(trials, chosen, scale, options, unresolved);
-  }
+  if (terms(*pick) == 0) *unresolved = NoteUnresolved(trials, chosen, scale, options);
   JointFitOptions out = search;
   if (pick->ambient) out.ambient = AmbientTerm::kFit;
   if (pick->height) out.sample_height = NuisanceTerm::kFit;
@@ -397,7 +407,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   JointSelectionResult out;
   SearchModels(data, names, use, light0, search, &out);
   std::string nuisance_reason;
-  JointFitResult unresolved;  // only its unresolved_* fields
+  std::optional<UnresolvedNuisance> unresolved;
   const auto final_use = Subsample(data, options.final_max_observations);
   const JointFitOptions chosen_options =
       ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
@@ -424,10 +434,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
                                chosen_options, false, &chosen);
   DropUnsupportedNuisances(data, final_use, search, options, without_nuisances, &nuisance_reason,
                            &out);
-  out.final_fit.unresolved_nuisance = unresolved.unresolved_nuisance;
-  out.final_fit.unresolved_z = unresolved.unresolved_z;
-  out.final_fit.unresolved_lamp_shift_m = unresolved.unresolved_lamp_shift_m;
-  out.final_fit.unresolved_shift_in_sd = unresolved.unresolved_shift_in_sd;
+  out.final_fit.unresolved_nuisance = unresolved;
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
   if (options.sample_height == NuisanceTerm::kAuto) {
     out.final_fit.sample_height_reason = nuisance_reason;

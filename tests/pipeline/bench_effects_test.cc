@@ -160,7 +160,8 @@ TEST(BenchEffects, AmbientLightNeedsLampOffFramesOrAFittedTerm) {
     bool warned = false;
     for (const RunWarning& w : fit.warnings) warned |= w.cause == WarningCause::kAmbientLight;
     EXPECT_TRUE(warned) << fit.report;
-    EXPECT_EQ(fit.fit.unresolved_nuisance, "ambient") << fit.report;
+    ASSERT_TRUE(fit.fit.unresolved_nuisance) << fit.report;
+    EXPECT_EQ(fit.fit.unresolved_nuisance->term, UnresolvedNuisance::Term::kAmbient) << fit.report;
     fit = RunOn(dir.path(), scene, AmbientTerm::kFit);
   }
   ASSERT_EQ(fit.fit.ambient, AmbientTerm::kFit) << fit.report;
@@ -187,7 +188,7 @@ TEST(BenchEffects, AmbientAutoLeavesTheTermOutInADarkRoom) {
   const Outcome r = RunOn(dir.path(), scene, AmbientTerm::kAuto);
   EXPECT_EQ(r.fit.ambient, AmbientTerm::kNone) << r.report;
   EXPECT_NE(r.fit.ambient_reason.find("none kept"), std::string::npos) << r.report;
-  EXPECT_TRUE(r.fit.unresolved_nuisance.empty()) << r.report;
+  EXPECT_FALSE(r.fit.unresolved_nuisance) << r.report;
   EXPECT_NEAR(r.albedo, kAlbedo, 0.003) << r.report;
 }
 
