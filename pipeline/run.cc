@@ -141,43 +141,16 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
 }
 
 // The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
-// when photometric.json says how accurate it is: the response's slope error per octave (its band
-// biases' RMS over the octaves between neighbouring exposures), its ends where the prior holds
-// the table, and the rest of relative_accuracy for the vignetting.
+// when photometric.json says how accurate it is.
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
                           const JointFitOptions& fit_options, RunResult* r) {
-  const auto& accuracy = in.photometric.relative_accuracy;
-  if (!accuracy || o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
-  const ResponseResult& response = in.photometric.response;
-  CalibrationErrorModel e;
-  // The response's error where the observations are: their raw values' bands.
-  std::vector<double> values;
-  for (const auto& obs : r->observations.observations) {
-    values.insert(values.end(), obs.value.begin(), obs.value.end());
-  }
-  e.response_ratio_error = PhotometricCalibration::ResponseSlopeErrorAt(response, values);
-  // Where the sweep's data thin out, the table's own error (response.h, ResponseEnd).
-  e.response_ends = response.ends;
-  // Its wiggles between knots: the smoothing sensitivity is the change under a prior
-  // kSmoothingSensitivityFactor times stiffer, (factor - 1) times the prior's bias where the
-  // data hold the curve (the bias grows in proportion to the prior's weight there).
-  if (std::isfinite(response.knot_spacing)) {
-    e.response_wiggle =
-        PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
-    e.response_knot_spacing = response.knot_spacing;
-  }
-  // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
-  // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
-  // are in the noise floor but are no smooth field.
-  const double worst = std::min(PhotometricCalibration::ResponseAccuracy(response), *accuracy);
-  const double smoothing = PhotometricCalibration::SmoothingError(response);
-  e.vignette_rms =
-      std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
-  e.principal_point = {r->camera.intrinsics[2], r->camera.intrinsics[3]};
-  e.radius_px = 0.5 * std::hypot(r->camera.width, r->camera.height);
+  if (o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
+  const std::optional<CalibrationErrorModel> e =
+      CalibrationErrorModelAt(in.photometric, r->observations, r->camera);
+  if (!e) return;
   spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);
   r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
-                                                   e, o.calibration_error);
+                                                   *e, o.calibration_error);
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
 }
 
@@ -306,7 +279,8 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     mo.light_frame = o.fit.light_frame;
     mo.white_albedo = o.fit.white_albedo;
     mo.threads = mo.sampling.threads = o.fit.threads;
-    r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit);
+    r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit,
+                             r.calibration_error ? &*r.calibration_error : nullptr);
     AddMapsWarnings(*r.maps, &r.warnings);
     r.timings.maps_s = clock.Lap();
   }

@@ -231,6 +231,41 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   return p;
 }
 
+std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
+    const PhotometricCalibration& photometric, const ObservationSet& data,
+    const CameraModel& camera) {
+  const auto& accuracy = photometric.relative_accuracy;
+  if (!accuracy) return std::nullopt;
+  const ResponseResult& response = photometric.response;
+  CalibrationErrorModel e;
+  // The response's error where the observations are: their raw values' bands.
+  std::vector<double> values;
+  for (const auto& obs : data.observations) {
+    values.insert(values.end(), obs.value.begin(), obs.value.end());
+  }
+  e.response_ratio_error = PhotometricCalibration::ResponseSlopeErrorAt(response, values);
+  // Where the sweep's data thin out, the table's own error (response.h, ResponseEnd).
+  e.response_ends = response.ends;
+  // Its wiggles between knots: the smoothing sensitivity is the change under a prior
+  // kSmoothingSensitivityFactor times stiffer, (factor - 1) times the prior's bias where the
+  // data hold the curve (the bias grows in proportion to the prior's weight there).
+  if (std::isfinite(response.knot_spacing)) {
+    e.response_wiggle =
+        PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
+    e.response_knot_spacing = response.knot_spacing;
+  }
+  // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
+  // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
+  // are in the noise floor but are no smooth field.
+  const double worst = std::min(PhotometricCalibration::ResponseAccuracy(response), *accuracy);
+  const double smoothing = PhotometricCalibration::SmoothingError(response);
+  e.vignette_rms =
+      std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
+  e.principal_point = {camera.intrinsics[2], camera.intrinsics[3]};
+  e.radius_px = 0.5 * std::hypot(camera.width, camera.height);
+  return e;
+}
+
 void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* fit) {
   auto& sd = fit->material.stddev;
   for (size_t i = 0; i < std::min(sd.size(), p.param_stddev.size()); ++i) {

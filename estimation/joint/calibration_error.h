@@ -45,7 +45,9 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "calib/photometry/photometric.h"
 #include "calib/photometry/response.h"
+#include "common/camera_model.h"
 #include "estimation/extract/observations.h"
 #include "estimation/joint/joint_fit.h"
 
@@ -81,6 +83,16 @@ struct CalibrationPropagation {
   std::string Report() const;  // one line per quantity
   nlohmann::json ToJson() const;
 };
+
+// The error model of a photometric calibration at the observations `data` holds, when
+// photometric.json says how accurate it is (relative_accuracy; none: nothing to propagate):
+// the response's slope error per octave (its band biases' RMS over the octaves between
+// neighbouring exposures, at the observations' raw values), its ends where the prior holds the
+// table, its wiggles between knots, and the rest of relative_accuracy for the vignetting. Used
+// by gonio run (pipeline/run.cc) and gonio maps (estimation/maps/maps_session.cc) alike.
+std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
+    const PhotometricCalibration& photometric, const ObservationSet& data,
+    const CameraModel& camera);
 
 // The refits' spread of every material parameter, the lamp position and intensity. Needs a
 // converged `fit` of `data`; NumericalError when fewer than half the refits converge.

@@ -112,6 +112,7 @@ void MapsOptions::Check() const {
   sampling.Check();
   solve.Check();
   clusters.Check();
+  if (calibration_error.draws != 0) calibration_error.Check();
   if (lamp && (!lamp->allFinite() || lamp->norm() > kMaxLightDistance)) {
     throw InputError("--lamp: not a finite position within 1000 m");
   }

@@ -28,6 +28,7 @@
 #include "calib/photometry/photometric.h"
 #include "common/camera_model.h"
 #include "common/session.h"
+#include "estimation/joint/calibration_error.h"
 #include "estimation/joint/joint_fit.h"
 #include "estimation/maps/clusters.h"
 #include "estimation/maps/registration.h"
@@ -62,6 +63,10 @@ struct MapsOptions {
   // photometric.json's relative_accuracy; docs/maps.md "Noise").
   double relative_noise_floor = 0;
   std::optional<int> hold_out;  // a view fitted without and predicted (rectified input)
+  // Refits of the uniform fit under perturbed calibrations (estimation/joint/calibration_error.h)
+  // when photometric.json gives its accuracy: their spread of the roughness, the albedo and the
+  // lamp is added to the maps' standard deviations (docs/maps.md "Calibration error"); 0: off.
+  CalibrationPropagationOptions calibration_error;
   // Rounds of registering the views against the maps (estimation/maps/registration.h); 0: off.
   // Grids with more texels than 1.5 times this: the lamp, registration, noise model, clusters
   // and roughness hypothesis are found on blocks of about this many texels, the chosen maps
@@ -118,6 +123,10 @@ struct MapsResult {
   std::string lamp_source;
   // The uniform fit that placed the lamp (a session without --lamp): its model and result.
   std::optional<JointFitResult> uniform_fit;
+  // The calibration's part of the uncertainty, from refits of the uniform fit (none: no
+  // accuracy in photometric.json, --lamp given, or off), and what of it entered the maps.
+  std::optional<CalibrationPropagation> calibration_error;
+  std::string calibration_error_use;
   std::vector<ViewFit> views;
   std::optional<HeldOutView> held_out;
   std::vector<ViewRegistration> registration;  // per view (all views)
@@ -157,10 +166,20 @@ MapsSessionInputs LoadMapsSessionInputs(const std::filesystem::path& session_dir
                                         const std::string& photometric_path, bool assume_linear);
 
 // poses: the board poses already located (gonio run), else located here; uniform: the
-// joint fit's result to take the lamp from (gonio run), else fitted here unless options.lamp.
+// joint fit's result to take the lamp from (gonio run), else fitted here unless options.lamp;
+// calibration: the calibration error propagated through that fit (gonio run), else
+// propagated here through the uniform fit (options.calibration_error).
 MapsResult MapsFromSession(const MapsSessionInputs& inputs, const MapsOptions& options,
                            const SessionPoses* poses = nullptr,
-                           const JointFitResult* uniform = nullptr);
+                           const JointFitResult* uniform = nullptr,
+                           const CalibrationPropagation* calibration = nullptr);
+
+// Adds the calibration part (the uniform fit's refits) in quadrature to the maps' standard
+// deviations: the roughness's (shared, per cluster and per texel) when the uniform model has
+// the maps' roughness parameter, every texel's albedo by its relative part (one-weight models),
+// and the lamp's. Sets result->calibration_error_use to what was added.
+void AddMapsCalibrationUncertainty(const CalibrationPropagation& calibration,
+                                   const JointFitResult& uniform, MapsResult* result);
 
 // MaterialGAN's rectified layout (docs/maps.md "Rectified captures").
 MapsResult MapsFromRectified(const std::filesystem::path& dir, const MapsOptions& options);

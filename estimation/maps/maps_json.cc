@@ -171,6 +171,10 @@ json MapsResult::ToJson() const {
                         {"light_position", Vec3Json(uniform_fit->light_position)},
                         {"intensity", uniform_fit->intensity}};
   }
+  if (calibration_error) {
+    j["calibration_error"] = calibration_error->ToJson();
+    j["calibration_error"]["added_to_maps"] = calibration_error_use;
+  }
   if (held_out) {
     j["holdout"] = {{"view", held_out->view},
                     {"name", held_out->name},
@@ -225,6 +229,10 @@ std::string MapsResult::Report() const {
   if (held_out) {
     s += fmt::format("held-out view {} ({}): relative RMSE {:.4f} over {} texels\n", held_out->view,
                      held_out->name, held_out->relative_rmse, held_out->texels);
+  }
+  if (calibration_error) {
+    s += fmt::format("calibration error (refits of the uniform fit) added to the maps' sd: {}\n",
+                     calibration_error_use);
   }
   for (const auto& w : warnings) s += "WARNING: " + w + "\n";
   s += fmt::format("timing: sample {:.1f} s, uniform fit {:.1f} s, maps {:.1f} s\n", sample_s,

@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include "calib/geometry/detect.h"
@@ -90,10 +91,13 @@ SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat
 }
 
 // The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
+// With photometric.json's accuracy, the calibration's error is propagated through it as gonio
+// run does (pipeline/run.cc), into *calibration.
 JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
                           const std::vector<cv::Mat>& frames,
                           const std::vector<TexelSampler::Pose>& sampler_poses,
-                          const std::vector<size_t>& frame_of) {
+                          const std::vector<size_t>& frame_of,
+                          std::optional<CalibrationPropagation>* calibration) {
   const Session& session = in.session;
   ExtractOptions eo;
   eo.patch = 4;
@@ -118,13 +122,22 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
       maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
   spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
                obs.observations.size());
-  return FitJoint(model, obs, InitialLight(obs, jo), jo);
+  JointFitResult fit = FitJoint(model, obs, InitialLight(obs, jo), jo);
+  const std::optional<CalibrationErrorModel> e =
+      CalibrationErrorModelAt(in.photometric, obs, in.camera);
+  if (e && o.calibration_error.draws > 0 && fit.material.converged) {
+    spdlog::info("maps: propagating the calibration's error ({} refits of the uniform fit)",
+                 o.calibration_error.draws);
+    *calibration = PropagateCalibrationError(obs, fit, jo, *e, o.calibration_error);
+  }
+  return fit;
 }
 
 }  // namespace
 
 MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
-                           const SessionPoses* poses_in, const JointFitResult* uniform_in) {
+                           const SessionPoses* poses_in, const JointFitResult* uniform_in,
+                           const CalibrationPropagation* calibration_in) {
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
   const Session& session = in.session;
@@ -149,13 +162,15 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
       o.light_frame == LightFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
   lamp.white_albedo = o.white_albedo;
   std::optional<JointFitResult> uniform;
+  std::optional<CalibrationPropagation> calibration;
   const auto t_fit = std::chrono::steady_clock::now();
   if (o.lamp) {
     lamp.position = *o.lamp;
   } else if (uniform_in) {
     uniform = *uniform_in;
+    if (calibration_in) calibration = *calibration_in;
   } else {
-    uniform = UniformFit(in, o, frames, sampler_poses, frame_of);
+    uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration);
   }
   if (uniform) {
     lamp.position = uniform->light_position;
@@ -187,6 +202,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   r.sample_s = sample_s;
   r.uniform_fit_s = fit_s;
   r.uniform_fit = uniform;
+  if (calibration && uniform) AddMapsCalibrationUncertainty(*calibration, *uniform, &r);
   r.input = session.dir.string();
   r.lamp_source = o.lamp ? "--lamp (held fixed)"
                          : fmt::format("uniform {} fit{}, refined with the maps",
@@ -197,6 +213,50 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
     r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
   }
   return r;
+}
+
+void AddMapsCalibrationUncertainty(const CalibrationPropagation& calibration,
+                                   const JointFitResult& uniform, MapsResult* r) {
+  TexelFit& f = r->fit;
+  const MapsModelInfo info = InfoOf(f.model);
+  auto part = [&](const std::string& name) -> std::optional<double> {
+    for (size_t i = 0; i < calibration.param_names.size(); ++i) {
+      if (calibration.param_names[i] == name) return calibration.param_stddev[i];
+    }
+    return std::nullopt;
+  };
+  std::vector<std::string> added;
+  // A calibration error bends every view the same way, so it moves the shared roughness as it
+  // moves the uniform fit's: the same model's parameter in the same unit, else not added.
+  if (const auto sd = info.has_roughness ? part(info.roughness_name) : std::nullopt) {
+    for (auto& c : f.cluster_r_sd) c = std::hypot(c, *sd);
+    for (size_t t = 0; t < f.sd_r.size(); ++t) {
+      if (f.fitted[t]) f.sd_r[t] = static_cast<float>(std::hypot(f.sd_r[t], *sd));
+    }
+    added.push_back(fmt::format("{} +-{:.3g} {}", info.roughness_name, *sd, info.roughness_unit));
+  }
+  // The albedo's part is a common scale: its relative size times every texel's albedo.
+  const std::optional<double> albedo_sd = part("albedo");
+  double albedo = 0;
+  for (size_t i = 0; i < uniform.material.param_names.size(); ++i) {
+    if (uniform.material.param_names[i] == "albedo") albedo = uniform.material.params[i];
+  }
+  if (albedo_sd && f.m == 1 && albedo > 0) {
+    const double rel = *albedo_sd / albedo;
+    for (size_t k = 0; k < f.sd_w.size(); ++k) {
+      f.sd_w[k] = static_cast<float>(std::hypot(f.sd_w[k], rel * f.w[k]));
+    }
+    added.push_back(fmt::format("albedo +-{:.2f}%", 100 * rel));
+  }
+  if (f.lamp.position_sd) {
+    for (int k = 0; k < 3; ++k) {
+      (*f.lamp.position_sd)[k] = std::hypot((*f.lamp.position_sd)[k], calibration.light_stddev[k]);
+    }
+    added.push_back(fmt::format("lamp +-{:.2g} m", calibration.light_stddev.maxCoeff()));
+  }
+  r->calibration_error = calibration;
+  r->calibration_error_use = added.empty() ? "none of it (the maps' model has other parameters)"
+                                           : fmt::format("{}", fmt::join(added, ", "));
 }
 
 }  // namespace gonio

@@ -223,9 +223,10 @@ INSTANTIATE_TEST_SUITE_P(Cameras, UserChain,
 // met with the renderer's calibrations, MapsCli.TexturedSessionOneMaterial): the textured preset
 // at 640x480, 12 views, a 12-bit gamma camera with black level 64; camera model, poses, response
 // and vignetting calibrated with the CLI as above, then `gonio maps`. Measured 2026-12-02:
-// albedo 0.59% RMS (z 1.09), normal 0.85 deg (z 1.03), sigma 30.20 +- 0.04 deg (0.20 deg off:
-// z 4.5, open: the shared roughness's standard deviation holds the pixel noise only, not the
-// calibrations' error, which gonio run propagates and gonio maps does not yet), one material.
+// albedo 0.59% RMS (z 0.77), normal 0.85 deg (z 1.03), sigma 30.20 +- 0.64 deg (z 0.32), one
+// material. Before the calibration's error entered the maps (refits of the uniform fit, as
+// gonio run propagates it: sigma +-0.0111 rad, albedo +-0.53%, lamp +-6.6 mm) the shared sigma
+// read +- 0.04 deg, z 4.5, and the albedo z 1.09.
 TEST(UserChainMaps, TexturedSampleWithinTwiceTheRenderersCalibrationTargets) {
   testing::TempDir dir;
   synth::Scene scene = synth::PresetScene("textured");
@@ -253,6 +254,11 @@ TEST(UserChainMaps, TexturedSampleWithinTwiceTheRenderersCalibrationTargets) {
   EXPECT_LT(c.albedo_rms_z, 3.2);
   EXPECT_GT(c.normal_rms_z, 0.3);
   EXPECT_LT(c.normal_rms_z, 3.2);
+  // The shared roughness is one value: its |z| under 3, with the calibration's part in its sd.
+  EXPECT_LT(c.roughness_rms_z, 3.0);
+  const nlohmann::json maps = ReadJsonFile(out / "maps.json");
+  ASSERT_TRUE(maps.contains("calibration_error")) << "no calibration error in maps.json";
+  EXPECT_GT(maps["calibration_error"]["param_stddev"]["sigma"].get<double>(), 0.0);
 }
 
 }  // namespace
