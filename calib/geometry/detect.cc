@@ -71,9 +71,11 @@ void AprilTagOptions::Check() const {
   if (max_hamming < 0 || max_hamming > 2) throw InputError("--max-hamming must be 0, 1 or 2");
 }
 
-cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth) {
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth,
+                      ImageExpectation::Jpeg jpeg) {
   ImageExpectation expect;
   expect.bit_depth = bit_depth;
+  expect.jpeg = jpeg;
   return GreyForDetection(ReadImage(path, expect), bit_depth);
 }
 

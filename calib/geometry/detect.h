@@ -17,6 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/geometry/board.h"
+#include "common/image_io.h"
 
 namespace gonio {
 
@@ -49,8 +50,12 @@ struct TagDetection {
 };
 
 // Reads an image as 8-bit grey (GreyForDetection of the decoded file); InputError naming the
-// file when it cannot be read.
-cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0);
+// file when it cannot be read. A JPEG gives its luma channel by default (common/image_io.h:
+// the grey its camera encoded, not one computed again from clipped BGR); session frames pass
+// kAsStored, the grey `gonio run` derives from the colour frame it decodes once for
+// radiometry, so that `gonio locate` and `gonio run` detect the same corners.
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0,
+                      ImageExpectation::Jpeg jpeg = ImageExpectation::Jpeg::kLuma);
 
 // The 8-bit grey image the detectors take, from a frame as decoded (cv::IMREAD_UNCHANGED:
 // grey or BGR(A), 8 or 16 bit). 16-bit frames are scaled by their own bright level (the
