@@ -122,8 +122,9 @@ int Within(const std::vector<double>& worst, double tolerance) {
 double Max(const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); }
 
 // With the defaults every one of the 47 tags is found: more than libapriltag alone at either
-// decimation (30 at 2, 45 at 1). AprilTag's test tolerance is 0.1 px per coordinate against
-// corners it computed at decimation 1 without edge refinement.
+// decimation (30 at 2, 45 at 1, 46 at 1 without edge refinement). AprilTag's test tolerance is
+// 0.1 px per coordinate against corners it computed at decimation 1 without edge refinement,
+// on the JPEG's luma.
 TEST(TagSearch, AprilTagsOwnPhotosAllFoundWithTheDefaults) {
   GONIO_REQUIRE_TEST_DATA();
   const Match gonio = OnAprilTagPhotos(AprilTagOptions());
@@ -132,31 +133,28 @@ TEST(TagSearch, AprilTagsOwnPhotosAllFoundWithTheDefaults) {
   const Match d2 = OnAprilTagPhotos(single);
   single.decimate = 1;
   const Match d1 = OnAprilTagPhotos(single);
-  // AprilTag's test configuration, through gonio's image reader.
-  single.refine_edges = false;
+  single.refine_edges = false;  // AprilTag's test configuration
   const Match test_config = OnAprilTagPhotos(single);
   std::printf(
-      "AprilTag's photos, 47 tags: gonio %d (within 0.1 px %d, median worst coordinate %.3f px), "
-      "libapriltag d=2 %d, d=1 %d; AprilTag's test configuration %d (within 0.1 px %d, max "
-      "%.3f px)\n",
-      gonio.found, Within(gonio.worst_coordinate, 0.1), Median(gonio.worst_coordinate), d2.found,
-      d1.found, test_config.found, Within(test_config.worst_coordinate, 0.1),
-      *std::max_element(test_config.worst_coordinate.begin(), test_config.worst_coordinate.end()));
+      "AprilTag's photos, 47 tags: gonio %d (within 0.1 px %d, median worst coordinate %.3f px, "
+      "max %.3f px), libapriltag d=2 %d, d=1 %d, d=1 without edge refinement %d (within 0.1 px "
+      "%d, max %.3f px)\n",
+      gonio.found, Within(gonio.worst_coordinate, 0.1), Median(gonio.worst_coordinate),
+      Max(gonio.worst_coordinate), d2.found, d1.found, test_config.found,
+      Within(test_config.worst_coordinate, 0.1), Max(test_config.worst_coordinate));
   EXPECT_EQ(gonio.found, 47);
   EXPECT_EQ(gonio.extra, 0);
-  EXPECT_GT(gonio.found, std::max(d1.found, d2.found));
-  // The tags the decimated pass finds carry libapriltag's edge refinement, which the reference
-  // lacks (measured: the median tag's worst coordinate 0.30 px from it, at most 1.9 px); those
-  // found at full resolution carry none and agree with it (measured: 15 within 0.1 px).
-  EXPECT_GE(Within(gonio.worst_coordinate, 0.1), 14);
-  EXPECT_LE(*std::max_element(gonio.worst_coordinate.begin(), gonio.worst_coordinate.end()), 2.0);
-  // AprilTag's own configuration through OpenCV's JPEG decoding and grey conversion: the
-  // deviations are the decoder's (measured: 42 of 46 within 0.1 px, at most 0.29 px; libapriltag
-  // 3.3 with its own decoder finds 47, 46 within 0.1 px, at most 0.14 px).
-  EXPECT_GE(Within(test_config.worst_coordinate, 0.1), 41);
-  EXPECT_LE(
-      *std::max_element(test_config.worst_coordinate.begin(), test_config.worst_coordinate.end()),
-      0.35);
+  EXPECT_GT(gonio.found, std::max({d1.found, d2.found, test_config.found}));
+  // The full-resolution pass comes first and agrees with the reference (measured: 44 of its 46
+  // within 0.1 px, the other two at 0.11 and 0.14 px, as libapriltag 3.3 gives them on AprilTag's
+  // own decoder: the reference was made by a later libapriltag). The one tag it loses comes from
+  // the decimated pass with edge refinement, which the reference lacks (measured 0.66 px).
+  EXPECT_GE(Within(gonio.worst_coordinate, 0.1), 44);
+  EXPECT_LT(Median(gonio.worst_coordinate), 0.01);
+  EXPECT_LE(Max(gonio.worst_coordinate), 0.75);
+  EXPECT_EQ(test_config.found, 46);
+  EXPECT_GE(Within(test_config.worst_coordinate, 0.1), 44);
+  EXPECT_LE(Max(test_config.worst_coordinate), 0.15);
 }
 
 // The JPEG's luma against the BGR -> grey of the photo decoded as stored: the luma is the grey
@@ -194,9 +192,10 @@ TEST(TagSearch, TheJpegsLumaAgreesWithAprilTagsReferenceBetterThanGreyFromBgr) {
   EXPECT_LT(cv::mean(diff)[0], 0.1);  // measured 0.009
 }
 
-// A tag too small for the decimated pass beside one it finds, without a board: the contrast
-// no found tag explains sends the full-resolution pass to it.
-TEST(TagSearch, WithoutABoardSmallTagsAreFoundWhereTheImageHasUnexplainedContrast) {
+// A tag too small for the decimated pass beside one it finds, without a board: the
+// full-resolution pass finds both, with the corners libapriltag gives at full resolution
+// without edge refinement; the decimated pass adds nothing new.
+TEST(TagSearch, WithoutABoardTheFullResolutionPassFindsSmallTags) {
   apriltag_family_t* tf = tag36h11_create();
   auto draw = [&](int id, int scale, cv::Mat* img, cv::Point at) {
     image_u8_t* tag = apriltag_to_image(tf, id);
@@ -217,13 +216,17 @@ TEST(TagSearch, WithoutABoardSmallTagsAreFoundWhereTheImageHasUnexplainedContras
   const auto decimated = DetectAprilTags(img, o);
   ASSERT_EQ(decimated.size(), 1u);
   EXPECT_EQ(decimated[0].id, 3);
-  o.full_resolution_search = true;
-  const auto both = DetectAprilTags(img, o);
+  o.decimate = 1;
+  o.refine_edges = false;
+  const auto full_resolution = DetectAprilTags(img, o);
+  ASSERT_EQ(full_resolution.size(), 2u);
+  const auto both = DetectAprilTags(img, AprilTagOptions());
   ASSERT_EQ(both.size(), 2u);
   EXPECT_EQ(both[0].id, 3);
   EXPECT_EQ(both[1].id, 5);
-  // The big tag keeps its decimated-pass corners: the second pass only adds.
-  for (int c = 0; c < 4; ++c) EXPECT_EQ(both[0].corners[c], decimated[0].corners[c]);
+  for (size_t t = 0; t < 2; ++t) {
+    for (int c = 0; c < 4; ++c) EXPECT_EQ(both[t].corners[c], full_resolution[t].corners[c]);
+  }
 }
 
 // A full 10 x 8 grid of 30 mm tags seen 75 deg off its normal from 0.45 m, two views from
