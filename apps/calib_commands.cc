@@ -34,8 +34,10 @@ void AddDetectorOptions(CLI::App* cmd, AprilTagOptions* opt) {
   cmd->add_option("--max-hamming", opt->max_hamming, "bit errors corrected (0..2)")
       ->capture_default_str();
   cmd->add_option("--full-res-search", opt->full_resolution_search,
-                  "after the decimated pass, search at full resolution where tags are missing "
-                  "(the board's layout, or contrast no found tag explains) (true/false)")
+                  "search at full resolution too: with a board after the decimated pass, where "
+                  "tags are missing (the board's layout, or contrast no found tag explains); "
+                  "without one first, over the whole image without edge refinement, the "
+                  "decimated pass then adding what it lost (true/false)")
       ->capture_default_str();
 }
 

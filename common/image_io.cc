@@ -120,6 +120,25 @@ void CheckBitDepth(const cv::Mat& m, const std::string& what, const ImageExpecta
   }
 }
 
+// A JPEG starts with the SOI marker and another marker (FF D8 FF), whatever its extension.
+bool IsJpeg(const fs::path& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  unsigned char head[3] = {0, 0, 0};
+  const size_t n = std::fread(head, 1, 3, f);
+  std::fclose(f);
+  return n == 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF;
+}
+
+// IMREAD_GRAYSCALE alone would also turn the image as its EXIF orientation says; the luma must
+// keep the pixel grid the stored (IMREAD_UNCHANGED) decode has.
+int DecodeFlags(const fs::path& path, const ImageExpectation& e) {
+  if (e.jpeg == ImageExpectation::Jpeg::kLuma && IsJpeg(path)) {
+    return cv::IMREAD_GRAYSCALE | cv::IMREAD_IGNORE_ORIENTATION;
+  }
+  return cv::IMREAD_UNCHANGED;
+}
+
 }  // namespace
 
 cv::Mat ReadImage(const fs::path& path, const ImageExpectation& e) {
@@ -132,7 +151,7 @@ cv::Mat ReadImage(const fs::path& path, const ImageExpectation& e) {
   std::string decoder_says;
   {
     DecoderMessages messages;
-    m = cv::imread(what, cv::IMREAD_UNCHANGED);
+    m = cv::imread(what, DecodeFlags(path, e));
     decoder_says = messages.Restore();
   }
   if (m.empty()) {

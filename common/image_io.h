@@ -32,9 +32,17 @@ struct ImageExpectation {
   // A fourth (alpha) channel: kept, dropped (BGRA -> BGR) or refused.
   enum class Alpha { kKeep, kDrop, kRefuse };
   Alpha alpha = Alpha::kKeep;
+  // JPEG files (told by their first bytes): decoded as stored (BGR), or to the luma channel the
+  // file holds (kLuma, for tag detection): libjpeg outputs the decoded Y itself, where BGR ->
+  // grey computes it again from channels whose chroma was upsampled and each clipped to 0..255
+  // (up to 23 grey levels apart on AprilTag's test photos, docs/calibration.md). Other formats
+  // are decoded as stored either way.
+  enum class Jpeg { kAsStored, kLuma };
+  Jpeg jpeg = Jpeg::kAsStored;
 };
 
-// Decodes `path` as stored (cv::IMREAD_UNCHANGED) and checks it against `expect`. InputError
+// Decodes `path` as stored (cv::IMREAD_UNCHANGED; a JPEG's luma with expect.jpeg = kLuma) and
+// checks it against `expect`. InputError
 // "PATH: problem" on a missing file, a file OpenCV cannot decode, or any mismatch.
 cv::Mat ReadImage(const std::filesystem::path& path, const ImageExpectation& expect = {});
 

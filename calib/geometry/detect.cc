@@ -71,9 +71,11 @@ void AprilTagOptions::Check() const {
   if (max_hamming < 0 || max_hamming > 2) throw InputError("--max-hamming must be 0, 1 or 2");
 }
 
-cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth) {
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth,
+                      ImageExpectation::Jpeg jpeg) {
   ImageExpectation expect;
   expect.bit_depth = bit_depth;
+  expect.jpeg = jpeg;
   return GreyForDetection(ReadImage(path, expect), bit_depth);
 }
 
@@ -329,10 +331,21 @@ std::atomic<size_t> board_detections{0};
 size_t BoardDetectionCount() { return board_detections.load(); }
 
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options) {
-  return DetectInPasses(grey, options, {false},
-                        [&](const std::vector<TagDetection>& found, int contrast, int) {
-                          return UnexplainedContrastRegions(grey, found, contrast);
-                        });
+  if (!options.full_resolution_search || options.decimate <= 1) {
+    return DetectInPasses(grey, options, {}, nullptr);
+  }
+  options.Check();
+  CheckGrey(grey);
+  // Without a board no session's speed is at stake: AprilTag's recommended configuration first
+  // (decimation 1 without edge refinement, which is for quads found on a decimated image; its
+  // test photos' reference corners are made so), then every tag the decimated pass finds that it
+  // lost (docs/calibration.md "Tag detection"). A decimated pass over the whole image costs a
+  // quarter of the first (at decimation 2) and is exactly libapriltag's.
+  AprilTagDetector detector(options);
+  const cv::Rect image(0, 0, grey.cols, grey.rows);
+  std::vector<TagDetection> tags = detector.Detect(grey, image, 1.0, false);
+  AddNew(detector.Detect(grey, image, options.decimate, options.refine_edges), &tags);
+  return SortById(tags);
 }
 
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,

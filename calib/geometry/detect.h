@@ -17,6 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/geometry/board.h"
+#include "common/image_io.h"
 
 namespace gonio {
 
@@ -29,14 +30,16 @@ struct AprilTagOptions {
   int threads = 1;
   double decode_sharpening = 0.25;
   int max_hamming = 1;  // bit errors corrected (0..2); more finds more false positives
-  // After the decimated pass, where tags may be missing: with a board, each board tag its
-  // layout predicts but no pass found is searched on a fronto-parallel, upsampled view warped
-  // through a homography from the nearest found tags (only the id the layout puts there); then,
-  // when decimate > 1, a pass at full resolution (decimation 1, edge refinement off, as
-  // AprilTag's own tests detect) around the board tags still missing, or without a board (or
-  // with no board tag found) in the parts of the image whose contrast no found tag explains.
-  // Small and steeply foreshortened tags, lost on the decimated image, are found there
-  // (docs/calibration.md "Tag detection").
+  // Small and steeply foreshortened tags, lost on the decimated image, searched for at full
+  // resolution too (docs/calibration.md "Tag detection"). With a board, after the decimated
+  // pass, where tags may be missing: each board tag its layout predicts but no pass found is
+  // searched on a fronto-parallel, upsampled view warped through a homography from the nearest
+  // found tags (only the id the layout puts there); then, when decimate > 1, a pass at full
+  // resolution (decimation 1, edge refinement off, as AprilTag's own tests detect) around the
+  // board tags still missing (with no board tag found: where the image has contrast no found
+  // tag explains). Without a board (DetectAprilTags), when decimate > 1: first a pass at full
+  // resolution without edge refinement over the whole image, then the decimated pass, which
+  // adds the tags the first lost. false: the decimated pass alone (libapriltag as it is).
   bool full_resolution_search = true;
   void Check() const;  // InputError naming the option
 };
@@ -49,8 +52,12 @@ struct TagDetection {
 };
 
 // Reads an image as 8-bit grey (GreyForDetection of the decoded file); InputError naming the
-// file when it cannot be read.
-cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0);
+// file when it cannot be read. A JPEG gives its luma channel by default (common/image_io.h:
+// the grey its camera encoded, not one computed again from clipped BGR); session frames pass
+// kAsStored, the grey `gonio run` derives from the colour frame it decodes once for
+// radiometry, so that `gonio locate` and `gonio run` detect the same corners.
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0,
+                      ImageExpectation::Jpeg jpeg = ImageExpectation::Jpeg::kLuma);
 
 // The 8-bit grey image the detectors take, from a frame as decoded (cv::IMREAD_UNCHANGED:
 // grey or BGR(A), 8 or 16 bit). 16-bit frames are scaled by their own bright level (the
@@ -60,9 +67,9 @@ cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0);
 // Only geometry is read from this image; radiometry always uses the decoded values.
 cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth = 0);
 
-// Every tag of options.family in an 8-bit grey image, sorted by id: the decimated pass, then
-// (options.full_resolution_search) full resolution where the image has contrast no found tag
-// explains.
+// Every tag of options.family in an 8-bit grey image, sorted by id: with
+// options.full_resolution_search, full resolution without edge refinement (AprilTag's own
+// configuration), then the decimated pass for the tags it lost; else the decimated pass alone.
 std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOptions& options);
 
 // One image's view of a board: which board points were seen and where.

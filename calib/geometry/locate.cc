@@ -291,7 +291,8 @@ SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camer
   std::vector<BoardObservation> observations;
   Progress progress("locate", session.frames.size());
   for (size_t i = 0; i < session.frames.size(); ++i) {
-    const cv::Mat grey = ReadGreyImage(session.FramePath(i), session.bit_depth);
+    const cv::Mat grey =
+        ReadGreyImage(session.FramePath(i), session.bit_depth, ImageExpectation::Jpeg::kAsStored);
     if (grey.cols != camera.width || grey.rows != camera.height) {
       throw InputError(fmt::format("{}: image is {}x{}, the camera model is {}x{}",
                                    session.FramePath(i).string(), grey.cols, grey.rows,

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
@@ -102,6 +103,29 @@ TEST(DetectBoard, UnreadableImageIsInputError) {
   { std::ofstream(bad) << "not a png"; }
   EXPECT_THROW(ReadGreyImage(bad), InputError);
   EXPECT_THROW(ReadGreyImage(dir.path() / "missing.png"), InputError);
+}
+
+// A JPEG (told by its first bytes, whatever its name) gives its luma channel: a saturated red
+// with dark stripes, whose BGR decode clips, reads as the grey the file encodes. Session frames
+// (kAsStored) and other formats keep the BGR -> grey of the stored decode.
+TEST(ReadGreyImage, JpegGivesItsLumaOtherFormatsTheirStoredGrey) {
+  testing::TempDir dir;
+  cv::Mat colour(64, 96, CV_8UC3, cv::Scalar(0, 0, 255));
+  for (int x = 0; x < colour.cols; x += 8) colour.col(x).setTo(cv::Scalar(0, 40, 20));
+  const auto jpeg = dir.path() / "frame.jpg", misnamed = dir.path() / "jpeg.png",
+             png = dir.path() / "frame.png";
+  ASSERT_TRUE(cv::imwrite(jpeg.string(), colour));
+  std::filesystem::copy_file(jpeg, misnamed);
+  ASSERT_TRUE(cv::imwrite(png.string(), colour));
+  const cv::Mat luma = cv::imread(jpeg.string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat from_bgr = GreyForDetection(cv::imread(jpeg.string(), cv::IMREAD_UNCHANGED));
+  ASSERT_GT(cv::norm(luma, from_bgr, cv::NORM_INF), 0);  // the case this test is about
+  EXPECT_EQ(cv::norm(ReadGreyImage(jpeg), luma, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(ReadGreyImage(misnamed), luma, cv::NORM_INF), 0);
+  EXPECT_EQ(
+      cv::norm(ReadGreyImage(jpeg, 0, ImageExpectation::Jpeg::kAsStored), from_bgr, cv::NORM_INF),
+      0);
+  EXPECT_EQ(cv::norm(ReadGreyImage(png), GreyForDetection(colour), cv::NORM_INF), 0);
 }
 
 TEST(CornersVnl, RoundTripThroughMrcalLattice) {
