@@ -348,6 +348,30 @@ std::vector<TagDetection> DetectAprilTags(const cv::Mat& grey, const AprilTagOpt
   return SortById(tags);
 }
 
+std::vector<TagDetection> DetectBoardTags(const cv::Mat& grey, const Board& board,
+                                          const AprilTagOptions& options) {
+  if (board.is_chessboard()) throw std::logic_error("DetectBoardTags: a chessboard has no tags");
+  AprilTagOptions opt = options;
+  opt.family = board.family();
+  // Full resolution without edge refinement (as AprilTag's tests detect), then with it where
+  // tags are still missing: each finds tags the other loses (docs/calibration.md).
+  return DetectInPasses(
+      grey, opt, {false, true},
+      [&](const std::vector<TagDetection>& found, int contrast, int pass) {
+        const auto anchors = OnBoard(board, found);
+        if (!anchors.empty()) return MissingBoardTagRegions(board, anchors, grey.size());
+        // Nothing to predict from: one pass where the image has contrast.
+        return pass == 0 ? UnexplainedContrastRegions(grey, found, contrast)
+                         : std::vector<cv::Rect>();
+      },
+      [&](const std::vector<TagDetection>& found, AprilTagDetector* detector) {
+        const auto anchors = OnBoard(board, found);
+        return detect_internal::DetectRectified(
+            grey, board,
+            Searchable(detect_internal::PredictMissingTags(board, anchors, grey.size())), detector);
+      });
+}
+
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name) {
   ++board_detections;
@@ -372,38 +396,24 @@ BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
     }
     return obs;
   }
-  AprilTagOptions opt = options;
-  opt.family = board.family();
-  // Full resolution without edge refinement (as AprilTag's tests detect), then with it where
-  // tags are still missing: each finds tags the other loses (docs/calibration.md).
-  const auto tags = DetectInPasses(
-      grey, opt, {false, true},
-      [&](const std::vector<TagDetection>& found, int contrast, int pass) {
-        const auto anchors = OnBoard(board, found);
-        if (!anchors.empty()) return MissingBoardTagRegions(board, anchors, grey.size());
-        // Nothing to predict from: one pass where the image has contrast.
-        return pass == 0 ? UnexplainedContrastRegions(grey, found, contrast)
-                         : std::vector<cv::Rect>();
-      },
-      [&](const std::vector<TagDetection>& found, AprilTagDetector* detector) {
-        const auto anchors = OnBoard(board, found);
-        return detect_internal::DetectRectified(
-            grey, board,
-            Searchable(detect_internal::PredictMissingTags(board, anchors, grey.size())), detector);
-      });
+  AddBoardTags(board, DetectBoardTags(grey, board, options), &obs);
+  return obs;
+}
+
+void AddBoardTags(const Board& board, const std::vector<TagDetection>& tags,
+                  BoardObservation* obs) {
   for (const TagDetection& t : tags) {
     const int k = board.TagIndex(t.id);
     if (k < 0) {
-      obs.foreign_tag_ids.push_back(t.id);
+      obs->foreign_tag_ids.push_back(t.id);
       continue;
     }
-    obs.tag_ids.push_back(t.id);
+    obs->tag_ids.push_back(t.id);
     for (int c = 0; c < 4; ++c) {
-      obs.point_index.push_back(Board::TagPointIndex(k, c));
-      obs.pixels.push_back(t.corners[c]);
+      obs->point_index.push_back(Board::TagPointIndex(k, c));
+      obs->pixels.push_back(t.corners[c]);
     }
   }
-  return obs;
 }
 
 std::string ToCornersVnl(const Board& board, const std::vector<BoardObservation>& observations) {

@@ -90,6 +90,15 @@ struct BoardObservation {
 BoardObservation DetectBoard(const cv::Mat& grey, const Board& board,
                              const AprilTagOptions& options, const std::string& image_name);
 
+// The tags DetectBoard finds on an AprilTag board (the board's and any others, sorted as
+// DetectAprilTags sorts), with libapriltag's decision margin and Hamming distance: what
+// `gonio detect --board` writes, so its JSON and its corners.vnl hold the same corners.
+std::vector<TagDetection> DetectBoardTags(const cv::Mat& grey, const Board& board,
+                                          const AprilTagOptions& options);
+// The board's corners of `tags` into *obs (its tags' ids and corners; the others' ids in
+// foreign_tag_ids): DetectBoard's observation of an AprilTag board.
+void AddBoardTags(const Board& board, const std::vector<TagDetection>& tags, BoardObservation* obs);
+
 // DetectBoard calls in this process so far: tests compare it before and after a run to count
 // the detections of each frame (docs/pipeline.md).
 size_t BoardDetectionCount();

@@ -104,7 +104,9 @@ nlohmann::json DetectionJson(const cv::Mat& grey, const std::string& image,
   }
   AprilTagOptions opt = detector;
   if (board) opt.family = board->family();
-  const auto tags = DetectAprilTags(grey, opt);
+  // With a board, the board's search (detect.h DetectBoardTags): the JSON and corners.vnl then
+  // hold the same corners, as `gonio calibrate` and `locate` detect them.
+  const auto tags = board ? DetectBoardTags(grey, *board, opt) : DetectAprilTags(grey, opt);
   if (tags.empty()) throw InputError(image + ": no " + opt.family + " tags found");
   nlohmann::json out = nlohmann::json::array();
   for (const auto& t : tags) {
@@ -115,7 +117,12 @@ nlohmann::json DetectionJson(const cv::Mat& grey, const std::string& image,
                    {"decision_margin", t.decision_margin},
                    {"hamming", t.hamming}});
   }
-  if (board) *obs = DetectBoard(grey, *board, opt, image);
+  if (board) {
+    obs->image = image;
+    obs->width = grey.cols;
+    obs->height = grey.rows;
+    AddBoardTags(*board, tags, obs);
+  }
   return out;
 }
 

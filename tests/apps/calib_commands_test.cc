@@ -1,8 +1,13 @@
 // End-to-end tests of `gonio detect`, `gonio calibrate` and `gonio locate` through the real
 // binary, on the real data.
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <set>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -63,6 +68,40 @@ TEST(DetectCli, AprilTagPhotoAll80IdsInJson) {
   EXPECT_EQ(ids.size(), 80u);
   for (int r = 0; r < 8; ++r) {
     for (int c = 0; c < 10; ++c) EXPECT_TRUE(ids.count(14 + 24 * r + c)) << 14 + 24 * r + c;
+  }
+}
+
+// With a board, the JSON and corners.vnl come from one detection, the board's search that
+// calibrate and locate run: every corner the JSON gives is a corners.vnl row (before, the JSON
+// came from the board-less search, whose corners differ since it runs full resolution first).
+TEST(DetectCli, BoardJsonAndCornersVnlHoldTheSameCorners) {
+  GONIO_REQUIRE_TEST_DATA();
+  testing::TempDir dir;
+  WritePhotoBoard(dir.path() / "board.json");
+  const fs::path vnl = dir.path() / "corners.vnl";
+  const auto r = RunGonio("detect --image " + Q(kPhoto) + " --board " +
+                          Q(dir.path() / "board.json") + " --decimate 4 --corners-vnl " + Q(vnl));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::vector<std::pair<double, double>> rows;
+  std::ifstream in(vnl);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string file, x, y;
+    if (line.empty() || line[0] == '#' || !(fields >> file >> x >> y) || x == "-") continue;
+    rows.emplace_back(std::stod(x), std::stod(y));
+  }
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j.size(), 80u);
+  EXPECT_EQ(rows.size(), 4 * j.size());
+  for (const auto& t : j) {
+    for (const auto& c : t["corners"]) {
+      const double x = c[0].get<double>(), y = c[1].get<double>();
+      const bool listed = std::any_of(rows.begin(), rows.end(), [&](const auto& p) {
+        return std::abs(p.first - x) < 1e-3 && std::abs(p.second - y) < 1e-3;
+      });
+      EXPECT_TRUE(listed) << "tag " << t["id"] << " corner " << x << ", " << y;
+    }
   }
 }
 
