@@ -432,8 +432,9 @@ std::optional<double> HeldOutFrameRms(const ModelInfo& info, const ObservationSe
   return std::sqrt(cv_sq / cv_n);
 }
 
-// The state a converged result of the same model and options stands for: its parameters (the
-// per-channel ones of every channel), lamp, intensity and fitted terms.
+// The state a converged result of the same model stands for: its parameters (the per-channel
+// ones of every channel), lamp, intensity and fitted terms (zero where `r` did not fit a term
+// that `o` fits).
 State StateFromResult(const ModelInfo& info, const JointFitResult& r, const ObservationSet& data,
                       const JointFitOptions& o) {
   State s;
@@ -584,6 +585,9 @@ void JointFitOptions::Check() const {
     throw InputError("relative noise floor must be in [0, 1)");
   }
   if (cv_folds < 2) throw InputError("cv folds must be >= 2");
+  if (!(function_tolerance > 0 && function_tolerance < 1)) {
+    throw InputError("function tolerance must be in (0, 1)");
+  }
   if (!(nuisance_margin >= 0) || !(nuisance_min_z >= 0)) {
     throw InputError("nuisance margin and minimum z must be >= 0");
   }

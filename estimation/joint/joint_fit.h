@@ -86,6 +86,10 @@ struct JointFitOptions {
   bool tabulated_models = true;
   int cv_folds = 4;
   int max_iterations = 100;
+  // A solve stops once a step lowers the cost by less than this fraction of it (Ceres'
+  // function tolerance). The model search's fits use a looser one derived from the criterion's
+  // margin (joint_selection.cc SearchTolerance); the reported fit uses this one.
+  double function_tolerance = 1e-10;
   int threads = 0;
   UncertaintyOptions uncertainty;
   void Check() const;

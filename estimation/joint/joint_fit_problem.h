@@ -263,7 +263,7 @@ void Solve(const ObservationSet& data, const std::vector<size_t>& use, const Mod
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = o.max_iterations;
-  so.function_tolerance = 1e-10;
+  so.function_tolerance = o.function_tolerance;
   so.logging_type = ceres::SILENT;
   // The bounds make Ceres' trust-region minimizer run a projected Armijo line search along
   // every step. With its default cubic interpolation that search evaluates the gradient, i.e.
@@ -322,8 +322,9 @@ std::vector<size_t> Subsample(const ObservationSet& data, size_t max_n);
 
 // One registry model fitted jointly with the lamp (joint_fit.cc), for the model search
 // (joint_selection.cc): from the registry defaults and `light_start`, or from `warm`, a
-// converged fit of the same model and options (on other observations of the same scene), so a
-// refit does not descend again from the defaults.
+// converged fit of the same model (on other observations of the same scene, or without some of
+// the nuisance terms `options` fits, which then start at zero), so a refit does not descend
+// again from the defaults.
 JointFitResult FitCandidate(const std::string& model, const ObservationSet& data,
                             const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
                             const JointFitOptions& options, bool cross_validate,
