@@ -48,24 +48,22 @@ struct DetectArgs {
 };
 
 void RunDetect(const DetectArgs& a) {
-  a.detector.Check();
-  if (a.board.empty() == a.family.empty()) {
-    throw InputError("detect: give exactly one of --board BOARD.json and --family FAMILY");
-  }
-  std::optional<Board> board;
-  if (!a.board.empty()) board = Board::Read(a.board);
   DetectArgs args = a;
   if (!a.family.empty()) args.detector.family = a.family;
   args.detector.Check();
+  if (a.board.empty() == a.family.empty()) {
+    throw InputError("detect: give exactly one of --board BOARD.json and --family FAMILY");
+  }
+  const std::optional<Board> board =
+      a.board.empty() ? std::nullopt : std::optional<Board>(Board::Read(a.board));
   if (!a.corners_vnl.empty() && !board) throw InputError("--corners-vnl needs --board");
   std::vector<std::string> inputs = a.images;
   inputs.push_back(a.board);
   if (!a.corners_vnl.empty()) CheckOutputIsNotInput(a.corners_vnl, inputs);
   if (!a.json_out.empty()) CheckOutputIsNotInput(a.json_out, inputs);
   const ImagesDetection d = DetectImages(a.images, args.detector, board ? &*board : nullptr);
-  if (!a.corners_vnl.empty()) {
+  if (!a.corners_vnl.empty())
     WriteTextAtomically(a.corners_vnl, ToCornersVnl(*board, d.observations));
-  }
   if (a.json_out.empty()) {
     PrintJson(d.json);
   } else {
