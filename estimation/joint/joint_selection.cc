@@ -95,8 +95,11 @@ JointFitOptions WithSearchTolerance(const JointFitOptions& options, size_t resid
   JointFitOptions o = options;
   if (options.exhaustive) return o;
   const double margin = std::min(ModelSelectionOptions{}.ic_margin, options.nuisance_margin);
-  o.function_tolerance = std::clamp(margin / (100.0 * std::max<size_t>(residuals, 1)),
-                                    options.function_tolerance, 1e-3);
+  // At most 1e-3, and never tighter than the options' own (std::clamp needs lo <= hi, which a
+  // function_tolerance above 1e-3 would break).
+  o.function_tolerance =
+      std::max(options.function_tolerance,
+               std::min(margin / (100.0 * std::max<size_t>(residuals, 1)), 1e-3));
   return o;
 }
 

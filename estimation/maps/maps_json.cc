@@ -99,20 +99,44 @@ json CandidatesJson(const MapsResult& r) {
   return out;
 }
 
+// The fit's residuals: all, the material edges' and per view.
+json ResidualsJson(const MapsResult& r) {
+  const TexelFit& fit = r.fit;
+  json views = json::array();
+  for (const auto& v : r.views) {
+    views.push_back({{"name", v.name},
+                     {"texels", v.texels},
+                     {"rms_z", v.rms_z},
+                     {"relative_rms", v.relative_rms},
+                     {"registration_rms_mm", 1e3 * v.registration_rms_m}});
+  }
+  return {{"chi2_per_residual", fit.residuals ? fit.chi2 / fit.residuals : 0.0},
+          {"residuals", fit.residuals},
+          {"edges",
+           {{"texels", fit.edge_texels},
+            {"residuals", fit.edge_residuals},
+            {"chi2_per_residual", fit.edge_residuals ? fit.edge_chi2 / fit.edge_residuals : 0.0},
+            {"reach_m", r.data.reach_m}}},
+          {"views", views}};
+}
+
+json GridJson(const MapsResult& r) {
+  const TexelGrid& grid = r.data.grid;
+  size_t fitted = 0;
+  for (auto f : r.fit.fitted) fitted += f;
+  return {{"texel_m", grid.texel},
+          {"width", grid.width},
+          {"height", grid.height},
+          {"first_texel_centre_in_board", {grid.origin.x(), grid.origin.y()}},
+          {"plane_z_m", grid.plane_z},
+          {"texels_fitted", fitted},
+          {"rows", "row j at board y = first + j texel (board +y down the map)"}};
+}
+
 }  // namespace
 
 json MapsResult::ToJson() const {
   const MapsModelInfo info = InfoOf(fit.model);
-  size_t fitted = 0;
-  for (auto f : fit.fitted) fitted += f;
-  json views_json = json::array();
-  for (const auto& v : views) {
-    views_json.push_back({{"name", v.name},
-                          {"texels", v.texels},
-                          {"rms_z", v.rms_z},
-                          {"relative_rms", v.relative_rms},
-                          {"registration_rms_mm", 1e3 * v.registration_rms_m}});
-  }
   json j = {
       {"format", "gonio-maps"},
       {"version", 1},
@@ -136,23 +160,8 @@ json MapsResult::ToJson() const {
         {"model",
          "sigma^2 = read_scale var_read + shot_scale var_shot + (relative_floor L)^2, scales "
          "fitted to the residuals"}}},
-      {"residuals",
-       {{"chi2_per_residual", fit.residuals ? fit.chi2 / fit.residuals : 0.0},
-        {"residuals", fit.residuals},
-        {"edges",
-         {{"texels", fit.edge_texels},
-          {"residuals", fit.edge_residuals},
-          {"chi2_per_residual", fit.edge_residuals ? fit.edge_chi2 / fit.edge_residuals : 0.0},
-          {"reach_m", data.reach_m}}},
-        {"views", views_json}}},
-      {"grid",
-       {{"texel_m", data.grid.texel},
-        {"width", data.grid.width},
-        {"height", data.grid.height},
-        {"first_texel_centre_in_board", {data.grid.origin.x(), data.grid.origin.y()}},
-        {"plane_z_m", data.grid.plane_z},
-        {"texels_fitted", fitted},
-        {"rows", "row j at board y = first + j texel (board +y down the map)"}}},
+      {"residuals", ResidualsJson(*this)},
+      {"grid", GridJson(*this)},
       {"conventions",
        {{"normal",
          "tangent space, stored (x, y, z): X = board +x (map right), Y = board -y (map up), Z = "

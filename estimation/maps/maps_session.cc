@@ -23,6 +23,16 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
+// The value of parameter `name` (values in the order of `names`); none when absent.
+std::optional<double> Named(const std::vector<std::string>& names,
+                            const std::vector<double>& values, const std::string& name) {
+  const auto at = std::find(names.begin(), names.end(), name);
+  if (at == names.end() || static_cast<size_t>(at - names.begin()) >= values.size()) {
+    return std::nullopt;
+  }
+  return values[at - names.begin()];
+}
+
 }  // namespace
 
 MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::string& camera_path,
@@ -123,9 +133,10 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
   spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
                obs.observations.size());
   JointFitResult fit = FitJoint(model, obs, InitialLight(obs, jo), jo);
+  if (o.calibration_error.draws == 0 || !fit.material.converged) return fit;
   const std::optional<CalibrationErrorModel> e =
       CalibrationErrorModelAt(in.photometric, obs, in.camera);
-  if (e && o.calibration_error.draws > 0 && fit.material.converged) {
+  if (e) {
     spdlog::info("maps: propagating the calibration's error ({} refits of the uniform fit)",
                  o.calibration_error.draws);
     *calibration = PropagateCalibrationError(obs, fit, jo, *e, o.calibration_error);
@@ -219,11 +230,8 @@ void AddMapsCalibrationUncertainty(const CalibrationPropagation& calibration,
                                    const JointFitResult& uniform, MapsResult* r) {
   TexelFit& f = r->fit;
   const MapsModelInfo info = InfoOf(f.model);
-  auto part = [&](const std::string& name) -> std::optional<double> {
-    for (size_t i = 0; i < calibration.param_names.size(); ++i) {
-      if (calibration.param_names[i] == name) return calibration.param_stddev[i];
-    }
-    return std::nullopt;
+  auto part = [&](const std::string& name) {
+    return Named(calibration.param_names, calibration.param_stddev, name);
   };
   std::vector<std::string> added;
   // A calibration error bends every view the same way, so it moves the shared roughness as it
@@ -237,12 +245,10 @@ void AddMapsCalibrationUncertainty(const CalibrationPropagation& calibration,
   }
   // The albedo's part is a common scale: its relative size times every texel's albedo.
   const std::optional<double> albedo_sd = part("albedo");
-  double albedo = 0;
-  for (size_t i = 0; i < uniform.material.param_names.size(); ++i) {
-    if (uniform.material.param_names[i] == "albedo") albedo = uniform.material.params[i];
-  }
-  if (albedo_sd && f.m == 1 && albedo > 0) {
-    const double rel = *albedo_sd / albedo;
+  const std::optional<double> albedo =
+      Named(uniform.material.param_names, uniform.material.params, "albedo");
+  if (albedo_sd && albedo && f.m == 1 && *albedo > 0) {
+    const double rel = *albedo_sd / *albedo;
     for (size_t k = 0; k < f.sd_w.size(); ++k) {
       f.sd_w[k] = static_cast<float>(std::hypot(f.sd_w[k], rel * f.w[k]));
     }
