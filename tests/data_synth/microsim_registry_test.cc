@@ -47,7 +47,7 @@ double Model(const std::string& model, const std::vector<double>& p, const Angle
   return v;
 }
 
-Angles<double> Deg(double ti, double tr, double phi) {
+Angles<double> DegreesToAngles(double ti, double tr, double phi) {
   return {DegToRad(ti), DegToRad(tr), DegToRad(phi)};
 }
 
@@ -58,7 +58,7 @@ TEST(MicrosimVsRegistry, FlatPitsMatchLambertModel) {
   EstimateOptions opts;
   opts.albedo = 0.35;
   opts.samples = 2000;
-  const auto a = Deg(40, 70, 120);
+  const auto a = DegreesToAngles(40, 70, 120);
   const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
   EXPECT_NEAR(e.brdf.mean, Model("lambert", Params("lambert", {{"albedo", 0.35}}), a), 1e-12);
 }
@@ -75,8 +75,8 @@ TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
   opts.albedo = albedo;
   opts.samples = 250000;
   // In and out of the plane of incidence.
-  for (const auto& a : {Deg(0, 0, 0), Deg(30, 60, 0), Deg(60, 30, 180), Deg(45, 45, 90),
-                        Deg(70, 50, 135), Deg(20, 75, 45)}) {
+  for (const auto& a : {DegreesToAngles(0, 0, 0), DegreesToAngles(30, 60, 0), DegreesToAngles(60, 30, 180), DegreesToAngles(45, 45, 90),
+                        DegreesToAngles(70, 50, 135), DegreesToAngles(20, 75, 45)}) {
     const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
     const double m = Model("pitted", p, a);
     std::printf("pits90 %5.1f %5.1f %5.1f  sim %.5f +- %.5f  model %.5f  rel %+.4f\n",
@@ -105,7 +105,7 @@ TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
     opts.samples = 40000;
     EstimateOptions two = opts;
     two.max_bounces = 2;
-    for (const auto& a : {Deg(0, 0, 0), Deg(60, 60, 0), Deg(60, 60, 180), Deg(75, 30, 90)}) {
+    for (const auto& a : {DegreesToAngles(0, 0, 0), DegreesToAngles(60, 60, 0), DegreesToAngles(60, 60, 180), DegreesToAngles(75, 30, 90)}) {
       const BrdfEstimate all = EstimateBrdf(*surface, a, opts);
       const BrdfEstimate e2 = EstimateBrdf(*surface, a, two);
       const double m = Model("oren-nayar-vcavity", p, a);

@@ -136,7 +136,7 @@ TEST_F(InterruptCli, SfsKeepsThePreviousOutput) {
   fs::create_directories(out);
   WriteTextAtomically(out / "sfs.json", "{\"previous\": true}\n");
   const Interrupted r =
-      RunAndInterrupt(fmt::format("sfs --input {} --out {} --levels 1 --max-iterations-finest 2",
+      RunAndInterrupt(fmt::format("sfs --input {} --out {} --levels 1 --max-iterations 2",
                                   in.string(), out.string()),
                       work.path(), SIGINT, work.path());
   ExpectInterruptedCleanly(r, SIGINT);

@@ -43,6 +43,12 @@ void ExpectJetMatchesFiniteDifference(const std::vector<double>& params, const A
   }
 }
 
+// f_r of model M at parameters p and the angles (radians).
+template <typename M>
+double Eval(std::vector<double> p, double ti, double tr, double phi) {
+  return M::Evaluate(p.data(), Angles<double>{ti, tr, phi});
+}
+
 // Directional albedo: integral of f_r cos(theta_r) over the viewing hemisphere, by a
 // midpoint rule in (theta_r, phi) with n x 2n cells.
 template <typename M>

@@ -19,10 +19,7 @@
 namespace gonio {
 namespace {
 
-template <typename M>
-double Eval(std::vector<double> p, double ti, double tr, double phi) {
-  return M::Evaluate(p.data(), Angles<double>{ti, tr, phi});
-}
+using testing::Eval;
 
 TEST(OrenNayarFacet, SigmaZeroIsExactlyLambertAndReciprocal) {
   for (double ti : {0.0, 0.7, 1.4}) {

@@ -20,17 +20,14 @@
 namespace gonio {
 namespace {
 
+using testing::Eval;
+
 const double kPhis[] = {0.0, kHalfPi, kPi};
 
 std::vector<double> DegGrid(double from, double to, double step) {
   std::vector<double> g;
   for (double d = from; d <= to + 1e-9; d += step) g.push_back(DegToRad(d));
   return g;
-}
-
-template <typename M>
-double Eval(std::vector<double> p, double ti, double tr, double phi) {
-  return M::Evaluate(p.data(), Angles<double>{ti, tr, phi});
 }
 
 TEST(OrenNayar, SigmaZeroIsExactlyLambert) {

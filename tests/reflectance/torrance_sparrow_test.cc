@@ -18,10 +18,7 @@
 namespace gonio {
 namespace {
 
-template <typename M>
-double Eval(std::vector<double> p, double ti, double tr, double phi) {
-  return M::Evaluate(p.data(), Angles<double>{ti, tr, phi});
-}
+using testing::Eval;
 
 template <typename M>
 void ExpectReciprocal(const std::vector<double>& p) {
@@ -146,7 +143,7 @@ TEST(Tson, LimitsAreItsParts) {
 }
 
 template <typename M>
-void ExpectFiniteNonNegative(const std::vector<double>& p) {
+void ExpectFiniteNonNegativeOnTsGrid(const std::vector<double>& p) {
   for (double ti : {0.0, 0.3, 1.0, 1.4, DegToRad(89.9)}) {
     for (double tr : {0.0, 0.3, 1.2, 1.5, DegToRad(89.9)}) {
       for (double phi : {0.0, 0.4, kHalfPi, 2.6, kPi}) {
@@ -160,10 +157,10 @@ void ExpectFiniteNonNegative(const std::vector<double>& p) {
 
 TEST(TorranceSparrow, FiniteAndNonNegativeUpTo89_9Deg) {
   for (double s : {0.01, 0.15, 0.9}) {
-    for (double n : {1.05, 3.0}) ExpectFiniteNonNegative<TorranceSparrow>({1.0, s, n});
-    ExpectFiniteNonNegative<TorranceSparrowF1>({1.0, s});
-    ExpectFiniteNonNegative<Tson>({1.0, 0.9, 1.0, s});
-    ExpectFiniteNonNegative<Tson>({0.5, 0.0, 0.5, s});
+    for (double n : {1.05, 3.0}) ExpectFiniteNonNegativeOnTsGrid<TorranceSparrow>({1.0, s, n});
+    ExpectFiniteNonNegativeOnTsGrid<TorranceSparrowF1>({1.0, s});
+    ExpectFiniteNonNegativeOnTsGrid<Tson>({1.0, 0.9, 1.0, s});
+    ExpectFiniteNonNegativeOnTsGrid<Tson>({0.5, 0.0, 0.5, s});
   }
 }
 
