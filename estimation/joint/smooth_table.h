@@ -165,10 +165,12 @@ class Table3 {
   SlabStore store_;
 };
 
-// f(x0, x1, x2, x3) -> R on a regular grid.
+// f(x0, x1, x2, x3) -> R on a regular grid. fill(x, a3, out) evaluates the function at
+// (x[0], x[1], x[2], x3) for every node x3 of a3 (out: a3.n values), so that a function can
+// share its work along the last axis.
 class Table4 {
  public:
-  using Fill = std::function<double(const double* x)>;
+  using Fill = std::function<void(const double* x, const Axis& a3, double* out)>;
   Table4(const Axis& a0, const Axis& a1, const Axis& a2, const Axis& a3, Fill fill)
       : a1_(a1),
         a2_(a2),
@@ -215,16 +217,13 @@ class Table4 {
   const std::vector<double>& Slab(int k) {
     return store_.Get(k, [this](int i, double* data) {
       const long row = a3_.n + 2, plane = long(a2_.n + 2) * row;
-      double x[4] = {store_.axis.Node(i), 0, 0, 0};
+      double x[3] = {store_.axis.Node(i), 0, 0};
       for (int j = 0; j < a1_.n; ++j) {
         x[1] = a1_.Node(j);
         double* s = data + (j + 1) * plane;
         for (int l = 0; l < a2_.n; ++l) {
           x[2] = a2_.Node(l);
-          for (int m = 0; m < a3_.n; ++m) {
-            x[3] = a3_.Node(m);
-            s[(l + 1) * row + m + 1] = fill_(x);
-          }
+          fill_(x, a3_, s + (l + 1) * row + 1);
           SetGhosts(s + (l + 1) * row, a3_.n, 1, 1, a3_);
         }
         for (int m = -1; m <= a3_.n; ++m) SetGhosts(s + m + 1, a2_.n, row, 1, a2_);

@@ -61,6 +61,9 @@ std::unique_ptr<Table3<6>> MakeVCavityTable(const GridSpec& g);
 
 // The tabulated functions themselves, evaluated directly (what the tables hold at a node).
 double VanGinnekenDiffuseDirect(double r, double u, double q, double phi);
+// The same at every node of `phi_axis` (out: phi_axis.n values), sharing the phi-independent
+// work: what the table's fill calls.
+void VanGinnekenDiffuseLine(double r, double u, double q, const Axis& phi_axis, double* out);
 void VCavityDirect(double sigma, double u, double q, double out[6]);
 
 // The value part of a scalar (the table interpolates in double and chains the derivatives).
