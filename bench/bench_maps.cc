@@ -26,10 +26,6 @@ namespace fs = std::filesystem;
 namespace gonio::bench {
 namespace {
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 // The preset at the bench size: full is the preset itself (1280 x 960, 24 views).
 synth::Scene SizedScene(const std::string& preset, const std::string& size) {
   synth::Scene s = synth::PresetScene(preset);
@@ -87,7 +83,7 @@ MapsSessionRow TimedMaps(const std::string& preset, const synth::Scene& scene,
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     throw NumericalError("bench maps: the maps of " + session.string() + " failed");
   }
-  row.total_s = Seconds(start);
+  row.total_s = SecondsSince(start);
   row.peak_rss_mb = usage.ru_maxrss / 1024.0;
   const nlohmann::json maps = ReadJsonFile(out / "maps.json");
   row.map_width = maps["grid"]["width"];

@@ -22,10 +22,6 @@ namespace fs = std::filesystem;
 namespace gonio::bench {
 namespace {
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 // The default preset, smaller for the quick and smoke sizes (same physics, fewer pixels: the
 // plan bench's scene) and with fewer views.
 synth::Scene BenchScene(const std::string& size) {
@@ -59,7 +55,7 @@ PipelineRunRow TimedRun(const std::string& label, const RunInputs& in, RunOption
   const RunResult r = Run(in, o);
   PipelineRunRow row;
   row.label = label;
-  row.total_s = Seconds(start);
+  row.total_s = SecondsSince(start);
   row.timings = r.timings;
   row.selected = r.fit.final_fit.material.model;
   row.candidates_fitted = r.fit.fits.size();

@@ -25,10 +25,6 @@ namespace fs = std::filesystem;
 namespace gonio::bench {
 namespace {
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 nlohmann::json FiguresJson(const ScatterFigures& f) {
   auto v = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
   return {{"sigma", v(f.sigma)}, {"albedo", v(f.albedo)}, {"lamp_m", v(f.lamp)}};
@@ -162,7 +158,7 @@ PlanScatterRow MeasurePlanScatter(const std::string& label, const synth::Scene& 
     const fs::path dir = work / fmt::format("{}-{}", label, seed);
     auto start = std::chrono::steady_clock::now();
     synth::RenderBoardSession(s, dir, threads);
-    row.render_s += Seconds(start);
+    row.render_s += SecondsSince(start);
     start = std::chrono::steady_clock::now();
     try {
       const JointFitResult f = FitRendered(dir, s, threads);
@@ -179,7 +175,7 @@ PlanScatterRow MeasurePlanScatter(const std::string& label, const synth::Scene& 
       spdlog::warn("bench plan: {} seed {}: {}", label, seed, e.what());
       ++row.failed;
     }
-    row.fit_s += Seconds(start);
+    row.fit_s += SecondsSince(start);
     fs::remove_all(dir);
   }
   const double slx = SampleStddev(lx), sly = SampleStddev(ly), slz = SampleStddev(lz);
@@ -207,7 +203,7 @@ PlanBenchReport RunPlanBench(const BenchOptions& options, const fs::path& work) 
   const auto start = std::chrono::steady_clock::now();
   const PlanResult plan =
       MakePlan(board, scene.camera, PlanOptionsForScene(scene, views, options.threads));
-  rep.plan_s = Seconds(start);
+  rep.plan_s = SecondsSince(start);
   rep.candidates = plan.candidates;
   std::vector<Rigid3d> plan_poses, orbit_poses;
   for (const auto& v : plan.plan) plan_poses.push_back(v.cam_from_board);

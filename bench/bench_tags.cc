@@ -99,10 +99,6 @@ std::vector<Detector> Detectors(bool boards) {
   return out;
 }
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 // The tags of a rendered session that lie wholly inside each frame, from truth.json.
 std::vector<TruthImage> RenderedImages(const fs::path& dir, const Board& board) {
   const Session session = ReadSession(dir);
@@ -225,7 +221,7 @@ std::vector<TagBenchRow> MeasureScene(const std::string& scene, const std::vecto
       for (size_t d = 0; d < detectors.size(); ++d) {
         const auto start = std::chrono::steady_clock::now();
         found[d] = detectors[d].run(im);
-        best[d] = std::min(best[d], Seconds(start));
+        best[d] = std::min(best[d], SecondsSince(start));
       }
     }
     std::vector<std::vector<std::vector<double>>> matched(detectors.size());

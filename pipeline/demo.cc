@@ -57,12 +57,6 @@ class Stopwatch {
   double last_cpu_ = CpuSeconds();
 };
 
-Eigen::Vector3d SampleCentre(const Board& board) {
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const auto& q : board.sample_region()) centre += Eigen::Vector3d(q.x(), q.y(), 0.0);
-  return centre / static_cast<double>(std::max<size_t>(1, board.sample_region().size()));
-}
-
 // The sweep a user shoots for the response (docs/capture-guide.md): the exposure-sweep preset's
 // static pose of a board, with the session's camera, in third stops over the preset's range
 // (0.5 ms .. 4.1 s, 40 frames).
@@ -190,7 +184,7 @@ void Judge(const nlohmann::json& truth, const Board& board, DemoResult* d) {
   d->light = f.light_position;
   d->light_true = Eigen::Vector3d(lt[0], lt[1], lt[2]);
   d->light_error_fraction =
-      (d->light - d->light_true).norm() / (d->light_true - SampleCentre(board)).norm();
+      (d->light - d->light_true).norm() / (d->light_true - board.SampleCentre()).norm();
   const char* axes[] = {"light_x", "light_y", "light_z"};
   for (int k = 0; k < 3; ++k) {
     d->values.push_back({axes[k], d->light[k], d->light_true[k],

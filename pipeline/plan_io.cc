@@ -19,12 +19,6 @@ namespace fs = std::filesystem;
 namespace gonio {
 namespace {
 
-Eigen::Vector3d SampleCentre(const Board& board) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& q : board.sample_region()) c += Eigen::Vector3d(q.x(), q.y(), 0);
-  return c / static_cast<double>(std::max<size_t>(1, board.sample_region().size()));
-}
-
 nlohmann::json FiniteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nullptr; }
 
 nlohmann::json ViewJson(const PlannedView& v) {
@@ -134,7 +128,7 @@ void PlotCoverage(const PlanResult& r, const Board& board, const fs::path& out) 
   spec.ylabel = "theta_r sin(phi) (deg)";
   spec.width = 900;
   spec.height = 560;
-  std::vector<Eigen::Vector3d> points = {SampleCentre(board)};
+  std::vector<Eigen::Vector3d> points = {board.SampleCentre()};
   for (const auto& q : board.sample_region()) points.emplace_back(q.x(), q.y(), 0.0);
   std::string e =
       "set size ratio -1\nset xrange [-90:90]\nset yrange [-5:90]\nset cbrange [0:90]\n"
@@ -160,7 +154,7 @@ void PlotCoverage(const PlanResult& r, const Board& board, const fs::path& out) 
 }
 
 std::string PlanCsv(const PlanResult& r, const Board& board) {
-  const Eigen::Vector3d centre = SampleCentre(board);
+  const Eigen::Vector3d centre = board.SampleCentre();
   std::string s =
       "view,polar_deg,azimuth_deg,distance_m,camera_x_m,camera_y_m,camera_height_m,"
       "theta_i_deg,theta_r_deg,phi_deg,patches,saturated_patches\n";
@@ -311,7 +305,7 @@ nlohmann::json PlanCoverage::ToJson() const {
 void AddPlanCoverage(const std::vector<Rigid3d>& planned, const Board& board, RunResult* result) {
   std::vector<Rigid3d> achieved;
   for (const auto& f : result->poses.frames) achieved.push_back(f.pose.cam_from_board);
-  const PlanCoverage c = CompareWithPlan(planned, achieved, SampleCentre(board));
+  const PlanCoverage c = CompareWithPlan(planned, achieved, board.SampleCentre());
   result->plan_coverage = c.ToJson();
   result->plan_coverage_report = c.Report();
 }

@@ -241,6 +241,12 @@ int Board::TagIndex(int id) const {
   return it == ids_.end() ? -1 : static_cast<int>(it - ids_.begin());
 }
 
+Eigen::Vector3d Board::SampleCentre() const {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& q : sample_region_) c += Eigen::Vector3d(q.x(), q.y(), 0.0);
+  return c / static_cast<double>(std::max<size_t>(1, sample_region_.size()));
+}
+
 Board::MrcalGrid Board::ToMrcalGrid() const {
   MrcalGrid g;
   if (is_chessboard()) {

@@ -59,6 +59,8 @@ class Board {
   // Polygons in board coordinates (metres, z = 0); empty when the file gives none.
   const std::vector<Eigen::Vector2d>& sample_region() const { return sample_region_; }
   const std::vector<Eigen::Vector2d>& white_region() const { return white_region_; }
+  // Mean of the sample region's vertices on the board plane (z = 0); the origin without one.
+  Eigen::Vector3d SampleCentre() const;
   // How far the sample's top surface stands above the printed board plane, metres (>= 0;
   // board.json "sample_height_m", default 0): a fabric, a tile or paper on card. The sample's
   // surface is the plane z = -sample_height() (z points into the board); the white reference
