@@ -4,8 +4,8 @@
 #include <cmath>
 
 #include "common/error.h"
-#include "reflectance/quadrature.h"
 #include "reflectance/oren_nayar.h"
+#include "reflectance/quadrature.h"
 
 namespace gonio::tabulation {
 namespace {

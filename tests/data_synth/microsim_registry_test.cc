@@ -75,8 +75,9 @@ TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
   opts.albedo = albedo;
   opts.samples = 250000;
   // In and out of the plane of incidence.
-  for (const auto& a : {DegreesToAngles(0, 0, 0), DegreesToAngles(30, 60, 0), DegreesToAngles(60, 30, 180), DegreesToAngles(45, 45, 90),
-                        DegreesToAngles(70, 50, 135), DegreesToAngles(20, 75, 45)}) {
+  for (const auto& a :
+       {DegreesToAngles(0, 0, 0), DegreesToAngles(30, 60, 0), DegreesToAngles(60, 30, 180),
+        DegreesToAngles(45, 45, 90), DegreesToAngles(70, 50, 135), DegreesToAngles(20, 75, 45)}) {
     const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
     const double m = Model("pitted", p, a);
     std::printf("pits90 %5.1f %5.1f %5.1f  sim %.5f +- %.5f  model %.5f  rel %+.4f\n",
@@ -105,7 +106,8 @@ TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
     opts.samples = 40000;
     EstimateOptions two = opts;
     two.max_bounces = 2;
-    for (const auto& a : {DegreesToAngles(0, 0, 0), DegreesToAngles(60, 60, 0), DegreesToAngles(60, 60, 180), DegreesToAngles(75, 30, 90)}) {
+    for (const auto& a : {DegreesToAngles(0, 0, 0), DegreesToAngles(60, 60, 0),
+                          DegreesToAngles(60, 60, 180), DegreesToAngles(75, 30, 90)}) {
       const BrdfEstimate all = EstimateBrdf(*surface, a, opts);
       const BrdfEstimate e2 = EstimateBrdf(*surface, a, two);
       const double m = Model("oren-nayar-vcavity", p, a);

@@ -20,7 +20,8 @@ TEST(PittedTexton, MeanIsTheModelBrdfAndHistogramCountsEveryPitPixel) {
   for (double psi : {0.6, 1.1, kHalfPi}) {
     for (const Angles<double>& a :
          {Angles<double>{0, 0, 0}, Angles<double>{30 * kRadPerDeg, 30 * kRadPerDeg, 0},
-          Angles<double>{30 * kRadPerDeg, 45 * kRadPerDeg, kPi}, Angles<double>{60 * kRadPerDeg, 20 * kRadPerDeg, 1.0}}) {
+          Angles<double>{30 * kRadPerDeg, 45 * kRadPerDeg, kPi},
+          Angles<double>{60 * kRadPerDeg, 20 * kRadPerDeg, 1.0}}) {
       const Texton t = RenderPittedTexton(0.8, psi, a, {200, 50});
       const double p[3] = {0.8, psi, 1.0};
       EXPECT_NEAR(t.pit_mean_brdf / Pitted::Evaluate(p, a), 1.0, 0.01) << psi << " " << a.theta_r;
@@ -40,7 +41,8 @@ TEST(PittedTexton, MeanIsTheModelBrdfAndHistogramCountsEveryPitPixel) {
 // visible, lit by the constant diffuse irradiance: one narrow mode at D (eq. 29).
 TEST(PittedTexton, ForwardShadowOnlyViewIsUniformDiffuseRadiance) {
   const double rho = 0.9;
-  const Texton t = RenderPittedTexton(rho, kHalfPi, {60 * kRadPerDeg, 60 * kRadPerDeg, kPi}, {64, 16});
+  const Texton t =
+      RenderPittedTexton(rho, kHalfPi, {60 * kRadPerDeg, 60 * kRadPerDeg, kPi}, {64, 16});
   const double D = rho * rho / (2 * kPi * (2 - rho));
   for (size_t k = 0; k < t.brdf.size(); ++k) {
     if (t.in_pit[k]) {
