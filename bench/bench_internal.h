@@ -1,22 +1,17 @@
 // Helpers shared by the bench library's source files (not part of its interface).
 #pragma once
 
-#include <chrono>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "common/plot.h"
+#include "common/stopwatch.h"
 #include "reflectance/angles.h"
 #include "reflectance/model.h"
 
 namespace gonio::bench {
-
-// Seconds of wall time since `since`.
-inline double SecondsSince(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
 
 // Parameters of `ref` (a registry name or the facet high-order name) taken by name from
 // `model`'s parameter vector; parameters the model lacks take the reference's default.

@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "common/option_words.h"
+#include "common/stopwatch.h"
 #include "estimation/maps/height.h"
 #include "estimation/maps/maps_hypotheses.h"
 
@@ -19,10 +20,6 @@ constexpr OptionWord<RoughnessChoice> kRoughnessWords[] = {{RoughnessChoice::kAu
                                                            {RoughnessChoice::kSample, "sample"},
                                                            {RoughnessChoice::kClusters, "clusters"},
                                                            {RoughnessChoice::kTexel, "texel"}};
-
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
 
 // The intensity that makes the white reference's predicted radiance match on average (least
 // squares), at the lamp's position: the start of the intensity's fit.
@@ -194,7 +191,7 @@ MapsResult SolveMaps(TexelData data, const MapsLamp& lamp_start, const MapsOptio
         "(relative)");
   }
   r.data = std::move(data);
-  r.solve_s = Seconds(t0);
+  r.solve_s = SecondsSince(t0);
   return r;
 }
 

@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/log.h"
+#include "common/stopwatch.h"
 #include "estimation/extract/extract.h"
 #include "estimation/maps/maps.h"
 
@@ -18,10 +19,6 @@ namespace fs = std::filesystem;
 
 namespace gonio {
 namespace {
-
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
 
 // The value of parameter `name` (values in the order of `names`); none when absent.
 std::optional<double> Named(const std::vector<std::string>& names,
@@ -167,7 +164,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
       frame_of.push_back(i);
     }
   }
-  const double read_s = Seconds(t0);
+  const double read_s = SecondsSince(t0);
   MapsLamp lamp;
   lamp.frame =
       o.light_frame == LightFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
@@ -188,7 +185,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
     lamp.intensity = uniform->intensity;
     lamp.refine_position = true;
   }
-  const double fit_s = Seconds(t_fit);
+  const double fit_s = SecondsSince(t_fit);
   const auto t_sample = std::chrono::steady_clock::now();
   // The frames stay decoded until the maps are fitted: a large grid samples them again with
   // each view's registration (SolveMaps).
@@ -207,7 +204,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   TexelData data = sample(nullptr);
   spdlog::info("maps: {} x {} texels of {:.3f} mm, {} views", data.grid.width, data.grid.height,
                1e3 * data.grid.texel, data.views.size());
-  const double sample_s = read_s + Seconds(t_sample);
+  const double sample_s = read_s + SecondsSince(t_sample);
   MapsResult r = SolveMaps(std::move(data), lamp, o,
                            [&](const std::vector<ViewRegistration>& g) { return sample(&g); });
   r.sample_s = sample_s;
