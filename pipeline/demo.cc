@@ -41,7 +41,7 @@ double CpuSeconds() {
 
 // Wall and CPU time of each stage: on a loaded machine the wall time says little, and the CPU
 // time bounds what two idle cores need.
-class Stopwatch {
+class StageClock {
  public:
   DemoStageTime Lap(const std::string& stage) {
     const auto now = std::chrono::steady_clock::now();
@@ -127,7 +127,7 @@ PhotometricCalibration CalibrateVignetting(const Session& session, const Board& 
 // The user's calibrations into `dir`: camera.cameramodel, response.json, photometric.json.
 void CalibrateLikeAUser(const fs::path& session_dir, const fs::path& sweep_dir, const fs::path& dir,
                         DemoResult* d) {
-  Stopwatch clock;
+  StageClock clock;
   EnsureDirectory(dir);
   const Session session = ReadSession(session_dir);
   const Board board = Board::Read(session.BoardPath());
@@ -206,7 +206,7 @@ DemoResult RunDemo(const fs::path& out, const DemoOptions& o) {
   EnsureDirectory(out);
   DemoResult d;
   d.oracle = o.oracle;
-  Stopwatch clock;
+  StageClock clock;
   spdlog::info("demo: rendering the default synthetic session into {}", session_dir.string());
   const synth::Scene scene = synth::PresetScene("default");
   spdlog::info("{}", synth::RenderBoardSession(scene, session_dir, o.threads).Report());

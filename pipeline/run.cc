@@ -15,6 +15,7 @@
 #include "common/image_io.h"
 #include "common/io.h"
 #include "common/log.h"
+#include "common/stopwatch.h"
 #include "pipeline/observed_angles.h"
 #include "pipeline/report.h"
 
@@ -22,19 +23,6 @@ namespace fs = std::filesystem;
 
 namespace gonio {
 namespace {
-
-class Stopwatch {
- public:
-  double Lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
-    return s;
-  }
-
- private:
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
 
 // Decoded frames kept from detection to extraction within a memory budget.
 class FrameCache {
