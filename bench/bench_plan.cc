@@ -13,7 +13,7 @@
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/io.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 #include "common/stats.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/tag_board.h"
@@ -68,11 +68,10 @@ JointFitResult FitRendered(const fs::path& dir, const synth::Scene& scene, int t
   ObservationExtractor extractor(session.frames, camera, board, photometric, eo);
   const ImageExpectation expect =
       FrameExpectation(session, photometric, "the renderer's calibration", &camera, "the scene");
-  for (size_t f = 0; f < session.frames.size(); ++f) {
-    extractor.AddFrame(f, ReadImage(session.FramePath(f), expect),
-                       RigidFromJson(truth.at("frames").at(f).at("cam_from_board")),
+  SessionFrames(session, expect).ForEach("extract", [&](size_t f, const cv::Mat& image) {
+    extractor.AddFrame(f, image, RigidFromJson(truth.at("frames").at(f).at("cam_from_board")),
                        session.FramePath(f).string());
-  }
+  });
   const ObservationSet set = extractor.Finish(dir.string());
   JointFitOptions fo;
   fo.candidates = {scene.material.model};

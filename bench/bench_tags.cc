@@ -11,7 +11,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "bench/bench_internal.h"
 #include "calib/geometry/board.h"
@@ -21,7 +20,7 @@
 #include "common/geometry.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 #include "common/stats.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
@@ -105,12 +104,13 @@ std::vector<TruthImage> RenderedImages(const fs::path& dir, const Board& board) 
   const nlohmann::json truth = ReadJsonFile(dir / "truth.json");
   const CameraModel camera = CameraModel::Read(dir / "camera.cameramodel");
   std::vector<TruthImage> out;
-  for (size_t f = 0; f < session.frames.size(); ++f) {
+  ImageExpectation expect;
+  expect.bit_depth = session.bit_depth;
+  SessionFrames(session, expect).ForEach("read", [&](size_t f, const cv::Mat& raw) {
     TruthImage im;
     im.name = (dir.filename() / session.frames[f].file).string();
     im.board = &board;
     im.family = board.family();
-    const cv::Mat raw = cv::imread(session.FramePath(f).string(), cv::IMREAD_UNCHANGED);
     im.grey = GreyForDetection(raw, session.bit_depth);
     const Rigid3d cam_from_board = RigidFromJson(truth.at("frames").at(f).at("cam_from_board"));
     for (size_t k = 0; k < board.ids().size(); ++k) {
@@ -129,7 +129,7 @@ std::vector<TruthImage> RenderedImages(const fs::path& dir, const Board& board) 
       im.present.push_back(inside);
     }
     out.push_back(std::move(im));
-  }
+  });
   return out;
 }
 

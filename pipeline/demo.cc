@@ -7,7 +7,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/geometry/calibrate.h"
 #include "calib/geometry/detect.h"
@@ -19,7 +18,7 @@
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/scene.h"
 
@@ -76,13 +75,13 @@ synth::Scene ThirdStopSweep(const synth::Scene& session) {
 CalibrationResult CalibrateCamera(const Session& session, const Board& board,
                                   std::vector<cv::Mat>* raws, SessionPoses* poses) {
   std::vector<BoardObservation> detections;
-  for (size_t i = 0; i < session.frames.size(); ++i) {
-    const std::string path = session.FramePath(i).string();
-    raws->push_back(cv::imread(path, cv::IMREAD_UNCHANGED));
-    if (raws->back().empty()) throw InputError(path + ": cannot be read as an image");
-    detections.push_back(DetectBoard(GreyForDetection(raws->back(), session.bit_depth), board,
+  ImageExpectation expect;
+  expect.bit_depth = session.bit_depth;
+  SessionFrames(session, expect).ForEach("detect", [&](size_t i, const cv::Mat& raw) {
+    raws->push_back(raw);
+    detections.push_back(DetectBoard(GreyForDetection(raw, session.bit_depth), board,
                                      AprilTagOptions{}, session.frames[i].file));
-  }
+  });
   const CalibrationResult cal =
       Calibrate(board, detections, raws->front().cols, raws->front().rows, CalibrationOptions{});
   *poses = LocateObservations(cal.camera, board, detections, PoseOptions{});

@@ -14,7 +14,7 @@
 #include "common/image_io.h"
 #include "common/io.h"
 #include "common/plot.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 
 namespace fs = std::filesystem;
 
@@ -65,21 +65,24 @@ std::vector<VignetteFrame> VignetteFrames(const SessionVignetteOptions& o, const
   std::vector<std::pair<std::string, Rigid3d>> poses;
   if (!o.poses.empty()) poses = ReadPoses(o.poses);
   std::vector<VignetteFrame> frames;
-  for (size_t i = 0; i < session.frames.size(); ++i) {
-    const auto& sf = session.frames[i];
-    VignetteFrame f;
-    if (!o.poses.empty()) {
-      auto it = std::find_if(poses.begin(), poses.end(),
-                             [&](const auto& p) { return p.first == sf.file; });
-      if (it == poses.end()) continue;  // no pose (gonio locate skipped it)
-      f.cam_from_board = it->second;
-    }
-    f.file = sf.file;
-    f.image = ReadCalibratedFrame(session.FramePath(i), calib, o.response);
-    f.exposure_s = sf.exposure_s;
-    f.gain = sf.gain;
-    frames.push_back(std::move(f));
-  }
+  const auto pose_of = [&](size_t i) {
+    return std::find_if(poses.begin(), poses.end(),
+                        [&](const auto& p) { return p.first == session.frames[i].file; });
+  };
+  SessionFrames(session, CalibratedFrameExpectation(calib, o.response))
+      .ForEach(
+          "read",
+          [&](size_t i, const cv::Mat& image) {
+            VignetteFrame f;
+            if (!o.poses.empty()) f.cam_from_board = pose_of(i)->second;
+            f.file = session.frames[i].file;
+            f.image = image;
+            f.exposure_s = session.frames[i].exposure_s;
+            f.gain = session.frames[i].gain;
+            frames.push_back(std::move(f));
+          },
+          // Without a pose (gonio locate skipped it) a board frame is left out.
+          [&](size_t i) { return o.poses.empty() || pose_of(i) != poses.end(); });
   if (frames.empty()) {
     throw InputError(o.poses.empty() ? o.session + ": holds no frame"
                                      : o.poses + ": no pose for any frame of " + o.session);
@@ -224,6 +227,11 @@ void WriteSweepResponse(const SweepResponse& r, const SweepResponseOptions& o,
 
 cv::Mat ReadCalibratedFrame(const fs::path& file, const PhotometricCalibration& calib,
                             const std::string& calib_what) {
+  return ReadImage(file, CalibratedFrameExpectation(calib, calib_what));
+}
+
+ImageExpectation CalibratedFrameExpectation(const PhotometricCalibration& calib,
+                                            const std::string& calib_what) {
   ImageExpectation expect;
   expect.bit_depth = calib.response.bit_depth;
   expect.bit_depth_of = "the photometric calibration " + calib_what;
@@ -231,7 +239,7 @@ cv::Mat ReadCalibratedFrame(const fs::path& file, const PhotometricCalibration& 
   expect.channels_of = "the photometric calibration " + calib_what;
   expect.size = calib.vignette.size();
   expect.size_of = "the vignetting map " + calib.vignette_file.string();
-  return ReadImage(file, expect);
+  return expect;
 }
 
 PhotometricCalibration RawFramesCalibration(int channels, double white_level, double black_level) {
@@ -319,6 +327,7 @@ void MergeSessionBrackets(const std::string& session_dir, const std::string& pho
                           const std::function<void(const HdrBracket&)>& on_bracket) {
   const Session session = ReadSession(session_dir);
   const PhotometricCalibration calib = PhotometricCalibration::Read(photometric);
+  SessionFrames session_frames(session, CalibratedFrameExpectation(calib, photometric));
   std::map<int, std::vector<size_t>> brackets;
   for (size_t i = 0; i < session.frames.size(); ++i) {
     brackets[session.frames[i].bracket].push_back(i);
@@ -335,7 +344,7 @@ void MergeSessionBrackets(const std::string& session_dir, const std::string& pho
     for (size_t i : members) {
       HdrFrame f;
       f.file = session.frames[i].file;
-      f.raw = ReadCalibratedFrame(session.FramePath(i), calib, photometric);
+      f.raw = session_frames.Read(i);
       f.exposure_s = session.frames[i].exposure_s;
       f.gain = session.frames[i].gain;
       sources.push_back(f.file);

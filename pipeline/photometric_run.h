@@ -19,6 +19,7 @@
 #include "calib/photometry/response.h"
 #include "calib/photometry/vignette.h"
 #include "common/camera_model.h"
+#include "common/image_io.h"
 #include "estimation/joint/joint_fit.h"
 
 namespace gonio {
@@ -65,6 +66,9 @@ void WriteSweepResponse(const SweepResponse& r, const SweepResponseOptions& o,
 // against the calibration's bit depth, its channels and the vignetting map's size.
 cv::Mat ReadCalibratedFrame(const std::filesystem::path& file, const PhotometricCalibration& calib,
                             const std::string& calib_what);
+// What ReadCalibratedFrame checks, for SessionFrames (common/session_frames.h).
+ImageExpectation CalibratedFrameExpectation(const PhotometricCalibration& calib,
+                                            const std::string& calib_what);
 
 // The calibration of camera RAW frames scaled to 16 bits (gonio capture --from-folder): linear,
 // black level 0 (already subtracted), saturated at 65535. Read noise: one raw DN plus the raw

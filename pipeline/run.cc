@@ -15,6 +15,7 @@
 #include "common/image_io.h"
 #include "common/io.h"
 #include "common/log.h"
+#include "common/session_frames.h"
 #include "common/stopwatch.h"
 #include "pipeline/observed_angles.h"
 #include "pipeline/report.h"
@@ -24,56 +25,23 @@ namespace fs = std::filesystem;
 namespace gonio {
 namespace {
 
-// Decoded frames kept from detection to extraction within a memory budget.
-class FrameCache {
- public:
-  FrameCache(const Session& session, const ImageExpectation& expect, size_t budget_mb)
-      : session_(session), expect_(expect), budget_bytes_(budget_mb << 20) {}
-
-  cv::Mat Decode(size_t i) const { return ReadImage(session_.FramePath(i), expect_); }
-  // Keeps `raw` for Take(i) if it fits in the budget.
-  void Keep(size_t i, const cv::Mat& raw) {
-    const size_t bytes = raw.total() * raw.elemSize();
-    if (used_bytes_ + bytes > budget_bytes_) return;
-    used_bytes_ += bytes;
-    kept_[i] = raw;
-  }
-  // The kept frame (released from the cache), else a new decode.
-  cv::Mat Take(size_t i) {
-    auto it = kept_.find(i);
-    if (it == kept_.end()) return Decode(i);
-    cv::Mat raw = it->second;
-    used_bytes_ -= raw.total() * raw.elemSize();
-    kept_.erase(it);
-    return raw;
-  }
-
- private:
-  const Session& session_;
-  const ImageExpectation expect_;
-  size_t budget_bytes_, used_bytes_ = 0;
-  std::map<size_t, cv::Mat> kept_;
-};
-
 ImageExpectation FrameExpectationOf(const RunInputs& in) {
   return FrameExpectation(in.session, in.photometric, in.photometric_source,
                           in.camera ? &*in.camera : nullptr, in.camera_source);
 }
 
-// Every frame decoded once and its board detected once; the decoded frames stay in the cache
-// for extraction.
+// Every frame decoded once and its board detected once; the decoded frames are kept (within
+// --frame-cache-mb) for extraction.
 std::vector<BoardObservation> DetectBoards(const RunInputs& in, const RunOptions& o,
-                                           FrameCache* cache) {
+                                           SessionFrames* frames) {
   std::vector<BoardObservation> detections;
-  Progress progress("detect", in.session.frames.size());
-  for (size_t i = 0; i < in.session.frames.size(); ++i) {
-    const cv::Mat raw = cache->Decode(i);
-    detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth), in.board,
-                                     o.pose.detector, in.session.frames[i].file));
-    cache->Keep(i, raw);
-    progress.Step();
-  }
-  progress.Done();
+  frames->ForEach(
+      "detect",
+      [&](size_t i, const cv::Mat& raw) {
+        detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth), in.board,
+                                         o.pose.detector, in.session.frames[i].file));
+      },
+      {}, SessionFrames::After::kKeep);
   return detections;
 }
 
@@ -89,26 +57,21 @@ CameraModel CameraFor(const RunInputs& in, const RunOptions& o,
   return r->calibration->camera;
 }
 
+// The located frames' observations; the lamp-off partner is read here only: it is never
+// detected (it may be too dark).
 ObservationSet ExtractAll(const RunInputs& in, const RunOptions& o, const RunResult& r,
-                          FrameCache* cache) {
+                          SessionFrames* frames) {
   std::map<std::string, const Rigid3d*> pose_of;
   for (const auto& f : r.poses.frames) pose_of[f.file] = &f.pose.cam_from_board;
   ObservationExtractor extractor(in.session.frames, r.camera, in.board, in.photometric, o.extract);
-  Progress progress("extract", in.session.frames.size());
-  for (size_t i = 0; i < in.session.frames.size(); ++i) {
-    const auto it = pose_of.find(in.session.frames[i].file);
-    const cv::Mat raw = cache->Take(i);  // released either way
-    if (it != pose_of.end()) {
-      // The lamp-off partner is read here only: it is never detected (it may be too dark).
-      const std::string off_file = in.session.frames[i].lamp_off;
-      cv::Mat off;
-      if (!off_file.empty()) off = ReadImage(in.session.LampOffPath(i), FrameExpectationOf(in));
-      extractor.AddFrame(i, raw, *it->second, in.session.FramePath(i).string(),
-                         off_file.empty() ? nullptr : &off);
-    }
-    progress.Step();
-  }
-  progress.Done();
+  frames->ForEach(
+      "extract",
+      [&](size_t i, const cv::Mat& raw) {
+        const cv::Mat off = frames->LampOff(i);
+        extractor.AddFrame(i, raw, *pose_of.at(in.session.frames[i].file),
+                           in.session.FramePath(i).string(), off.empty() ? nullptr : &off);
+      },
+      [&](size_t i) { return pose_of.count(in.session.frames[i].file) > 0; });
   return extractor.Finish(in.session.dir.string());
 }
 
@@ -233,13 +196,13 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   RunResult r;
   r.assumptions = in.assumptions;
   Stopwatch clock;
-  FrameCache cache(in.session, FrameExpectationOf(in), o.frame_cache_mb);
+  SessionFrames frames(in.session, FrameExpectationOf(in), o.frame_cache_mb);
   // Counted where images are decoded and boards detected (common/image_io.h,
   // calib/geometry/detect.h), not by this function, so the counts say what the chain did.
   const size_t decodes_before = ImageDecodeCount(), detections_before = BoardDetectionCount();
 
   spdlog::info("[1/4] detecting the board in {} frames", in.session.frames.size());
-  const std::vector<BoardObservation> detections = DetectBoards(in, o, &cache);
+  const std::vector<BoardObservation> detections = DetectBoards(in, o, &frames);
   r.timings.detect_s = clock.Lap();
   r.camera = CameraFor(in, o, detections, &r);
   r.timings.calibrate_s = clock.Lap();
@@ -248,7 +211,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   r.timings.locate_s = clock.Lap();
 
   spdlog::info("[2/4] extracting observations (patch {} px)", o.extract.patch);
-  r.observations = ExtractAll(in, o, r, &cache);
+  r.observations = ExtractAll(in, o, r, &frames);
   r.observations.assumptions = in.assumptions;  // so a later `gonio fit` reports them too
   r.frames_decoded = ImageDecodeCount() - decodes_before;
   r.boards_detected = BoardDetectionCount() - detections_before;

@@ -13,7 +13,7 @@
 #include "common/io.h"
 #include "common/log.h"
 #include "common/math.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 #include "common/stats.h"
 
 namespace fs = std::filesystem;
@@ -288,20 +288,15 @@ SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camer
                            const Board& board, const PoseOptions& options) {
   options.Check();
   const Session session = ReadSession(session_dir);
+  ImageExpectation expect;
+  expect.bit_depth = session.bit_depth;
+  expect.size = cv::Size(camera.width, camera.height);
+  expect.size_of = "the camera model";
   std::vector<BoardObservation> observations;
-  Progress progress("locate", session.frames.size());
-  for (size_t i = 0; i < session.frames.size(); ++i) {
-    const cv::Mat grey =
-        ReadGreyImage(session.FramePath(i), session.bit_depth, ImageExpectation::Jpeg::kAsStored);
-    if (grey.cols != camera.width || grey.rows != camera.height) {
-      throw InputError(fmt::format("{}: image is {}x{}, the camera model is {}x{}",
-                                   session.FramePath(i).string(), grey.cols, grey.rows,
-                                   camera.width, camera.height));
-    }
-    observations.push_back(DetectBoard(grey, board, options.detector, session.frames[i].file));
-    progress.Step();
-  }
-  progress.Done();
+  SessionFrames(session, expect).ForEach("locate", [&](size_t i, const cv::Mat& raw) {
+    observations.push_back(DetectBoard(GreyForDetection(raw, session.bit_depth), board,
+                                       options.detector, session.frames[i].file));
+  });
   return LocateObservations(camera, board, observations, options);
 }
 

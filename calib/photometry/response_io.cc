@@ -11,18 +11,20 @@
 #include "calib/photometry/response.h"
 #include "common/error.h"
 #include "common/image_io.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 
 namespace gonio {
 namespace {
 
 // One image of a sweep (frame or dark frame) as stored, 8- or 16-bit; 4 channels lose their
 // alpha. InputError naming the file when it cannot be read.
-cv::Mat ReadSweepImage(const std::string& path) {
+ImageExpectation SweepImageExpectation() {
   ImageExpectation expect;
   expect.alpha = ImageExpectation::Alpha::kDrop;
-  return ReadImage(path, expect);
+  return expect;
 }
+
+cv::Mat ReadSweepImage(const std::string& path) { return ReadImage(path, SweepImageExpectation()); }
 
 }  // namespace
 
@@ -79,13 +81,14 @@ ExposureSweep LoadSweepFolder(const std::string& dir, const std::string& list_fi
     if (session.black_level >= 0) sweep.black_level = session.black_level;
     AddDarkFrames(dir, session.dark_frames, &sweep);
     if (list_file.empty()) {
-      for (size_t i = 0; i < session.frames.size(); ++i) {
-        ExposureFrame f;
-        f.file = session.frames[i].file;
-        f.exposure_s = session.frames[i].exposure_s * session.frames[i].gain;
-        f.image = ReadSweepImage(session.FramePath(i).string());
-        sweep.frames.push_back(std::move(f));
-      }
+      SessionFrames(session, SweepImageExpectation())
+          .ForEach("read", [&](size_t i, const cv::Mat& image) {
+            ExposureFrame f;
+            f.file = session.frames[i].file;
+            f.exposure_s = session.frames[i].exposure_s * session.frames[i].gain;
+            f.image = image;
+            sweep.frames.push_back(std::move(f));
+          });
       if (sweep.frames.size() < 2) {
         throw InputError(session_file.string() + ": an exposure sweep needs at least two frames");
       }

@@ -14,7 +14,7 @@
 #include "common/io.h"
 #include "common/log.h"
 #include "common/parallel.h"
-#include "common/session.h"
+#include "common/session_frames.h"
 
 namespace gonio {
 namespace {
@@ -425,18 +425,15 @@ ObservationSet ExtractObservations(const std::filesystem::path& session_dir,
   const ImageExpectation expect =
       FrameExpectation(session, photometric, "the photometric calibration", &camera, "the camera");
   ObservationExtractor extractor(session.frames, camera, board, photometric, options);
-  Progress progress("extract", session.frames.size());
-  for (size_t f = 0; f < session.frames.size(); ++f) {
-    const auto pose_it = poses.find(session.frames[f].file);
-    if (pose_it != poses.end()) {
-      const bool has_off = !session.frames[f].lamp_off.empty();
-      const cv::Mat lamp_off = has_off ? ReadImage(session.LampOffPath(f), expect) : cv::Mat();
-      extractor.AddFrame(f, ReadImage(session.FramePath(f), expect), pose_it->second,
-                         session.FramePath(f).string(), has_off ? &lamp_off : nullptr);
-    }
-    progress.Step();
-  }
-  progress.Done();
+  SessionFrames frames(session, expect);
+  frames.ForEach(
+      "extract",
+      [&](size_t f, const cv::Mat& image) {
+        const cv::Mat lamp_off = frames.LampOff(f);
+        extractor.AddFrame(f, image, poses.at(session.frames[f].file),
+                           session.FramePath(f).string(), lamp_off.empty() ? nullptr : &lamp_off);
+      },
+      [&](size_t f) { return poses.count(session.frames[f].file) > 0; });
   return extractor.Finish(session_dir.string());
 }
 

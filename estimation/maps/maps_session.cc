@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/log.h"
+#include "common/session_frames.h"
 #include "common/stopwatch.h"
 #include "estimation/extract/extract.h"
 #include "estimation/maps/maps.h"
@@ -71,19 +72,15 @@ MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::
 
 namespace {
 
-// Every frame of the session, decoded once through the one image reader (common/image_io.h),
+// Every frame of the session, decoded once through the one frame loop (common/session_frames.h),
 // checked against the session and the calibrations as extraction checks them.
 std::vector<cv::Mat> ReadFrames(const MapsSessionInputs& in) {
   const Session& session = in.session;
   const ImageExpectation expect = FrameExpectation(
       session, in.photometric, "the photometric calibration", &in.camera, "the camera");
   std::vector<cv::Mat> frames(session.frames.size());
-  Progress progress("maps: reading frames", frames.size());
-  for (size_t i = 0; i < frames.size(); ++i) {
-    frames[i] = ReadImage(session.FramePath(i), expect);
-    progress.Step();
-  }
-  progress.Done();
+  SessionFrames(session, expect)
+      .ForEach("maps: reading frames", [&](size_t i, const cv::Mat& image) { frames[i] = image; });
   return frames;
 }
 
