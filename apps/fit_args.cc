@@ -10,9 +10,11 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
                   "auto (staged search), all (every candidate), or a comma-separated list")
       ->capture_default_str();
   cmd->add_option("--criterion", a->criterion, "bic, aic or cv")->capture_default_str();
-  cmd->add_option("--light-frame", a->light_frame, "board (camera moves) or camera (board moves)")
+  cmd->add_option("--lamp-frame,--light-frame", a->lamp_frame,
+                  "board (camera moves) or camera (board moves)")
       ->capture_default_str();
-  cmd->add_option("--light-init", a->light_init, "X,Y,Z start in the light frame, metres");
+  cmd->add_option("--lamp-init,--light-init", a->lamp_init,
+                  "X,Y,Z start in the lamp frame, metres");
   cmd->add_option("--white-albedo", a->white_albedo, "Known albedo of the white reference");
   cmd->add_flag("--grey", a->grey, "One albedo for all channels");
   cmd->add_option("--noise-floor", a->noise_floor,
@@ -41,8 +43,8 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
     throw InputError("--models: empty list (give auto or comma-separated model names)");
   }
   o.criterion = ParseCriterion(a.criterion, "--criterion");
-  o.light_frame = ParseLightFrame(a.light_frame, "--light-frame");
-  if (!a.light_init.empty()) o.light_init = ParseVector3(a.light_init, "--light-init");
+  o.lamp_frame = ParseLampFrame(a.lamp_frame, "--lamp-frame");
+  if (!a.lamp_init.empty()) o.lamp_init = ParseVector3(a.lamp_init, "--lamp-init");
   if (!a.white_albedo.empty()) {
     const double w = ParseNumber(a.white_albedo, "--white-albedo");
     if (!(w > 0 && w <= 1)) {

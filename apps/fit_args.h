@@ -11,7 +11,7 @@
 namespace gonio::cli {
 
 struct FitArgs {
-  std::string models = "auto", criterion = "bic", light_frame = "board", light_init;
+  std::string models = "auto", criterion = "bic", lamp_frame = "board", lamp_init;
   std::string robust = "huber", white_albedo, noise_floor, ambient = "auto", sample_height = "auto";
   bool grey = false, fit_sample_height = false;
   int threads = 0;

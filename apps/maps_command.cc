@@ -15,7 +15,7 @@ namespace {
 
 struct MapsArgs {
   std::string session, rectified, camera, photometric, out, lamp, white_albedo;
-  std::string light_frame = "board", model = "auto", roughness = "auto";
+  std::string lamp_frame = "board", model = "auto", roughness = "auto";
   double texel_mm = 0, normal_prior_deg = 30, noise_floor = 0;
   int max_clusters = 6, hold_out = -1, threads = 0, registration_rounds = 1;
   bool assume_linear = false;
@@ -29,7 +29,7 @@ MapsOptions ToOptions(const MapsArgs& a) {
   o.solve.normal_prior_deg = a.normal_prior_deg;
   o.clusters.max_k = a.max_clusters;
   if (!a.lamp.empty()) o.lamp = ParseVector3(a.lamp, "--lamp");
-  o.light_frame = ParseLightFrame(a.light_frame, "--light-frame");
+  o.lamp_frame = ParseLampFrame(a.lamp_frame, "--lamp-frame");
   if (!a.white_albedo.empty()) o.white_albedo = ParseNumber(a.white_albedo, "--white-albedo");
   o.relative_noise_floor = a.noise_floor;
   if (a.hold_out >= 0) o.hold_out = a.hold_out;
@@ -81,9 +81,9 @@ void AddMapsCommand(CLI::App& app) {
   cmd->add_option("--texel", a->texel_mm,
                   "Texel size in mm (default: the images' pixel footprint on the sample)");
   cmd->add_option("--lamp", a->lamp,
-                  "X,Y,Z of the lamp in the light frame, metres, held fixed (default: from a "
+                  "X,Y,Z of the lamp in the lamp frame, metres, held fixed (default: from a "
                   "uniform fit of the session, refined with the maps)");
-  cmd->add_option("--light-frame", a->light_frame,
+  cmd->add_option("--lamp-frame,--light-frame", a->lamp_frame,
                   "board (the camera moves) or camera (a flash; the board turns)")
       ->capture_default_str();
   cmd->add_option("--white-albedo", a->white_albedo,

@@ -49,7 +49,7 @@ void RunResponse(const ResponseArgs& args) {
 
 struct VignetteArgs {
   std::string session, camera, board, poses, response, out, photometric_out, model = "map";
-  std::string light_frame = "board";
+  std::string lamp_frame = "board";
   VignetteOptions options;
 };
 
@@ -58,7 +58,7 @@ void RunVignette(const VignetteArgs& args) {
   o.vignette = args.options;
   o.vignette.model = ParseVignetteModel(args.model, "--model");
   o.vignette.Check();
-  o.light_frame = ParseLightFrame(args.light_frame, "--light-frame");
+  o.lamp_frame = ParseLampFrame(args.lamp_frame, "--lamp-frame");
   o.session = args.session;
   o.camera = args.camera;
   o.board = args.board;
@@ -157,7 +157,7 @@ void AddPhotometricCommand(CLI::App& app) {
                   "Write photometric.json (response + vignetting)");
   vig->add_option("--model", vargs->model, "map (grid, radial fill-in) or radial")
       ->capture_default_str();
-  vig->add_option("--light-frame", vargs->light_frame,
+  vig->add_option("--lamp-frame,--light-frame", vargs->lamp_frame,
                   "board (lamp fixed to the board) or camera (refused: use a flat field)")
       ->capture_default_str();
   vig->add_option("--cell-px", vargs->options.cell_px, "Vignette grid cell, pixels")

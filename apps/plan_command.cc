@@ -38,12 +38,12 @@ void RunPlan(const PlanArgs& a) {
   PlanOptions o;
   ParseMaterial(a.material, &o.hypothesis);
   if (a.lamp == "flash") {
-    o.hypothesis.light_frame = LightFrame::kCamera;
-    o.hypothesis.light = ParseVector3(a.flash_offset, "--flash-offset");
+    o.hypothesis.lamp_frame = LampFrame::kCamera;
+    o.hypothesis.lamp = ParseVector3(a.flash_offset, "--flash-offset");
   } else {
-    o.hypothesis.light = ParseVector3(a.lamp, "--lamp");
+    o.hypothesis.lamp = ParseVector3(a.lamp, "--lamp");
   }
-  o.fit.light_frame = o.hypothesis.light_frame;
+  o.fit.lamp_frame = o.hypothesis.lamp_frame;
   o.hypothesis.intensity = a.lamp_intensity;
   if (!a.white_albedo.empty()) o.white_albedo = ParseNumber(a.white_albedo, "--white-albedo");
   o.fit.white_albedo = o.white_albedo;
@@ -88,7 +88,7 @@ void AddPlanCommand(CLI::App& app) {
                   "d: smallest determinant of the predicted covariance; a: smallest trace");
   cmd->add_option("--exposure", a->exposure_s, "exposure time of every frame, seconds");
   cmd->add_option("--lamp-intensity", a->lamp_intensity,
-                  "lamp intensity in the sensor's units (scene.json light.intensity)");
+                  "lamp intensity in the sensor's units (scene.json lamp.intensity)");
   cmd->add_option("--flash-offset", a->flash_offset,
                   "with --lamp flash: the flash in the camera frame, metres");
   cmd->add_option("--sensor", a->sensor,

@@ -19,7 +19,7 @@ namespace gonio::cli {
 namespace {
 
 struct SfsArgs {
-  std::string init_depth, input, image, camera, light, material, mask, out;
+  std::string init_depth, input, image, camera, lamp, material, mask, out;
   double distance = 0;
   bool compare_lambert = false;
   SfsOptions options;
@@ -35,7 +35,7 @@ void RunSfs(const SfsArgs& args) {
   paths.camera = args.camera;
   paths.material = args.material;
   paths.mask = args.mask;
-  paths.light = args.light;
+  paths.lamp = args.lamp;
   paths.distance = args.distance;
   if (!args.input.empty()) paths.FillFromFolder(args.input);
   SfsInput input = LoadSfsInput(paths, args.options.reflectance);
@@ -86,7 +86,7 @@ void AddSfsCommand(CLI::App& app) {
                   "Folder written by gonio synth --preset sfs-*: defaults for every file");
   cmd->add_option("--image", args->image, "Linear image (8/16-bit PNG or TIFF)");
   cmd->add_option("--camera", args->camera, "camera.cameramodel (mrcal)");
-  cmd->add_option("--light", args->light,
+  cmd->add_option("--lamp,--light", args->lamp,
                   "Lamp position X,Y,Z in the camera frame (m) or 'collocated'");
   cmd->add_option("--material", args->material, "fit.json (selected model and parameters)");
   cmd->add_option("--mask", args->mask, "Object mask (8-bit, >127 = object)");

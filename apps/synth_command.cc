@@ -21,7 +21,7 @@ namespace {
 
 struct SynthArgs {
   std::string scene_file, preset, out_dir, write_scene;
-  double sfs_light_offaxis_deg = 0.0;
+  double sfs_lamp_offaxis_deg = 0.0;
   int threads = 0;
   int rectified = 0;
   long long seed = -1;
@@ -39,7 +39,7 @@ void RunSynth(const SynthArgs& args) {
   synth::Scene scene;
   if (!args.preset.empty()) {
     synth::PresetOptions options;
-    options.sfs_light_offaxis_deg = args.sfs_light_offaxis_deg;
+    options.sfs_lamp_offaxis_deg = args.sfs_lamp_offaxis_deg;
     scene = synth::PresetScene(args.preset, options);
   } else {
     scene = synth::SceneFromJson(ReadJsonFile(args.scene_file), args.scene_file);
@@ -100,7 +100,7 @@ void AddSynthCommand(CLI::App& app) {
                   "textured-flash");
   cmd->add_option("--out", args->out_dir, "Output folder");
   cmd->add_option("--write-scene", args->write_scene, "Write the scene (e.g. a preset) as JSON");
-  cmd->add_option("--sfs-light-offaxis-deg", args->sfs_light_offaxis_deg,
+  cmd->add_option("--sfs-lamp-offaxis-deg,--sfs-light-offaxis-deg", args->sfs_lamp_offaxis_deg,
                   "sfs presets: lamp turned this far off the camera axis (0 = collocated)")
       ->capture_default_str();
   cmd->add_option("--seed", args->seed, "Override the scene's noise seed");

@@ -176,15 +176,15 @@ void Judge(const json& fit, const json& truth, CoverageRun* run) {
           fin.at("stddev").value(name, json()));
     }
   }
-  const json& light = truth.at("light");
-  const bool camera_frame = light.contains("position_in_camera");
+  const json& lamp_truth = AtKeyOrOld(truth, "lamp", "light");
+  const bool camera_frame = lamp_truth.contains("position_in_camera");
   const Eigen::Vector3d lamp_true =
-      Vec3(light.at(camera_frame ? "position_in_camera" : "position_in_board"));
-  const Eigen::Vector3d lamp = Vec3(fin.at("light").at("position"));
-  const json& sd = fin.at("light").at("stddev");
-  const char* axes[] = {"light_x", "light_y", "light_z"};
+      Vec3(lamp_truth.at(camera_frame ? "position_in_camera" : "position_in_board"));
+  const Eigen::Vector3d lamp = Vec3(AtKeyOrOld(fin, "lamp", "light").at("position"));
+  const json& sd = AtKeyOrOld(fin, "lamp", "light").at("stddev");
+  const char* axes[] = {"lamp_x", "lamp_y", "lamp_z"};
   for (int k = 0; k < 3; ++k) {
-    add(axes[k], "light", lamp_true[k], lamp[k], sd.is_array() ? sd.at(k) : json());
+    add(axes[k], "lamp", lamp_true[k], lamp[k], sd.is_array() ? sd.at(k) : json());
   }
 }
 
@@ -264,7 +264,7 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
                                    fmt::format("{}", s.white_albedo),
                                    "--out",
                                    out.string()};
-  if (kind.flash) args.insert(args.end(), {"--light-frame", "camera"});
+  if (kind.flash) args.insert(args.end(), {"--lamp-frame", "camera"});
   chain->Step("run-" + r->sweep, args, true);
   Judge(ReadJsonFile(out / "fit.json"), ReadJsonFile(s.session / "truth.json"), r);
 }

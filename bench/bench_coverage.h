@@ -31,7 +31,7 @@ struct CoverageKind {
   std::string response = "gamma";  // data_synth response: linear, gamma, srgb
   double black_level = 64;
   // The lamp beside the lens (data_synth's flash preset, board turned in front of the camera):
-  // vignetting from a flat field, `gonio run --light-frame camera`.
+  // vignetting from a flat field, `gonio run --lamp-frame camera`.
   bool flash = false;
 };
 
@@ -47,7 +47,7 @@ CoveragePlan CoveragePlanFor(const BenchOptions& options);
 
 // One judged quantity of one run.
 struct CoverageValue {
-  std::string parameter;  // a material parameter's name, or light_x, light_y, light_z
+  std::string parameter;  // a material parameter's name, or lamp_x, lamp_y, lamp_z
   double truth = 0, value = 0;
   double stddev = -1;   // reported standard deviation; < 0: undetermined (no z)
   double z = 0;         // (value - truth) / stddev

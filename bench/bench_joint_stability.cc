@@ -16,18 +16,18 @@ namespace {
 
 struct JointCase {
   std::string axis, value;
-  double light_distance = 0.5;
+  double lamp_distance = 0.5;
   int views = 24;
   double noise = 0.01;
   double clip = INFINITY;  // radiance above this fraction of the maximum is clipped
 };
 
-ObservationSet Synthesize(const JointCase& c, Eigen::Vector3d* light, unsigned seed) {
+ObservationSet Synthesize(const JointCase& c, Eigen::Vector3d* lamp, unsigned seed) {
   const Eigen::Vector3d centre(0.155, 0.095, 0.0);
   // The default preset's geometry: lamp 35 deg off the sample normal (-z), cameras on rings.
   const double off = DegToRad(35);
-  *light = centre + c.light_distance * Eigen::Vector3d(-std::sin(off), 0.0, -std::cos(off));
-  const double intensity = c.light_distance * c.light_distance / 0.25;  // same irradiance
+  *lamp = centre + c.lamp_distance * Eigen::Vector3d(-std::sin(off), 0.0, -std::cos(off));
+  const double intensity = c.lamp_distance * c.lamp_distance / 0.25;  // same irradiance
   const double albedo = 0.6, sigma = DegToRad(30), white = 0.8;
   std::mt19937 rng(seed);
   std::normal_distribution<double> gauss(0, 1);
@@ -52,7 +52,7 @@ ObservationSet Synthesize(const JointCase& c, Eigen::Vector3d* light, unsigned s
         o.p_in_board = o.white ? Eigen::Vector3d(0.04 + 0.01 * ix, 0.045 + 0.016 * iy, 0)
                                : Eigen::Vector3d(0.08 + 0.015 * (ix - 3), 0.045 + 0.016 * iy, 0);
         o.camera_in_board = cams[f];
-        const Eigen::Vector3d l = *light - o.p_in_board, v = cams[f] - o.p_in_board;
+        const Eigen::Vector3d l = *lamp - o.p_in_board, v = cams[f] - o.p_in_board;
         const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
         const double e = intensity * ls[2] / std::pow(l.norm(), 3);
         const double params[2] = {albedo, sigma};
@@ -77,19 +77,19 @@ StabilityCell RunCase(const JointCase& c) {
   cell.method = "FitJoint";
   cell.axis = c.axis;
   cell.value = c.value;
-  Eigen::Vector3d light;
-  const ObservationSet data = Synthesize(c, &light, 7);
+  Eigen::Vector3d lamp;
+  const ObservationSet data = Synthesize(c, &lamp, 7);
   JointFitOptions o;
   o.white_albedo = 0.8;
-  o.light_init =
-      light + 0.3 * (light - Eigen::Vector3d(0.155, 0.095, 0)).norm() * Eigen::Vector3d::UnitX();
+  o.lamp_init =
+      lamp + 0.3 * (lamp - Eigen::Vector3d(0.155, 0.095, 0)).norm() * Eigen::Vector3d::UnitX();
   try {
-    const JointFitResult r = FitJoint("oren-nayar", data, *o.light_init, o);
+    const JointFitResult r = FitJoint("oren-nayar", data, *o.lamp_init, o);
     const double sigma_err = RadToDeg(std::abs(r.material.params[1] - DegToRad(30)));
     const double albedo_err = std::abs(r.material.params[0] - 0.6) / 0.6;
     std::string undetermined;
     for (const auto& u : r.material.undetermined) undetermined += u + " ";
-    for (const auto& u : r.undetermined_light) undetermined += u + " ";
+    for (const auto& u : r.undetermined_lamp) undetermined += u + " ";
     cell.detail =
         fmt::format("sigma err {:.2f} deg, albedo err {:.1f}%{}", sigma_err, 100 * albedo_err,
                     undetermined.empty() ? "" : "; undetermined: " + undetermined);

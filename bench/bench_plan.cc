@@ -76,7 +76,7 @@ JointFitResult FitRendered(const fs::path& dir, const synth::Scene& scene, int t
   JointFitOptions fo;
   fo.candidates = {scene.material.model};
   fo.white_albedo = scene.board.white_albedo;
-  fo.light_frame = ParseLightFrame(scene.light.frame, "light.frame");
+  fo.lamp_frame = ParseLampFrame(scene.lamp.frame, "lamp.frame");
   fo.threads = threads;
   return FitAndSelect(set, fo).final_fit;
 }
@@ -117,12 +117,12 @@ PlanOptions PlanOptionsForScene(const synth::Scene& scene, int views, int thread
   PlanOptions o;
   o.hypothesis.model = scene.material.model;
   o.hypothesis.params = scene.material.ParamVector();
-  o.hypothesis.light_frame = ParseLightFrame(scene.light.frame, "light.frame");
-  o.hypothesis.light = scene.light.position;
-  o.hypothesis.intensity = scene.light.intensity;
+  o.hypothesis.lamp_frame = ParseLampFrame(scene.lamp.frame, "lamp.frame");
+  o.hypothesis.lamp = scene.lamp.position;
+  o.hypothesis.intensity = scene.lamp.intensity;
   o.white_albedo = scene.board.white_albedo;
   o.fit.white_albedo = o.white_albedo;
-  o.fit.light_frame = o.hypothesis.light_frame;
+  o.fit.lamp_frame = o.hypothesis.lamp_frame;
   o.fit.threads = threads;
   o.sensor = scene.photometric;
   o.exposure_s = scene.views.exposures_s.at(0);
@@ -166,10 +166,10 @@ PlanScatterRow MeasurePlanScatter(const std::string& label, const synth::Scene& 
       albedo.push_back(ParamOf(f, "albedo"));
       sd_sigma.push_back(StddevOf(f, "sigma"));
       sd_albedo.push_back(StddevOf(f, "albedo"));
-      if (f.light_stddev) lamp_sd.push_back(f.light_stddev->norm());
-      lx.push_back(f.light_position.x());
-      ly.push_back(f.light_position.y());
-      lz.push_back(f.light_position.z());
+      if (f.lamp_stddev) lamp_sd.push_back(f.lamp_stddev->norm());
+      lx.push_back(f.lamp_position.x());
+      ly.push_back(f.lamp_position.y());
+      lz.push_back(f.lamp_position.z());
     } catch (const std::exception& e) {
       spdlog::warn("bench plan: {} seed {}: {}", label, seed, e.what());
       ++row.failed;

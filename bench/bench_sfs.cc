@@ -71,7 +71,7 @@ class ScratchDir {
 fs::path RenderScene(const std::pair<std::string, double>& scene, const SfsBenchPlan& plan,
                      const fs::path& root) {
   synth::PresetOptions preset;
-  preset.sfs_light_offaxis_deg = scene.second;
+  preset.sfs_lamp_offaxis_deg = scene.second;
   synth::Scene s = synth::PresetScene("sfs-" + scene.first, preset);
   // Scale the camera: the object keeps its angular size, so it covers the same image fraction.
   const double f = static_cast<double>(plan.width) / s.camera.width;

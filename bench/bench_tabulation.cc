@@ -91,18 +91,18 @@ void Errors(const std::vector<Angles<double>>& angles, Params params_of, double*
 // The joint fit of `model` on the synthetic set with and without the tables.
 template <typename M>
 void TimeJointFit(const std::vector<double>& p, int views, TabulationRow* row) {
-  Eigen::Vector3d light;
-  const ObservationSet data = SynthesizeJointObservations(row->model, p, views, &light);
+  Eigen::Vector3d lamp;
+  const ObservationSet data = SynthesizeJointObservations(row->model, p, views, &lamp);
   row->fit_observations = data.observations.size();
   JointFitOptions o;
   o.white_albedo = 0.8;
   o.threads = 1;
-  o.light_init = light + Eigen::Vector3d(0.02, -0.01, 0.02);
+  o.lamp_init = lamp + Eigen::Vector3d(0.02, -0.01, 0.02);
   JointFitResult fits[2];
   for (int tab = 0; tab < 2; ++tab) {
     o.tabulated_models = tab == 1;
     const double t0 = ThreadSeconds();
-    fits[tab] = FitJoint(row->model, data, *o.light_init, o);
+    fits[tab] = FitJoint(row->model, data, *o.lamp_init, o);
     (tab ? row->fit_s_tabulated : row->fit_s_direct) = ThreadSeconds() - t0;
   }
   // Largest parameter change in units of the direct fit's standard deviation.
@@ -179,10 +179,10 @@ size_t BuildAll(Table& table, int n_first, double lo, double hi) {
 // Observations of `model` (parameters p) under the default preset's geometry (lamp 35 deg off
 // the normal, cameras on four rings), 1% noise, with white-reference patches.
 ObservationSet SynthesizeJointObservations(const std::string& model, const std::vector<double>& p,
-                                           int views, Eigen::Vector3d* light) {
+                                           int views, Eigen::Vector3d* lamp) {
   const Eigen::Vector3d centre(0.155, 0.095, 0.0);
   const double off = DegToRad(35), noise = 0.01, white = 0.8;
-  *light = centre + 0.5 * Eigen::Vector3d(-std::sin(off), 0.0, -std::cos(off));
+  *lamp = centre + 0.5 * Eigen::Vector3d(-std::sin(off), 0.0, -std::cos(off));
   std::mt19937 rng(5);
   std::normal_distribution<double> gauss(0, 1);
   ObservationSet set;
@@ -201,7 +201,7 @@ ObservationSet SynthesizeJointObservations(const std::string& model, const std::
         o.p_in_board = Eigen::Vector3d(0.06 + 0.015 * ix, 0.05 + 0.02 * iy, 0);
         o.camera_in_board = cam;
         o.board_from_cam_aa = Eigen::Vector3d::Zero();  // lamp fixed in the board frame
-        const Eigen::Vector3d l = *light - o.p_in_board, v = cam - o.p_in_board;
+        const Eigen::Vector3d l = *lamp - o.p_in_board, v = cam - o.p_in_board;
         const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
         const double e = ls[2] / std::pow(l.norm(), 3);
         double f_r = white * kInvPi;

@@ -38,10 +38,10 @@ struct TabulationRow {
 std::vector<TabulationRow> RunTabulationBench(const BenchSizes& sizes);
 
 // Observations of `model` at parameters p (one channel) under the default preset's geometry:
-// lamp 0.5 m away, 35 deg off the sample normal (returned in `light`), `views` cameras on four
+// lamp 0.5 m away, 35 deg off the sample normal (returned in `lamp`), `views` cameras on four
 // rings, 1% noise, two columns of white reference (albedo 0.8) per frame.
 ObservationSet SynthesizeJointObservations(const std::string& model, const std::vector<double>& p,
-                                           int views, Eigen::Vector3d* light);
+                                           int views, Eigen::Vector3d* lamp);
 // Adds the rows as "tabulation" to dir/bench.json (written by WriteBenchOutputs).
 void AddTabulationToBenchJson(const std::filesystem::path& dir,
                               const std::vector<TabulationRow>& rows);

@@ -259,8 +259,16 @@ double MaterialAgreement(const std::map<std::pair<int, int>, size_t>& confusion,
 
 }  // namespace
 
+void MapsTruthOptions::Check() const {
+  if (!(edge_band_m >= 0 && edge_band_m < 1)) {
+    throw InputError(
+        fmt::format("edge_band_m: {} is not a band in metres (0 <= band < 1)", edge_band_m));
+  }
+}
+
 MapsTruthComparison CompareMapsWithTruth(const fs::path& maps_dir, const fs::path& truth_dir,
                                          const MapsTruthOptions& o) {
+  o.Check();
   const nlohmann::json maps = ReadJsonFile(maps_dir / "maps.json");
   const nlohmann::json truth_json = ReadJsonFile(truth_dir / "truth.json");
   const Truth truth = ReadTruth(truth_dir, truth_json);

@@ -19,6 +19,8 @@ struct MapsTruthOptions {
   // Compare the albedo after one least-squares scale per channel (maps whose albedo is
   // relative: no white reference, or a rectified capture's unknown flash power).
   bool fit_albedo_scale = false;
+
+  void Check() const;  // InputError naming the option
 };
 
 struct MapsTruthComparison {

@@ -96,6 +96,11 @@ nlohmann::json ReadJsonFile(const fs::path& path) {
   }
 }
 
+const nlohmann::json& AtKeyOrOld(const nlohmann::json& j, const char* key, const char* old_key) {
+  if (!j.contains(key) && j.contains(old_key)) return j.at(old_key);
+  return j.at(key);
+}
+
 void CheckOutputPathLength(const fs::path& path, const std::string& option) {
   // The temporaries beside an output add a few characters to its folder, never to its name
   // (WriteAtomically, FolderTransaction), so the system's own limits are the ones to check.

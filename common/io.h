@@ -30,6 +30,10 @@ nlohmann::json ReadJsonFile(const std::filesystem::path& path);
 
 std::string ReadTextFile(const std::filesystem::path& path);
 
+// j[key], or j[old_key] in a file written before the key was renamed (docs/formats.md
+// "Renamed keys": the lamp was called "light"). Neither: json::at's out_of_range for `key`.
+const nlohmann::json& AtKeyOrOld(const nlohmann::json& j, const char* key, const char* old_key);
+
 // An output path the system can create: at most PATH_MAX - 1 bytes, each name at most NAME_MAX;
 // InputError naming `option` otherwise (checked before any work, not met at the end).
 void CheckOutputPathLength(const std::filesystem::path& path, const std::string& option);

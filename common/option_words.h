@@ -1,4 +1,4 @@
-// Options that choose among a few words (--criterion bic, --robust huber, --light-frame board)
+// Options that choose among a few words (--criterion bic, --robust huber, --lamp-frame board)
 // are enums inside the libraries. The word is parsed once where it enters (the command line)
 // and written back unchanged for fit.json and reports; each enum lists its words in one table
 // that serves both directions.

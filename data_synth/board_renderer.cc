@@ -45,8 +45,8 @@ std::vector<Eigen::Vector3d> CornerRays(const CameraModel& camera, int threads) 
 struct PoseGeometry {
   Rigid3d cam_from_board;
   Eigen::Vector3d camera_in_board;
-  Eigen::Vector3d light_in_board;     // point lamp
-  Eigen::Vector3d to_light_in_board;  // distant light (unit)
+  Eigen::Vector3d lamp_in_board;     // point lamp
+  Eigen::Vector3d to_lamp_in_board;  // distant lamp (unit)
 };
 
 // Whether the 2-D segment a-b meets the axis-aligned rectangle r = [xmin, ymin, xmax, ymax]
@@ -80,9 +80,9 @@ bool InRect(const Eigen::Vector2d& p, const std::array<double, 4>& r) {
 class BoardShader {
  public:
   BoardShader(const Scene& scene, const Material& material)
-      : scene_(scene), material_(material), point_light_(scene.light.type == "point") {
-    // rho_dh(theta_r) tabulated once: the ambient term of the sample (scene.h LightSpec).
-    if (scene.light.ambient_irradiance > 0) {
+      : scene_(scene), material_(material), point_lamp_(scene.lamp.type == "point") {
+    // rho_dh(theta_r) tabulated once: the ambient term of the sample (scene.h LampSpec).
+    if (scene.lamp.ambient_irradiance > 0) {
       for (int k = 0; k <= kAlbedoSteps; ++k) {
         rho_dh_.push_back(material.DirectionalAlbedo(0.5 * kPi * k / kAlbedoSteps));
       }
@@ -96,10 +96,10 @@ class BoardShader {
   Rgb Radiance(Surface s, const Eigen::Vector3d& p, const PoseGeometry& g, bool lamp_on) const {
     if (s == Surface::kSample && textured_) {
       if (!lamp_on) return {0, 0, 0};  // textured scenes have no ambient light (Scene::Check)
-      return point_light_
-                 ? textured_->Point(p, g.camera_in_board, g.light_in_board, scene_.light.intensity)
-                 : textured_->Distant(p, g.camera_in_board, g.to_light_in_board,
-                                      scene_.light.irradiance);
+      return point_lamp_
+                 ? textured_->Point(p, g.camera_in_board, g.lamp_in_board, scene_.lamp.intensity)
+                 : textured_->Distant(p, g.camera_in_board, g.to_lamp_in_board,
+                                      scene_.lamp.irradiance);
     }
     const double v = GreyRadiance(s, p, g, lamp_on);
     return {v, v, v};
@@ -112,14 +112,14 @@ class BoardShader {
     const Eigen::Vector3d n(0, 0, -1);  // outward normal of the board's printed side
     Eigen::Vector3d l;
     double e = 0;
-    if (point_light_) {
-      e = PointIrradiance(p, n, g.light_in_board, scene_.light.intensity, &l);
+    if (point_lamp_) {
+      e = PointIrradiance(p, n, g.lamp_in_board, scene_.lamp.intensity, &l);
     } else {
-      l = g.to_light_in_board;
-      e = scene_.light.irradiance * std::max(0.0, n.dot(l));
+      l = g.to_lamp_in_board;
+      e = scene_.lamp.irradiance * std::max(0.0, n.dot(l));
     }
     if (!lamp_on || (s != Surface::kSample && ShadowedBySample(p, l))) e = 0;
-    const double ambient = scene_.light.ambient_irradiance;
+    const double ambient = scene_.lamp.ambient_irradiance;
     switch (s) {
       case Surface::kPaper:
         return scene_.board.white_albedo * kInvPi * (e + ambient);
@@ -142,17 +142,17 @@ class BoardShader {
   }
   // A raised sample shades the board beside it: the part of the ray to the lamp below the
   // sample's top meets the sample's footprint.
-  bool ShadowedBySample(const Eigen::Vector3d& p, const Eigen::Vector3d& to_light) const {
+  bool ShadowedBySample(const Eigen::Vector3d& p, const Eigen::Vector3d& to_lamp) const {
     const double h = scene_.board.sample_height;
-    if (h <= 0 || !(to_light.z() < 0)) return false;
-    const Eigen::Vector3d top = p + (h / -to_light.z()) * to_light;
+    if (h <= 0 || !(to_lamp.z() < 0)) return false;
+    const Eigen::Vector3d top = p + (h / -to_lamp.z()) * to_lamp;
     return SegmentMeetsRect(p.head<2>(), top.head<2>(), scene_.board.sample_region);
   }
 
   const Scene& scene_;
   const Material& material_;
-  // The light's type resolved once (Radiance runs per sub-pixel sample).
-  const bool point_light_;
+  // The lamp's type resolved once (Radiance runs per sub-pixel sample).
+  const bool point_lamp_;
   std::vector<double> rho_dh_;
   std::optional<TexturedShader> textured_;
 };
@@ -322,17 +322,16 @@ json TagCornersJson(const TagBoard& board, const CameraModel& camera,
 
 json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-// The geometry of one pose: where the camera and the light are in the board frame.
+// The geometry of one pose: where the camera and the lamp are in the board frame.
 PoseGeometry PoseGeometryOf(const Scene& scene, const Rigid3d& cam_from_board) {
   PoseGeometry g;
   g.cam_from_board = cam_from_board;
   const Rigid3d board_from_cam = cam_from_board.Inverse();
   g.camera_in_board = board_from_cam.t;
-  const bool light_in_cam = scene.light.frame == "camera";
-  g.light_in_board = light_in_cam ? board_from_cam * scene.light.position : scene.light.position;
-  g.to_light_in_board =
-      (light_in_cam ? board_from_cam.R * scene.light.direction : scene.light.direction)
-          .normalized();
+  const bool lamp_in_cam = scene.lamp.frame == "camera";
+  g.lamp_in_board = lamp_in_cam ? board_from_cam * scene.lamp.position : scene.lamp.position;
+  g.to_lamp_in_board =
+      (lamp_in_cam ? board_from_cam.R * scene.lamp.direction : scene.lamp.direction).normalized();
   return g;
 }
 
@@ -373,17 +372,17 @@ cv::Mat ExposeFrame(const Scene& scene, const PhotometricChain& chain, const cv:
   return image;
 }
 
-// truth.json "light": the light as the scene gives it, in its frame.
-json LightTruthJson(const LightSpec& light) {
-  json out = {{"type", light.type}, {"frame", light.frame}};
-  if (light.type == "point") {
-    out[light.frame == "board" ? "position_in_board" : "position_in_camera"] = Vec(light.position);
-    out["intensity"] = light.intensity;
+// truth.json "lamp": the lamp as the scene gives it, in its frame.
+json LampTruthJson(const LampSpec& lamp) {
+  json out = {{"type", lamp.type}, {"frame", lamp.frame}};
+  if (lamp.type == "point") {
+    out[lamp.frame == "board" ? "position_in_board" : "position_in_camera"] = Vec(lamp.position);
+    out["intensity"] = lamp.intensity;
     out["falloff"] = "inverse-square: E = intensity * cos(theta_i) / d^2";
   } else {
-    out[light.frame == "board" ? "direction_in_board" : "direction_in_camera"] =
-        Vec(light.direction.normalized());
-    out["irradiance"] = light.irradiance;
+    out[lamp.frame == "board" ? "direction_in_board" : "direction_in_camera"] =
+        Vec(lamp.direction.normalized());
+    out["irradiance"] = lamp.irradiance;
   }
   return out;
 }
@@ -409,9 +408,9 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
                 {"version", 1},
                 {"scene_type", "board"},
                 {"material", material.ToJson()},
-                {"light", LightTruthJson(scene.light)},
+                {"lamp", LampTruthJson(scene.lamp)},
                 {"white_albedo", scene.board.white_albedo},
-                {"ambient_irradiance", scene.light.ambient_irradiance},
+                {"ambient_irradiance", scene.lamp.ambient_irradiance},
                 {"black_albedo", scene.board.black_albedo},
                 {"board",
                  {{"file", "board.json"},
@@ -446,11 +445,11 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
 json WriteDarkFrames(const Scene& scene, const PhotometricChain& chain, const fs::path& out_dir,
                      int threads) {
   json names = json::array();
-  const cv::Mat no_light =
+  const cv::Mat no_lamp =
       cv::Mat::zeros(scene.camera.height, scene.camera.width, CV_64FC(scene.Channels()));
   for (int k = 0; k < scene.views.dark_frames; ++k) {
     size_t saturated = 0;
-    const cv::Mat dark = ExposeFrame(scene, chain, no_light, scene.views.exposures_s.front(),
+    const cv::Mat dark = ExposeFrame(scene, chain, no_lamp, scene.views.exposures_s.front(),
                                      (2 << 20) + k, threads, &saturated);
     char name[32];
     std::snprintf(name, sizeof(name), "dark_%04d.png", k);
@@ -497,7 +496,7 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
     const cv::Mat radiance =
         RenderRadiance(scene, board, shader, rays, g, true, threads, &result.supersampled_pixels);
     cv::Mat lamp_off_radiance;
-    if (scene.light.lamp_off_frames) {
+    if (scene.lamp.lamp_off_frames) {
       size_t unused = 0;
       lamp_off_radiance = RenderRadiance(scene, board, shader, rays, g, false, threads, &unused);
     }
@@ -516,7 +515,7 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
                             {"gain", 1.0},
                             {"timestamp", 0.1 * frame},
                             {"bracket", static_cast<int>(pose_index)}};
-      if (scene.light.lamp_off_frames) {
+      if (scene.lamp.lamp_off_frames) {
         // Its own noise: frame numbers far beyond the lit frames' seed the generator.
         size_t off_saturated = 0;
         const cv::Mat off = ExposeFrame(scene, chain, lamp_off_radiance, exposure_s,
@@ -533,7 +532,7 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
                  {"exposure_s", exposure_s},
                  {"camera_in_board", Vec(g.camera_in_board)},
                  {"tag_corners", corners}};
-      if (scene.light.type == "point") tf["light_in_board"] = Vec(g.light_in_board);
+      if (scene.lamp.type == "point") tf["lamp_in_board"] = Vec(g.lamp_in_board);
       truth_frames.push_back(tf);
       ++frame;
       progress.Step();

@@ -13,7 +13,7 @@
 namespace gonio::synth {
 namespace {
 
-// What the presets share: the 1280x960 camera and a point light 0.5 m from the sample centre
+// What the presets share: the 1280x960 camera and a point lamp 0.5 m from the sample centre
 // (0.155, 0.095), 35 deg off the normal towards -x, so the orbit sees backscatter (phi ~ 0)
 // and forward scatter (phi ~ pi) alike.
 Scene PresetBase() {
@@ -23,10 +23,10 @@ Scene PresetBase() {
   s.camera.width = 1280;
   s.camera.height = 960;
   const Eigen::Vector3d sample_centre(0.155, 0.095, 0.0);
-  const double light_theta = DegToRad(35.0);
-  s.light.position =
-      sample_centre + 0.5 * Eigen::Vector3d(-std::sin(light_theta), 0.0, -std::cos(light_theta));
-  s.light.intensity = 1.0;
+  const double lamp_theta = DegToRad(35.0);
+  s.lamp.position =
+      sample_centre + 0.5 * Eigen::Vector3d(-std::sin(lamp_theta), 0.0, -std::cos(lamp_theta));
+  s.lamp.intensity = 1.0;
   return s;
 }
 
@@ -48,9 +48,9 @@ Scene FlatFieldPreset(const std::string&, const PresetOptions&) {
   // The sample region is required by the format; park it far outside every view.
   s.board.sample_region = {-1.95, -1.95, -1.9, -1.9};
   s.board.white_region = {-1.5, -1.5, 1.5, 1.5};
-  s.light.type = "distant";
-  s.light.direction = {0, 0, -1};
-  s.light.irradiance = 4.0;
+  s.lamp.type = "distant";
+  s.lamp.direction = {0, 0, -1};
+  s.lamp.irradiance = 4.0;
   s.views.target = {0, 0, 0};
   s.views.distance = 0.5;
   s.views.rings_deg = {0, 10};
@@ -73,7 +73,7 @@ Scene ExposureSweepPreset(const std::string&, const PresetOptions&) {
   return s;
 }
 
-// "sfs-sphere", "sfs-vase", "sfs-bumps": oren-nayar sigma 30 deg, albedo 0.8, the light
+// "sfs-sphere", "sfs-vase", "sfs-bumps": oren-nayar sigma 30 deg, albedo 0.8, the lamp
 // collocated with the camera (or turned about the object centre), linear 16-bit images without
 // vignetting.
 Scene SfsPreset(const std::string& name, const PresetOptions& options) {
@@ -90,11 +90,11 @@ Scene SfsPreset(const std::string& name, const PresetOptions& options) {
   s.sfs.size = s.sfs.shape == "vase" ? 0.07 : 0.1;
   const Eigen::Vector3d centre(0, 0, s.sfs.distance);
   const Eigen::Matrix3d turn =
-      Eigen::AngleAxisd(DegToRad(options.sfs_light_offaxis_deg), Eigen::Vector3d::UnitY())
+      Eigen::AngleAxisd(DegToRad(options.sfs_lamp_offaxis_deg), Eigen::Vector3d::UnitY())
           .toRotationMatrix();
-  s.light.frame = "camera";
-  s.light.position = centre + turn * (Eigen::Vector3d::Zero() - centre);
-  s.light.intensity = 1.0;
+  s.lamp.frame = "camera";
+  s.lamp.position = centre + turn * (Eigen::Vector3d::Zero() - centre);
+  s.lamp.intensity = 1.0;
   s.photometric.bit_depth = 16;
   s.photometric.response = "linear";
   s.photometric.black_level = 0;
@@ -117,10 +117,10 @@ Scene FlashPreset(const std::string& name, const PresetOptions&) {
   s.camera.width = 640;
   s.camera.height = 480;
   s.camera.intrinsics = {550, 550, 319.5, 239.5, -0.12, 0.05, 0.0005, -0.0003, -0.01, 0, 0, 0};
-  s.light.frame = "camera";
-  s.light.position = {0.04, 0.0, 0.0};
+  s.lamp.frame = "camera";
+  s.lamp.position = {0.04, 0.0, 0.0};
   // Paper head-on at 0.4 m: X = 60 * 0.01 * (0.8 / pi) * I / 0.16, about 0.57 of full scale.
-  s.light.intensity = 0.6;
+  s.lamp.intensity = 0.6;
   s.views.distance = 0.4;
   s.views.rings_deg = {10, 26, 42, 56};
   s.views.per_ring = 4;
@@ -147,10 +147,10 @@ Scene BenchEffectPreset(const std::string& name, const PresetOptions& options) {
   } else {
     const auto& r = s.board.sample_region;
     const Eigen::Vector3d centre(0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3]), 0.0);
-    const Eigen::Vector3d to_lamp = s.light.position - centre;
-    const double lamp = s.light.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
-    s.light.ambient_irradiance = 0.05 * lamp;
-    s.light.lamp_off_frames = true;
+    const Eigen::Vector3d to_lamp = s.lamp.position - centre;
+    const double lamp = s.lamp.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
+    s.lamp.ambient_irradiance = 0.05 * lamp;
+    s.lamp.lamp_off_frames = true;
   }
   return s;
 }
@@ -209,8 +209,8 @@ const std::vector<std::string>& PresetNames() {
 }
 
 void PresetOptions::Check() const {
-  if (!(std::abs(sfs_light_offaxis_deg) <= 90))
-    throw InputError("--sfs-light-offaxis-deg: must be a number in [-90, 90]");
+  if (!(std::abs(sfs_lamp_offaxis_deg) <= 90))
+    throw InputError("--sfs-lamp-offaxis-deg: must be a number in [-90, 90]");
 }
 
 Scene PresetScene(const std::string& name, const PresetOptions& options) {

@@ -47,14 +47,14 @@ RadianceView RenderRadiance(const Scene& scene, const TexturedShader& shader,
   RadianceView v;
   v.camera = board_from_cam.t;
   v.lamp =
-      scene.light.frame == "camera" ? board_from_cam * scene.light.position : scene.light.position;
+      scene.lamp.frame == "camera" ? board_from_cam * scene.lamp.position : scene.lamp.position;
   cv::Mat im(size, size, CV_64FC3);
   ParallelFor(size, threads, [&](size_t b, size_t e) {
     for (size_t r = b; r < e; ++r) {
       for (int c = 0; c < size; ++c) {
         const Eigen::Vector3d p(sq.centre.x() + ((c + 0.5) / size - 0.5) * sq.side,
                                 sq.centre.y() + ((r + 0.5) / size - 0.5) * sq.side, sq.z);
-        const Rgb L = shader.Point(p, v.camera, v.lamp, scene.light.intensity);
+        const Rgb L = shader.Point(p, v.camera, v.lamp, scene.lamp.intensity);
         for (int k = 0; k < 3; ++k) im.ptr<double>(static_cast<int>(r))[3 * c + k] = L[k];
       }
     }
@@ -122,7 +122,7 @@ nlohmann::json RectifiedTruth(const Scene& scene, const RectifiedSquare& sq, int
             {"exposure", exposure},
             {"exposure_meaning",
              "X = exposure * radiance before noise; radiance = f_r * intensity * cos / d^2"},
-            {"lamp_intensity", scene.light.intensity}}},
+            {"lamp_intensity", scene.lamp.intensity}}},
           {"photometric", chain.ToJson()},
           {"scene", SceneToJson(scene)}};
 }
@@ -134,7 +134,7 @@ RectifiedRenderResult RenderRectifiedViews(const Scene& scene, int size, const f
   const auto start = std::chrono::steady_clock::now();
   scene.Check();
   if (!scene.texture.enabled()) throw InputError("--rectified: the scene has no texture");
-  if (scene.light.type != "point") throw InputError("--rectified: the scene needs a point lamp");
+  if (scene.lamp.type != "point") throw InputError("--rectified: the scene needs a point lamp");
   if (size < 16 || size > 4096) throw InputError("--rectified: size must be in [16, 4096] px");
   const TexturedShader shader(scene);
   const auto& region = scene.board.sample_region;
@@ -150,16 +150,16 @@ RectifiedRenderResult RenderRectifiedViews(const Scene& scene, int size, const f
   const double exposure = AutoExposure(views, size);
   const PhotometricChain chain(PhoneEncoding(scene), scene.camera);
   EnsureDirectory(out_dir);
-  std::string camera_lines, light_lines;
+  std::string camera_lines, lamp_lines;
   for (size_t v = 0; v < views.size(); ++v) {
     const cv::Mat image = EncodeView(views[v].radiance, chain, exposure, scene.seed, v);
     const fs::path file = out_dir / fmt::format("{:02d}.png", v);
     WriteAtomically(file, [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), image); });
     camera_lines += PositionLine(views[v].camera, sq.centre);
-    light_lines += PositionLine(views[v].lamp, sq.centre);
+    lamp_lines += PositionLine(views[v].lamp, sq.centre);
   }
   WriteTextAtomically(out_dir / "camera_pos.txt", camera_lines);
-  WriteTextAtomically(out_dir / "light_pos.txt", light_lines);
+  WriteTextAtomically(out_dir / "light_pos.txt", lamp_lines);
   WriteTextAtomically(out_dir / "image_size.txt", fmt::format("{:.6f}\n", 100 * sq.side));
   const std::array<double, 4> square = {
       sq.centre.x() - 0.5 * sq.side, sq.centre.y() - 0.5 * sq.side, sq.centre.x() + 0.5 * sq.side,

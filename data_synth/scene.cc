@@ -49,8 +49,8 @@ using Applies = bool (*)(const Scene&);
 bool AnyScene(const Scene&) { return true; }
 bool BoardScene(const Scene& s) { return s.type == "board"; }
 bool SfsScene(const Scene& s) { return s.type == "sfs"; }
-bool PointLight(const Scene& s) { return s.light.type == "point"; }
-bool DistantLight(const Scene& s) { return s.light.type != "point"; }
+bool PointLamp(const Scene& s) { return s.lamp.type == "point"; }
+bool DistantLamp(const Scene& s) { return s.lamp.type != "point"; }
 bool OrbitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "orbit"; }
 bool ExplicitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "explicit"; }
 
@@ -141,7 +141,7 @@ json WriteValue(const std::vector<Rigid3d>& poses) {
 }
 
 struct Field {
-  std::string part;  // "" at the top level, else the part's key ("board", "light", ...)
+  std::string part;  // "" at the top level, else the part's key ("board", "lamp", ...)
   std::string key;
   std::function<void(const json&, Scene*)> read;   // json::exception or ValueError
   std::function<json(const Scene&)> write;         // null: read only
@@ -294,7 +294,7 @@ void AddTopAndCameraFields(std::vector<Field>* f) {
       .Add("params", &MaterialSpec::params);
 }
 
-void AddPhotometricAndLightFields(std::vector<Field>* f) {
+void AddPhotometricAndLampFields(std::vector<Field>* f) {
   using P = PhotometricSpec;
   Section<P>("photometric", &Scene::photometric, nullptr, f)
       .Add("bit_depth", &P::bit_depth,
@@ -318,25 +318,25 @@ void AddPhotometricAndLightFields(std::vector<Field>* f) {
            Must([](double v, const Scene&) { return v >= 0; }, "must be >= 0"))
       .Add("noise", &P::noise);
   auto positive = Must([](double v, const Scene&) { return v > 0; }, "must be > 0");
-  Section<LightSpec>("light", &Scene::light, nullptr, f)
-      .Add("type", &LightSpec::type, OneOf({"point", "distant"}))
-      .Add("frame", &LightSpec::frame, OneOf({"board", "camera"}))
-      .Add("position", &LightSpec::position,
+  Section<LampSpec>("lamp", &Scene::lamp, nullptr, f)
+      .Add("type", &LampSpec::type, OneOf({"point", "distant"}))
+      .Add("frame", &LampSpec::frame, OneOf({"board", "camera"}))
+      .Add("position", &LampSpec::position,
            Must(
                [](const Eigen::Vector3d& p, const Scene& s) {
-                 return !(BoardScene(s) && s.light.frame == "board") || p.z() < 0;
+                 return !(BoardScene(s) && s.lamp.frame == "board") || p.z() < 0;
                },
-               "the light must be in front of the board (z < 0)"),
-           PointLight)
-      .Add("intensity", &LightSpec::intensity, positive, PointLight)
-      .Add("direction", &LightSpec::direction,
+               "the lamp must be in front of the board (z < 0)"),
+           PointLamp)
+      .Add("intensity", &LampSpec::intensity, positive, PointLamp)
+      .Add("direction", &LampSpec::direction,
            Must([](const Eigen::Vector3d& d, const Scene&) { return d.norm() > 1e-9; },
                 "must be non-zero"),
-           DistantLight)
-      .Add("irradiance", &LightSpec::irradiance, positive, DistantLight)
-      .Add("ambient_irradiance", &LightSpec::ambient_irradiance,
+           DistantLamp)
+      .Add("irradiance", &LampSpec::irradiance, positive, DistantLamp)
+      .Add("ambient_irradiance", &LampSpec::ambient_irradiance,
            Must([](double v, const Scene&) { return v >= 0; }, "must be >= 0"), BoardScene)
-      .Add("lamp_off_frames", &LightSpec::lamp_off_frames, NoCheck(), BoardScene);
+      .Add("lamp_off_frames", &LampSpec::lamp_off_frames, NoCheck(), BoardScene);
 }
 
 void AddBoardFields(std::vector<Field>* f) {
@@ -478,7 +478,7 @@ const std::vector<Field>& SceneFields() {
   static const std::vector<Field> fields = [] {
     std::vector<Field> f;
     AddTopAndCameraFields(&f);
-    AddPhotometricAndLightFields(&f);
+    AddPhotometricAndLampFields(&f);
     AddBoardFields(&f);
     AddViewsAndSfsFields(&f);
     AddTextureFields(&f);
@@ -511,13 +511,13 @@ void ReadField(const Field& f, const json& value, const std::string& what, Scene
 // Cross-part conditions no single field carries.
 void CheckSceneConsistency(const Scene& s) {
   if (SfsScene(s)) {
-    Require(s.light.type == "point" && s.light.frame == "camera",
-            "light: sfs scenes need a point light in the camera frame");
+    Require(s.lamp.type == "point" && s.lamp.frame == "camera",
+            "lamp: sfs scenes need a point lamp in the camera frame");
     return;
   }
   Require(
-      !s.texture.enabled() || s.light.ambient_irradiance == 0,
-      "texture: a textured sample is rendered without ambient light (light.ambient_irradiance 0)");
+      !s.texture.enabled() || s.lamp.ambient_irradiance == 0,
+      "texture: a textured sample is rendered without ambient light (lamp.ambient_irradiance 0)");
   for (const auto& pose : s.CamFromBoardPoses()) {
     Require(pose.R.allFinite() && pose.t.allFinite() &&
                 (pose.R * pose.R.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-6,
@@ -605,7 +605,23 @@ std::vector<Rigid3d> Scene::CamFromBoardPoses() const {
   return poses;
 }
 
-Scene SceneFromJson(const json& j, const std::string& what) {
+namespace {
+
+// Scene files written before the lamp's part was renamed (docs/formats.md "Renamed keys") call
+// it "light".
+json WithLampPart(const json& j, const std::string& what) {
+  if (!j.is_object() || !j.contains("light")) return j;
+  if (j.contains("lamp")) throw InputError(what + ": both lamp and light (its old name) given");
+  json renamed = j;
+  renamed["lamp"] = renamed["light"];
+  renamed.erase("light");
+  return renamed;
+}
+
+}  // namespace
+
+Scene SceneFromJson(const json& given, const std::string& what) {
+  const json j = WithLampPart(given, what);
   RequireKnownKeys(j, "", what);
   std::set<std::string> parts;
   for (const Field& f : SceneFields()) {

@@ -1,11 +1,11 @@
 // The scene description `gonio synth` renders (scene.json, documented in docs/formats.md) and
 // the named presets that later stages are tested on.
 //
-// Two scene types share the material, light, camera and photometric parts:
+// Two scene types share the material, lamp, camera and photometric parts:
 //  - "board": a planar AprilTag board (tag36h11 ring around a rectangular sample region) seen
 //    from N poses, written as a capture session folder with truth.json;
 //  - "sfs": one object (sphere, vase, bumps) seen by a fixed camera, written as the input
-//    folder of `gonio sfs` (image, mask, material, light, depth/normal truth).
+//    folder of `gonio sfs` (image, mask, material, lamp, depth/normal truth).
 #pragma once
 
 #include <array>
@@ -59,17 +59,17 @@ struct MaterialSpec {
   std::vector<double> ParamVector() const;
 };
 
-struct LightSpec {
-  // "point": isotropic point light, irradiance E = I cos(theta_i) / d^2.
+struct LampSpec {
+  // "point": isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
   // "distant": parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
   std::string type = "point";
-  // Frame the position (or direction) is given in: "board" (light fixed while the camera
-  // moves) or "camera" (light fixed to the camera while the board turns).
+  // Frame the position (or direction) is given in: "board" (lamp fixed while the camera
+  // moves) or "camera" (lamp fixed to the camera while the board turns).
   std::string frame = "board";
-  Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point light
+  Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point lamp
   double intensity = 1.0;                        // W/sr (arbitrary but consistent units)
-  Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the light, distant light
-  double irradiance = 1.0;                       // at normal incidence, distant light
+  Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the lamp, distant lamp
+  double irradiance = 1.0;                       // at normal incidence, distant lamp
   // The room's light: a uniform irradiance from the whole hemisphere on every surface,
   // L += rho_dh(theta_r) * ambient_irradiance / pi (rho_dh: directional-hemispherical
   // reflectance; albedo / pi * E for the paper). lamp_off_frames: each frame also rendered
@@ -126,7 +126,7 @@ struct Scene {
   int supersampling = 8;  // per axis, for pixels whose footprint crosses an edge
   BoardSpec board;
   MaterialSpec material;
-  LightSpec light;
+  LampSpec lamp;
   CameraModel camera;
   PhotometricSpec photometric;
   ViewsSpec views;
@@ -149,9 +149,9 @@ Scene SceneFromJson(const nlohmann::json& j, const std::string& what);
 nlohmann::json SceneToJson(const Scene& scene);
 
 struct PresetOptions {
-  // sfs presets: the light turned this far off the camera axis about the object (0 =
+  // sfs presets: the lamp turned this far off the camera axis about the object (0 =
   // collocated with the camera).
-  double sfs_light_offaxis_deg = 0.0;
+  double sfs_lamp_offaxis_deg = 0.0;
   void Check() const;  // InputError naming the field
 };
 

@@ -179,12 +179,12 @@ class Shape {
   std::vector<std::array<double, 4>> bumps_;  // x, y, height, sigma (relative to size)
 };
 
-double Shade(const Shape& shape, const Material& material, const LightSpec& light,
+double Shade(const Shape& shape, const Material& material, const LampSpec& lamp,
              const Eigen::Vector3d& p, Eigen::Vector3d* normal) {
   const Eigen::Vector3d n = shape.Normal(p);
   if (normal) *normal = n;
   Eigen::Vector3d l;
-  const double e = PointIrradiance(p, n, light.position, light.intensity, &l);
+  const double e = PointIrradiance(p, n, lamp.position, lamp.intensity, &l);
   if (e <= 0) return 0.0;
   const Eigen::Vector3d v = -p.normalized();
   Angles<double> a = LocalAngles(n, l, v);
@@ -236,7 +236,7 @@ double PixelRadiance(const Scene& scene, const Shape& shape, const Material& mat
   const double zc = shape.Trace(centre_ray);
   if (hits == 4 && zc > 0) {
     Eigen::Vector3d n;
-    const double radiance = Shade(shape, material, scene.light, centre_ray * zc, &n);
+    const double radiance = Shade(shape, material, scene.lamp, centre_ray * zc, &n);
     out->mask.at<uint8_t>(y, x) = 255;
     out->depth.at<float>(y, x) = static_cast<float>(zc);
     out->normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n.x(), n.y(), n.z());
@@ -253,7 +253,7 @@ double PixelRadiance(const Scene& scene, const Shape& shape, const Material& mat
       const Eigen::Vector3d ray = (1 - v) * ((1 - u) * rays[i00] + u * rays[i10]) +
                                   v * ((1 - u) * rays[i01] + u * rays[i11]);
       const double zr = shape.Trace(ray);
-      if (zr > 0) radiance += Shade(shape, material, scene.light, ray * zr, nullptr);
+      if (zr > 0) radiance += Shade(shape, material, scene.lamp, ray * zr, nullptr);
     }
   }
   return radiance / (ss * ss);
@@ -297,28 +297,28 @@ SfsImages RenderImages(const Scene& scene, const Shape& shape, const Material& m
   return out;
 }
 
-// light.json: the light in the camera frame, and for a linear camera without vignetting the
+// lamp.json: the lamp in the camera frame, and for a linear camera without vignetting the
 // radiance of one digital number.
-json SfsLightJson(const Scene& scene, const PhotometricChain& chain) {
-  const auto& p = scene.light.position;
-  json light = {{"frame", "camera"},
-                {"position", {p.x(), p.y(), p.z()}},
-                {"collocated", p.norm() < 1e-9},
-                {"intensity", scene.light.intensity},
-                {"falloff", "inverse-square: E = intensity * cos(theta_i) / d^2"}};
+json SfsLampJson(const Scene& scene, const PhotometricChain& chain) {
+  const auto& p = scene.lamp.position;
+  json lamp = {{"frame", "camera"},
+               {"position", {p.x(), p.y(), p.z()}},
+               {"collocated", p.norm() < 1e-9},
+               {"intensity", scene.lamp.intensity},
+               {"falloff", "inverse-square: E = intensity * cos(theta_i) / d^2"}};
   const auto& ph = scene.photometric;
   const bool linear = ph.response == "linear" && ph.vignetting == std::array<double, 3>{0, 0, 0};
   if (linear) {
     // Radiance of one digital number above the black level (linear response, no vignetting).
-    light["radiance_per_dn"] = 1.0 / ((chain.max_value() - ph.black_level) * ph.exposure_scale *
-                                      scene.views.exposures_s.front());
-    light["black_level"] = ph.black_level;
+    lamp["radiance_per_dn"] = 1.0 / ((chain.max_value() - ph.black_level) * ph.exposure_scale *
+                                     scene.views.exposures_s.front());
+    lamp["black_level"] = ph.black_level;
   }
-  return light;
+  return lamp;
 }
 
 json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_json,
-                  const json& light, const PhotometricChain& chain) {
+                  const json& lamp, const PhotometricChain& chain) {
   const CameraModel& camera = scene.camera;
   return {
       {"format", "gonio-synth-truth"},
@@ -326,7 +326,7 @@ json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_j
       {"scene_type", "sfs"},
       {"object", shape.ToJson()},
       {"material", material_json},
-      {"light", light},
+      {"lamp", lamp},
       {"camera",
        {{"file", "camera.cameramodel"},
         {"lens_model", LensModelName(camera.lens_model)},
@@ -354,7 +354,7 @@ json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_j
 }
 
 // The input folder of `gonio sfs`: image, mask, depth and normal truth, camera, material,
-// light, truth.json.
+// lamp, truth.json.
 void WriteSfsFiles(const Scene& scene, const Shape& shape, const Material& material,
                    const PhotometricChain& chain, const SfsImages& images,
                    const fs::path& out_dir) {
@@ -369,10 +369,10 @@ void WriteSfsFiles(const Scene& scene, const Shape& shape, const Material& mater
   const json material_json = material.ToJson();
   WriteJsonAtomically(out_dir / "material.json", {{"selected", material.model()},
                                                   {"candidates", json::array({material_json})}});
-  const json light = SfsLightJson(scene, chain);
-  WriteJsonAtomically(out_dir / "light.json", light);
+  const json lamp = SfsLampJson(scene, chain);
+  WriteJsonAtomically(out_dir / "lamp.json", lamp);
   WriteJsonAtomically(out_dir / "truth.json",
-                      SfsTruthJson(scene, shape, material_json, light, chain));
+                      SfsTruthJson(scene, shape, material_json, lamp, chain));
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // Renders a shape-from-shading scene (docs/sfs.md): one object (sphere, vase, bumps) in front of
-// a fixed camera, lit by a point light given in the camera frame, written as the input folder
-// of `gonio sfs`: image.png, mask.png, camera.cameramodel, material.json, light.json,
+// a fixed camera, lit by a point lamp given in the camera frame, written as the input folder
+// of `gonio sfs`: image.png, mask.png, camera.cameramodel, material.json, lamp.json,
 // truth.json with depth.tiff and normals.tiff (docs/formats.md).
 //
 // Surfaces are implicit functions F (F > 0 outside) traced by marching plus bisection; no

@@ -1,4 +1,4 @@
-// Radiance of a surface point under one light: the pieces both renderers share.
+// Radiance of a surface point under one lamp: the pieces both renderers share.
 #pragma once
 
 #include <cstdint>
@@ -46,20 +46,20 @@ class Material {
   std::function<double(const Angles<double>&)> eval_;
 };
 
-// Irradiance on a surface with outward unit normal n at p from a point light at
-// `light_position` (inverse-square falloff): E = I cos(theta_i) / d^2, and the unit direction
-// to the light.
+// Irradiance on a surface with outward unit normal n at p from a point lamp at
+// `lamp_position` (inverse-square falloff): E = I cos(theta_i) / d^2, and the unit direction
+// to the lamp.
 inline double PointIrradiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
-                              const Eigen::Vector3d& light_position, double intensity,
-                              Eigen::Vector3d* to_light) {
-  const Eigen::Vector3d d = light_position - p;
+                              const Eigen::Vector3d& lamp_position, double intensity,
+                              Eigen::Vector3d* to_lamp) {
+  const Eigen::Vector3d d = lamp_position - p;
   const double d2 = d.squaredNorm();
-  *to_light = d / std::sqrt(d2);
-  const double cos_i = n.dot(*to_light);
+  *to_lamp = d / std::sqrt(d2);
+  const double cos_i = n.dot(*to_lamp);
   return cos_i > 0 ? intensity * cos_i / d2 : 0.0;
 }
 
-// BRDF angles of unit directions l (to the light) and v (to the viewer) about unit normal n.
+// BRDF angles of unit directions l (to the lamp) and v (to the viewer) about unit normal n.
 inline Angles<double> LocalAngles(const Eigen::Vector3d& n, const Eigen::Vector3d& l,
                                   const Eigen::Vector3d& v) {
   // Any tangent frame will do: the angles depend only on dot products with n and the

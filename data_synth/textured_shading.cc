@@ -64,19 +64,19 @@ Rgb TexturedShader::Shade(const TexturePoint& t, const Eigen::Vector3d& n, const
 }
 
 Rgb TexturedShader::Point(const Eigen::Vector3d& p, const Eigen::Vector3d& camera_in_board,
-                          const Eigen::Vector3d& light_in_board, double intensity) const {
+                          const Eigen::Vector3d& lamp_in_board, double intensity) const {
   const TexturePoint t = texture_.At(p.x(), p.y());
   const Eigen::Vector3d n = t.Normal();
   Eigen::Vector3d l;
-  const double e = PointIrradiance(p, n, light_in_board, intensity, &l);
+  const double e = PointIrradiance(p, n, lamp_in_board, intensity, &l);
   return Shade(t, n, p, l, e, camera_in_board);
 }
 
 Rgb TexturedShader::Distant(const Eigen::Vector3d& p, const Eigen::Vector3d& camera_in_board,
-                            const Eigen::Vector3d& to_light, double irradiance) const {
+                            const Eigen::Vector3d& to_lamp, double irradiance) const {
   const TexturePoint t = texture_.At(p.x(), p.y());
   const Eigen::Vector3d n = t.Normal();
-  return Shade(t, n, p, to_light, irradiance * std::max(0.0, n.dot(to_light)), camera_in_board);
+  return Shade(t, n, p, to_lamp, irradiance * std::max(0.0, n.dot(to_lamp)), camera_in_board);
 }
 
 nlohmann::json WriteTextureTruth(const Scene& scene, const std::array<double, 4>& r, double t,

@@ -1,4 +1,4 @@
-// The radiance of a textured sample (texture.h) under one light: the board renderer and the
+// The radiance of a textured sample (texture.h) under one lamp: the board renderer and the
 // rectified-view renderer (rectified_views.h) both shade through this class, so their pixels
 // agree on the same surface.
 #pragma once
@@ -26,14 +26,14 @@ class TexturedShader {
   explicit TexturedShader(const Scene& scene);
 
   // Radiance (R, G, B) of the sample at board point p (on its top plane) seen from
-  // camera_in_board, lit by a point lamp at light_in_board of intensity I (E = I cos / d^2
-  // about the point's own normal), or for a distant light by `irradiance` from direction
-  // to_light (unit). Zero where the relief faces away from the lamp or the camera.
+  // camera_in_board, lit by a point lamp at lamp_in_board of intensity I (E = I cos / d^2
+  // about the point's own normal), or for a distant lamp by `irradiance` from direction
+  // to_lamp (unit). Zero where the relief faces away from the lamp or the camera.
   // NumericalError when the model has no valid value there.
   Rgb Point(const Eigen::Vector3d& p, const Eigen::Vector3d& camera_in_board,
-            const Eigen::Vector3d& light_in_board, double intensity) const;
+            const Eigen::Vector3d& lamp_in_board, double intensity) const;
   Rgb Distant(const Eigen::Vector3d& p, const Eigen::Vector3d& camera_in_board,
-              const Eigen::Vector3d& to_light, double irradiance) const;
+              const Eigen::Vector3d& to_lamp, double irradiance) const;
 
   const Texture& texture() const { return texture_; }
 

@@ -121,7 +121,7 @@ bool BothPartsExplained(const JointSelectionResult& fit, const ObservationSet& d
   }
   JointFitOptions o = fit_options;
   o.candidates = {fit.final_fit.material.model};
-  o.light_init = std::nullopt;
+  o.lamp_init = std::nullopt;
   for (int part = 0; part < 2; ++part) {
     ObservationSet subset = data;
     subset.observations.clear();
@@ -228,7 +228,7 @@ nlohmann::json RunWarning::ToJson() const {
 
 std::vector<std::string> AllResults(const JointFitResult& fit) {
   std::vector<std::string> out = fit.material.param_names;
-  out.push_back("light");
+  out.push_back("lamp");
   out.push_back("intensity");
   return out;
 }

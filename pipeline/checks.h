@@ -49,13 +49,13 @@ std::string ToString(WarningCause cause);  // "frame-skipped", "residual-irradia
 struct RunWarning {
   WarningCause cause = WarningCause::kFit;
   std::string message;
-  // Material parameter names, "light" (the lamp position) and "intensity"; empty: none (the
+  // Material parameter names, "lamp" (the lamp position) and "intensity"; empty: none (the
   // warning concerns the data, not the values).
   std::vector<std::string> touches;
   nlohmann::json ToJson() const;
 };
 
-// Every result of a fit: its material parameters, "light" and "intensity".
+// Every result of a fit: its material parameters, "lamp" and "intensity".
 std::vector<std::string> AllResults(const JointFitResult& fit);
 
 // fit.json checks.touched_results: result -> the causes of the warnings that touch it.

@@ -179,16 +179,16 @@ void Judge(const nlohmann::json& truth, const Board& board, DemoResult* d) {
       }
     }
   }
-  const auto& lt = truth.at("light").at("position_in_board");
-  d->light = f.light_position;
-  d->light_true = Eigen::Vector3d(lt[0], lt[1], lt[2]);
-  d->light_error_fraction =
-      (d->light - d->light_true).norm() / (d->light_true - board.SampleCentre()).norm();
-  const char* axes[] = {"light_x", "light_y", "light_z"};
+  const auto& lt = AtKeyOrOld(truth, "lamp", "light").at("position_in_board");
+  d->lamp = f.lamp_position;
+  d->lamp_true = Eigen::Vector3d(lt[0], lt[1], lt[2]);
+  d->lamp_error_fraction =
+      (d->lamp - d->lamp_true).norm() / (d->lamp_true - board.SampleCentre()).norm();
+  const char* axes[] = {"lamp_x", "lamp_y", "lamp_z"};
   for (int k = 0; k < 3; ++k) {
-    d->values.push_back({axes[k], d->light[k], d->light_true[k],
-                         f.light_stddev ? (*f.light_stddev)[k] : -1.0, false,
-                         touched.contains("light")});
+    d->values.push_back({axes[k], d->lamp[k], d->lamp_true[k],
+                         f.lamp_stddev ? (*f.lamp_stddev)[k] : -1.0, false,
+                         touched.contains("lamp")});
   }
 }
 
@@ -250,7 +250,7 @@ std::string DemoResult::Report() const {
   s += fmt::format("  model        {:>12}   true {}\n", run.fit.final_fit.material.model,
                    true_model);
   for (const auto& v : values) {
-    const bool lamp = v.name.rfind("light_", 0) == 0;
+    const bool lamp = v.name.rfind("lamp_", 0) == 0;
     const double scale = v.angle ? RadToDeg(1.0) : lamp ? 1e3 : 1.0;
     const char* unit = v.angle ? " deg" : lamp ? " mm" : "";
     s += fmt::format("  {:<10} {:>12.5g}{} +- {}   true {:.5g}{}   z {}{}\n", v.name,
@@ -259,7 +259,7 @@ std::string DemoResult::Report() const {
                      scale * v.truth, unit, v.stddev > 0 ? fmt::format("{:+.2f}", v.Z()) : "-",
                      v.warned ? "  (a warning touches it)" : "");
   }
-  s += fmt::format("  lamp error {:.2f}% of its distance\n", 100 * light_error_fraction);
+  s += fmt::format("  lamp error {:.2f}% of its distance\n", 100 * lamp_error_fraction);
   double wall = 0, cpu = 0;
   s += "time (wall / CPU):";
   for (const auto& t : seconds) {

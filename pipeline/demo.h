@@ -29,7 +29,7 @@ struct DemoOptions {
 
 // One recovered quantity against the truth.
 struct DemoValue {
-  std::string name;  // a material parameter, or light_x, light_y, light_z (metres)
+  std::string name;  // a material parameter, or lamp_x, lamp_y, lamp_z (metres)
   double recovered = 0, truth = 0;
   double stddev = -1;   // reported standard deviation; < 0: undetermined
   bool angle = false;   // radians, shown in degrees
@@ -47,8 +47,8 @@ struct DemoResult {
   bool oracle = false;
   std::string true_model;
   std::vector<DemoValue> values;  // the true model's parameters (when selected), the lamp
-  Eigen::Vector3d light = Eigen::Vector3d::Zero(), light_true = Eigen::Vector3d::Zero();
-  double light_error_fraction = 0;  // |light - truth| / distance of the true lamp from the sample
+  Eigen::Vector3d lamp = Eigen::Vector3d::Zero(), lamp_true = Eigen::Vector3d::Zero();
+  double lamp_error_fraction = 0;  // |lamp - truth| / distance of the true lamp from the sample
   // What the user's calibrations gave (camera, response, vignetting): a few lines.
   std::string calibration_report;
   // Each stage: render, sweep, camera, response, vignetting, run.

@@ -261,13 +261,13 @@ SessionVignette CalibrateSessionVignette(const SessionVignetteOptions& o) {
   SessionVignette v;
   std::optional<PaperRegion> board;
   v.flat_field = IsFlatField(o, &board);
-  if (o.light_frame == LightFrame::kCamera) {
+  if (o.lamp_frame == LampFrame::kCamera) {
     throw InputError(
         v.flat_field
-            ? std::string("--light-frame camera: a lamp on the camera does not light a flat "
+            ? std::string("--lamp-frame camera: a lamp on the camera does not light a flat "
                           "field evenly; light the target evenly (a light panel, a "
-                          "diffuser) and leave --light-frame out")
-            : std::string("--light-frame camera: a lamp that moves with the camera would "
+                          "diffuser) and leave --lamp-frame out")
+            : std::string("--lamp-frame camera: a lamp that moves with the camera would "
                           "put its fall-off into the vignetting; ") +
                   kVignetteAlternatives);
   }

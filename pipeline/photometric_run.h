@@ -80,7 +80,7 @@ PhotometricCalibration RawFramesCalibration(int channels, double white_level, do
 // field (no poses).
 struct SessionVignetteOptions {
   std::string session, camera, board, poses, response;  // board: needed with poses
-  LightFrame light_frame = LightFrame::kBoard;          // kCamera is refused (docs/photometric.md)
+  LampFrame lamp_frame = LampFrame::kBoard;             // kCamera is refused (docs/photometric.md)
   VignetteOptions vignette;
   void Check() const;  // InputError naming the option
 };

@@ -97,7 +97,7 @@ void PlanOptions::Check() const {
   hypothesis.Check();
   fit.Check();
   extract.Check();
-  if (hypothesis.light_frame == LightFrame::kBoard && !(hypothesis.light.z() < 0)) {
+  if (hypothesis.lamp_frame == LampFrame::kBoard && !(hypothesis.lamp.z() < 0)) {
     throw InputError(
         "--lamp: z must be negative (the lamp in front of the board, docs/conventions.md)");
   }
@@ -201,8 +201,8 @@ PlannedView PredictView(const Rigid3d& cam_from_board, const CameraModel& camera
   view.patches = static_cast<size_t>(weight * set.observations.size());
   // The lamp columns' scale as the fit sets it: the fitted lamp vector (in its own frame) minus a
   // sample point (joint_fit.cc AnalyzeJointUncertainty).
-  const double light_range = (o.hypothesis.light - target).norm();
-  view.information = ObservationInformation(set, weights, o.hypothesis, light_range, o.fit);
+  const double lamp_range = (o.hypothesis.lamp - target).norm();
+  view.information = ObservationInformation(set, weights, o.hypothesis, lamp_range, o.fit);
   return view;
 }
 
@@ -333,8 +333,8 @@ std::vector<PlannedView> Candidates(const Board& board, const CameraModel& camer
       ring.views.roll_deg = 0;
       for (const Rigid3d& pose : ring.CamFromBoardPoses()) {
         const Eigen::Vector3d centre = pose.Inverse().t;
-        if (o.hypothesis.light_frame == LightFrame::kBoard &&
-            (centre - o.hypothesis.light).norm() < o.min_lamp_clearance_m) {
+        if (o.hypothesis.lamp_frame == LampFrame::kBoard &&
+            (centre - o.hypothesis.lamp).norm() < o.min_lamp_clearance_m) {
           continue;
         }
         if (Reachable(pose, camera, board)) poses.push_back(pose);

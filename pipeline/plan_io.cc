@@ -57,9 +57,9 @@ std::string PredictionTable(const PredictedUncertainty& plan, const PredictedUnc
 // (theta_i, theta_r, phi) at board point `p` for a pose, radians.
 Angles<double> AnglesAt(const PlannedView& v, const DesignHypothesis& h, const Eigen::Vector3d& p) {
   const Rigid3d board_from_cam = v.cam_from_board.Inverse();
-  const Eigen::Vector3d lamp = h.light_frame == LightFrame::kBoard
-                                   ? h.light
-                                   : Eigen::Vector3d(board_from_cam.R * h.light + board_from_cam.t);
+  const Eigen::Vector3d lamp = h.lamp_frame == LampFrame::kBoard
+                                   ? h.lamp
+                                   : Eigen::Vector3d(board_from_cam.R * h.lamp + board_from_cam.t);
   const Eigen::Vector3d l = lamp - p, c = board_from_cam.t - p;
   const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {c.x(), -c.y(), -c.z()};
   return AnglesFromDirections(ls, vs);
@@ -103,8 +103,8 @@ void PlotTopView(const PlanResult& r, const Board& board, const fs::path& out) {
   }
   e += "EOD\n";
   std::string lamp;
-  if (r.options.hypothesis.light_frame == LightFrame::kBoard) {
-    const Eigen::Vector3d& l = r.options.hypothesis.light;
+  if (r.options.hypothesis.lamp_frame == LampFrame::kBoard) {
+    const Eigen::Vector3d& l = r.options.hypothesis.lamp;
     lamp = fmt::format(
         ", '-' using 1:2 with points pt 3 ps 3 lc rgb '#e0a000' title "
         "{}\n{:.4f} {:.4f}\ne",
@@ -194,8 +194,8 @@ nlohmann::json PlanResult::ToJson() const {
       {"hypothesis",
        {{"model", h.model},
         {"params", h.params},
-        {"light_frame", ToString(h.light_frame)},
-        {"light", {h.light.x(), h.light.y(), h.light.z()}},
+        {"lamp_frame", ToString(h.lamp_frame)},
+        {"lamp", {h.lamp.x(), h.lamp.y(), h.lamp.z()}},
         {"intensity", h.intensity}}},
       {"white_albedo", options.white_albedo ? nlohmann::json(*options.white_albedo) : nullptr},
       {"criterion", ToString(options.criterion)},

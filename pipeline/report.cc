@@ -173,8 +173,8 @@ void GeometrySketch(const JointFitResult& f, const ObservationSet& data, const B
   gp << "$cams << EOD\n";
   for (const auto& [k, c] : cams) gp << c.x() << ' ' << c.y() << ' ' << c.z() << '\n';
   gp << "EOD\n$lamp << EOD\n";
-  Eigen::Vector3d l = f.light_position;
-  if (f.light_frame == LightFrame::kCamera && !data.observations.empty()) {
+  Eigen::Vector3d l = f.lamp_position;
+  if (f.lamp_frame == LampFrame::kCamera && !data.observations.empty()) {
     Angles<double> a;
     double e;
     // Show the lamp for the first frame: board_from_cam applied to the camera-frame position.
@@ -291,11 +291,11 @@ std::string ParameterTable(const JointFitResult& f, const std::vector<RunWarning
   }
   h << fmt::format(
       "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td>{}</tr>",
-      ToString(f.light_frame), f.light_position.x(), f.light_position.y(), f.light_position.z(),
-      f.light_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(),
-                                   f.light_stddev->y(), f.light_stddev->z())
-                     : "undetermined",
-      WarnedCell(warnings, "light"));
+      ToString(f.lamp_frame), f.lamp_position.x(), f.lamp_position.y(), f.lamp_position.z(),
+      f.lamp_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.lamp_stddev->x(),
+                                  f.lamp_stddev->y(), f.lamp_stddev->z())
+                    : "undetermined",
+      WarnedCell(warnings, "lamp"));
   h << fmt::format("<tr><td>intensity</td><td>{:.5g}</td><td>{}</td>{}</tr>", f.intensity,
                    f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined",
                    WarnedCell(warnings, "intensity"));

@@ -108,12 +108,12 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
 // The joint fit's own warnings: a lamp too far to measure its distance touches the lamp and
 // the intensity; a frame the model misses, every result.
 void AddFitWarnings(const JointFitResult& f, std::vector<RunWarning>* out) {
-  const bool far_lamp = std::find(f.undetermined_light.begin(), f.undetermined_light.end(),
-                                  "light_distance") != f.undetermined_light.end();
+  const bool far_lamp = std::find(f.undetermined_lamp.begin(), f.undetermined_lamp.end(),
+                                  "lamp_distance") != f.undetermined_lamp.end();
   for (const auto& w : f.warnings) {
     const bool distance = far_lamp && w.find("irradiance varies only") != std::string::npos;
     out->push_back({WarningCause::kFit, w,
-                    distance ? std::vector<std::string>{"light", "intensity"} : AllResults(f)});
+                    distance ? std::vector<std::string>{"lamp", "intensity"} : AllResults(f)});
   }
 }
 
@@ -227,7 +227,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     spdlog::info("[4/4] per-texel maps of the sample (docs/maps.md)");
     const MapsSessionInputs maps_in{in.session, in.board, r.camera, in.photometric, in.assumptions};
     MapsOptions mo = *o.maps;
-    mo.light_frame = o.fit.light_frame;
+    mo.lamp_frame = o.fit.lamp_frame;
     mo.white_albedo = o.fit.white_albedo;
     mo.threads = mo.sampling.threads = o.fit.threads;
     r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit,

@@ -76,7 +76,7 @@ struct RunOptions {
   // the reported uncertainty by this many refits (estimation/joint/calibration_error.h); 0: off.
   CalibrationPropagationOptions calibration_error;
   // `gonio run --maps`: the per-texel maps of the sample after the fit, from the same poses and
-  // the fit's lamp (estimation/maps/maps.h); light frame, white albedo and threads from `fit`.
+  // the fit's lamp (estimation/maps/maps.h); lamp frame, white albedo and threads from `fit`.
   std::optional<MapsOptions> maps;
   RunOptions() { extract.patch = 4; }
   void Check() const;  // InputError naming the option

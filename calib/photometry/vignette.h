@@ -3,7 +3,7 @@
 // Usenko, Cremers, "A Photometrically Calibrated Benchmark For Monocular Visual Odometry",
 // 2016, sec. 2.3): the linearized, exposure-normalized value at pixel x is
 //   I(x) = V(x) * C(p),   p = the board point seen at x (pose from `gonio locate`),
-// with C the board's "albedo" (reflectance times the irradiance pattern of a light fixed to the
+// with C the board's "albedo" (reflectance times the irradiance pattern of a lamp fixed to the
 // board; view-independent for matte paper), on a texture grid over the board. First the radial
 // polynomial V = 1 + v1 r^2 + v2 r^4 + v3 r^6 (r = distance to the principal point /
 // half-diagonal, common/vignetting.h) is fitted jointly with C by Ceres (the Schur complement

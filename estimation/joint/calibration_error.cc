@@ -209,12 +209,12 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   for (int d = 0; d < options.draws; ++d) {
     const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, &rng);
     const JointFitResult r = joint_fit_internal::FitCandidate(
-        fit.material.model, perturbed, all, fit.light_position, fit_options, false);
+        fit.material.model, perturbed, all, fit.lamp_position, fit_options, false);
     if (!r.material.converged || r.material.params.size() != np) continue;
     for (size_t i = 0; i < np; ++i) params[i].push_back(r.material.params[i]);
-    lx.push_back(r.light_position.x());
-    ly.push_back(r.light_position.y());
-    lz.push_back(r.light_position.z());
+    lx.push_back(r.lamp_position.x());
+    ly.push_back(r.lamp_position.y());
+    lz.push_back(r.lamp_position.z());
     intensity.push_back(r.intensity);
   }
   CalibrationPropagation p;
@@ -225,7 +225,7 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   }
   p.param_names = fit.material.param_names;
   for (size_t i = 0; i < np; ++i) p.param_stddev.push_back(StdDev(params[i]));
-  p.light_stddev = Eigen::Vector3d(StdDev(lx), StdDev(ly), StdDev(lz));
+  p.lamp_stddev = Eigen::Vector3d(StdDev(lx), StdDev(ly), StdDev(lz));
   p.intensity_stddev = StdDev(intensity);
   spdlog::debug("calibration error propagated over {} refits", p.draws);
   return p;
@@ -271,9 +271,9 @@ void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* 
   for (size_t i = 0; i < std::min(sd.size(), p.param_stddev.size()); ++i) {
     if (sd[i]) sd[i] = std::hypot(*sd[i], p.param_stddev[i]);
   }
-  if (fit->light_stddev) {
+  if (fit->lamp_stddev) {
     for (int k = 0; k < 3; ++k) {
-      (*fit->light_stddev)[k] = std::hypot((*fit->light_stddev)[k], p.light_stddev[k]);
+      (*fit->lamp_stddev)[k] = std::hypot((*fit->lamp_stddev)[k], p.lamp_stddev[k]);
     }
   }
   if (fit->intensity_stddev) {
@@ -286,8 +286,8 @@ std::string CalibrationPropagation::Report() const {
   for (size_t i = 0; i < param_names.size(); ++i) {
     s += fmt::format(" {} +-{:.3g}", param_names[i], param_stddev[i]);
   }
-  s += fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n", light_stddev.x(),
-                   light_stddev.y(), light_stddev.z(), intensity_stddev);
+  s += fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n", lamp_stddev.x(),
+                   lamp_stddev.y(), lamp_stddev.z(), intensity_stddev);
   return s;
 }
 
@@ -296,7 +296,7 @@ nlohmann::json CalibrationPropagation::ToJson() const {
   for (size_t i = 0; i < param_names.size(); ++i) params[param_names[i]] = param_stddev[i];
   return {{"draws", draws},
           {"param_stddev", params},
-          {"light_stddev", {light_stddev.x(), light_stddev.y(), light_stddev.z()}},
+          {"lamp_stddev", {lamp_stddev.x(), lamp_stddev.y(), lamp_stddev.z()}},
           {"intensity_stddev", intensity_stddev}};
 }
 

@@ -78,7 +78,7 @@ struct CalibrationPropagation {
   int draws = 0;  // refits that converged
   std::vector<std::string> param_names;
   std::vector<double> param_stddev;  // calibration part only, same order as the fit's params
-  Eigen::Vector3d light_stddev = Eigen::Vector3d::Zero();
+  Eigen::Vector3d lamp_stddev = Eigen::Vector3d::Zero();
   double intensity_stddev = 0;
   std::string Report() const;  // one line per quantity
   nlohmann::json ToJson() const;

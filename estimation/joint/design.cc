@@ -19,7 +19,7 @@ using joint_fit_internal::FreeColumns;
 using joint_fit_internal::FreeJacobian;
 using joint_fit_internal::Geometry;
 using joint_fit_internal::HasResidual;
-using joint_fit_internal::LightInBoard;
+using joint_fit_internal::LampInBoard;
 using joint_fit_internal::Sigma;
 using joint_fit_internal::State;
 
@@ -27,7 +27,7 @@ State HypothesisState(const DesignHypothesis& h) {
   State s;
   s.shared = h.params;
   s.chan.assign(1, h.params);
-  s.light = h.light;
+  s.lamp = h.lamp;
   s.intensity = h.intensity;
   // No ambient light in a plan (one grey channel; docs/plan.md): the terms exist, held at 0.
   s.ambient_sample.assign(1, 0.0);
@@ -46,7 +46,7 @@ JointFitOptions GreyOptions(const JointFitOptions& options) {
 template <typename M>
 DesignInformation Information(const ModelInfo& info, const ObservationSet& data,
                               const std::vector<double>& weight, const DesignHypothesis& h,
-                              double light_range, const JointFitOptions& options) {
+                              double lamp_range, const JointFitOptions& options) {
   const JointFitOptions o = GreyOptions(options);
   DesignInformation out;
   std::vector<size_t> use;
@@ -56,7 +56,7 @@ DesignInformation Information(const ModelInfo& info, const ObservationSet& data,
     use.push_back(i);
     if (obs.white) continue;
     double lb[3], ls[3], vs[3];
-    LightInBoard(obs, o.light_frame, h.light.data(), lb);
+    LampInBoard(obs, o.lamp_frame, h.lamp.data(), lb);
     const double e = Geometry(obs, lb, ls, vs);
     out.min_irradiance = std::min(out.min_irradiance, e);
     out.max_irradiance = std::max(out.max_irradiance, e);
@@ -66,7 +66,7 @@ DesignInformation Information(const ModelInfo& info, const ObservationSet& data,
   ceres::Problem problem;
   BuildProblem<M>(data, use, info, o, &s, /*plain=*/true, &problem);
   std::vector<double*> blocks;
-  const std::vector<FreeColumn> cols = FreeColumns(info, problem, &s, light_range, &blocks);
+  const std::vector<FreeColumn> cols = FreeColumns(info, problem, &s, lamp_range, &blocks);
   double cost = 0;
   const Eigen::MatrixXd J = FreeJacobian(&problem, blocks, cols, &cost);
   Eigen::VectorXd w_fit(use.size()), w_noise(use.size());
@@ -90,7 +90,7 @@ DesignInformation Information(const ModelInfo& info, const ObservationSet& data,
 
 void DesignHypothesis::Check() const {
   CheckParams(FindModel(model), params);
-  if (!light.allFinite() || light.norm() > kMaxLightDistance) {
+  if (!lamp.allFinite() || lamp.norm() > kMaxLampDistance) {
     throw InputError("--lamp: the lamp position must be finite and within 1000 m");
   }
   if (!(intensity > 0 && std::isfinite(intensity))) {
@@ -105,7 +105,7 @@ double PredictRadiance(const Observation& o, const DesignHypothesis& h,
   double value = 0;
   VisitModel(h.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    value = joint_fit_internal::Predict<M>(o, 0, s, info, h.light_frame, white_albedo);
+    value = joint_fit_internal::Predict<M>(o, 0, s, info, h.lamp_frame, white_albedo);
   });
   return value;
 }
@@ -132,7 +132,7 @@ void DesignInformation::Scale(double factor) {
 
 DesignInformation ObservationInformation(const ObservationSet& data,
                                          const std::vector<double>& weight,
-                                         const DesignHypothesis& h, double light_range,
+                                         const DesignHypothesis& h, double lamp_range,
                                          const JointFitOptions& options) {
   if (data.channels != 1 || weight.size() != data.observations.size()) {
     throw std::logic_error("ObservationInformation: one channel and one weight per observation");
@@ -141,7 +141,7 @@ DesignInformation ObservationInformation(const ObservationSet& data,
   const ModelInfo& info = FindModel(h.model);
   VisitModel(h.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    out = Information<M>(info, data, weight, h, light_range, options);
+    out = Information<M>(info, data, weight, h, lamp_range, options);
   });
   return out;
 }
@@ -155,7 +155,7 @@ int PredictedUncertainty::Index(const std::string& name) const {
 
 double PredictedUncertainty::LampScatter() const {
   double var = 0;
-  for (const char* n : {"light_x", "light_y", "light_z"}) {
+  for (const char* n : {"lamp_x", "lamp_y", "lamp_z"}) {
     const int k = Index(n);
     if (k < 0) return INFINITY;
     var += scatter[k] * scatter[k];
@@ -228,7 +228,7 @@ PredictedUncertainty PredictUncertainty(const DesignInformation& info,
   if (contrast < options.min_irradiance_contrast) {
     out.lamp_distance_undetermined = true;
     for (int k = 0; k < p; ++k) {
-      if (out.names[k].rfind("light_", 0) == 0) {
+      if (out.names[k].rfind("lamp_", 0) == 0) {
         out.reported[k].reset();
         out.undetermined[k] = true;
       }

@@ -30,8 +30,8 @@ namespace gonio {
 struct DesignHypothesis {
   std::string model = "oren-nayar";
   std::vector<double> params;  // the registry's parameter vector
-  LightFrame light_frame = LightFrame::kBoard;
-  Eigen::Vector3d light = Eigen::Vector3d(0, 0, -0.5);  // in light_frame, metres
+  LampFrame lamp_frame = LampFrame::kBoard;
+  Eigen::Vector3d lamp = Eigen::Vector3d(0, 0, -0.5);  // in lamp_frame, metres
   double intensity = 1.0;
   // InputError for an unknown model, a wrong parameter count or a value outside its bounds.
   void Check() const;
@@ -44,7 +44,7 @@ double PredictRadiance(const Observation& o, const DesignHypothesis& h,
 
 // The information of a group of observations about the joint fit's free parameters.
 struct DesignInformation {
-  std::vector<std::string> names;     // the fit's free columns: material, light_x/y/z, intensity
+  std::vector<std::string> names;     // the fit's free columns: material, lamp_x/y/z, intensity
   std::vector<double> ranges;         // each column's natural scale (as the fit scales them)
   Eigen::MatrixXd fit_information;    // A = sum w J^T J, J divided by the fit's sigma
   Eigen::MatrixXd noise_information;  // B = sum w (noise variance / sigma^2) J^T J
@@ -60,10 +60,10 @@ struct DesignInformation {
 
 // The information of `data` (radiance and variance as the hypothesis and the noise model
 // predict them; channels 1), each observation counting `weight[i]` times (a subsample standing
-// for the rest). `light_range` scales the lamp columns (the lamp's distance from the sample).
+// for the rest). `lamp_range` scales the lamp columns (the lamp's distance from the sample).
 DesignInformation ObservationInformation(const ObservationSet& data,
                                          const std::vector<double>& weight,
-                                         const DesignHypothesis& h, double light_range,
+                                         const DesignHypothesis& h, double lamp_range,
                                          const JointFitOptions& options);
 
 struct PredictedUncertainty {

@@ -24,8 +24,8 @@
 namespace gonio {
 namespace {
 
-constexpr OptionWord<LightFrame> kLightFrameWords[] = {{LightFrame::kBoard, "board"},
-                                                       {LightFrame::kCamera, "camera"}};
+constexpr OptionWord<LampFrame> kLampFrameWords[] = {{LampFrame::kBoard, "board"},
+                                                     {LampFrame::kCamera, "camera"}};
 constexpr OptionWord<NuisanceTerm> kNuisanceWords[] = {
     {NuisanceTerm::kNone, "none"}, {NuisanceTerm::kFit, "fit"}, {NuisanceTerm::kAuto, "auto"}};
 
@@ -33,7 +33,7 @@ using joint_fit_internal::BuildProblem;
 using joint_fit_internal::CountResiduals;
 using joint_fit_internal::Geometry;
 using joint_fit_internal::HasResidual;
-using joint_fit_internal::LightInBoard;
+using joint_fit_internal::LampInBoard;
 using joint_fit_internal::Predict;
 using joint_fit_internal::Sigma;
 using joint_fit_internal::Solve;
@@ -61,12 +61,12 @@ using joint_fit_internal::Subsample;
 // default model onto the data (weighted least squares).
 template <typename M>
 State InitialState(const ModelInfo& info, const ObservationSet& data,
-                   const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
+                   const std::vector<size_t>& use, const Eigen::Vector3d& lamp_start,
                    const JointFitOptions& o) {
   State s;
   for (const auto& p : info.params) s.shared.push_back(p.default_value);
   s.chan.assign(o.per_channel ? data.channels : 1, s.shared);
-  s.light = light_start;
+  s.lamp = lamp_start;
   s.intensity = 1.0;
   s.ambient_sample.assign(data.channels, 0.0);
   s.ambient_irradiance.assign(data.channels, 0.0);
@@ -74,7 +74,7 @@ State InitialState(const ModelInfo& info, const ObservationSet& data,
   for (size_t i : use) {
     const Observation& obs = data.observations[i];
     for (int c = 0; c < data.channels; ++c) {
-      const double pred = Predict<M>(obs, c, s, info, o.light_frame, o.white_albedo);
+      const double pred = Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo);
       const double w = 1.0 / std::pow(Sigma(obs, c, o.relative_noise_floor), 2);
       fy += w * pred * obs.radiance[c];
       ff += w * pred * pred;
@@ -89,7 +89,7 @@ State InitialState(const ModelInfo& info, const ObservationSet& data,
 JointFitResult ResultFromState(const ModelInfo& info, const State& s, const JointFitOptions& o,
                                size_t n_observations) {
   JointFitResult r;
-  r.light_frame = o.light_frame;
+  r.lamp_frame = o.lamp_frame;
   r.absolute = o.white_albedo.has_value();
   r.n_observations = n_observations;
   BrdfFitResult& m = r.material;
@@ -107,7 +107,7 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
   for (int k = 0; k < info.num_params(); ++k) {
     if (info.params[k].per_channel) m.params[k] = s.chan[0][k];
   }
-  r.light_position = s.light;
+  r.lamp_position = s.lamp;
   r.intensity = s.intensity;
   r.ambient = o.ambient;
   if (o.sample_height == NuisanceTerm::kFit) r.sample_height_offset = s.height_offset;
@@ -136,7 +136,7 @@ namespace joint_fit_internal {
 // "albedo[c]"), lamp x, y, z (range: its distance) and intensity. `blocks` receives the
 // parameter blocks in evaluation order.
 std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem& problem, State* s,
-                                    double light_distance, std::vector<double*>* blocks) {
+                                    double lamp_distance, std::vector<double*>* blocks) {
   std::vector<FreeColumn> cols;
   if (problem.HasParameterBlock(s->shared.data())) {
     blocks->push_back(s->shared.data());
@@ -155,9 +155,9 @@ std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem&
       }
     }
   }
-  blocks->push_back(s->light.data());
+  blocks->push_back(s->lamp.data());
   for (int k = 0; k < 3; ++k) {
-    cols.push_back({s->light.data(), k, light_distance, std::string("light_") + "xyz"[k]});
+    cols.push_back({s->lamp.data(), k, lamp_distance, std::string("lamp_") + "xyz"[k]});
   }
   blocks->push_back(&s->intensity);
   cols.push_back({&s->intensity, 0, std::abs(s->intensity), "intensity"});
@@ -168,7 +168,7 @@ std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem&
   }
   // Ambient terms: ranges the lamp's irradiance at its distance (and a white Lambertian's
   // radiance under it).
-  const double lamp_irradiance = std::abs(s->intensity) / (light_distance * light_distance);
+  const double lamp_irradiance = std::abs(s->intensity) / (lamp_distance * lamp_distance);
   for (size_t c = 0; c < s->ambient_sample.size(); ++c) {
     if (problem.HasParameterBlock(&s->ambient_sample[c]) &&
         !problem.IsParameterBlockConstant(&s->ambient_sample[c])) {
@@ -249,22 +249,22 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
   m.n_effective = u.rank;
   m.n_params = static_cast<int>(cols.size());
   m.stddev.assign(num_params, std::nullopt);
-  Eigen::Vector3d light_sd;
-  bool light_ok = true;
+  Eigen::Vector3d lamp_sd;
+  bool lamp_ok = true;
   for (size_t j = 0; j < cols.size(); ++j) {
     const FreeColumn& c = cols[j];
-    if (c.block == s.light.data()) {
-      light_ok = light_ok && u.stddev[j].has_value();
-      light_sd[c.index] = u.stddev[j].value_or(NAN);
-      if (u.undetermined[j]) r->undetermined_light.push_back(c.name);
+    if (c.block == s.lamp.data()) {
+      lamp_ok = lamp_ok && u.stddev[j].has_value();
+      lamp_sd[c.index] = u.stddev[j].value_or(NAN);
+      if (u.undetermined[j]) r->undetermined_lamp.push_back(c.name);
     } else if (c.block == &s.intensity) {
       r->intensity_stddev = u.stddev[j];
-      if (u.undetermined[j]) r->undetermined_light.push_back("intensity");
+      if (u.undetermined[j]) r->undetermined_lamp.push_back("intensity");
     } else if (c.block == &s.height_offset) {
       r->sample_height_offset_stddev = u.stddev[j];
-      if (u.undetermined[j]) r->undetermined_light.push_back("sample_height");
+      if (u.undetermined[j]) r->undetermined_lamp.push_back("sample_height");
     } else if (AmbientColumn(s, c, u.stddev[j], r)) {
-      if (u.undetermined[j]) r->undetermined_light.push_back(c.name);
+      if (u.undetermined[j]) r->undetermined_lamp.push_back(c.name);
     } else if (c.block == s.shared.data() || c.block == s.chan[0].data()) {
       m.stddev[c.index] = u.stddev[j];
       if (u.undetermined[j]) m.undetermined.push_back(c.name);
@@ -272,7 +272,7 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
       m.undetermined.push_back(c.name);
     }
   }
-  if (light_ok) r->light_stddev = light_sd;
+  if (lamp_ok) r->lamp_stddev = lamp_sd;
 }
 
 // The joint fit's residuals are divided by their noise model (pixel noise and the relative
@@ -293,8 +293,8 @@ void AnalyzeJointUncertainty(const ModelInfo& info, const ObservationSet& data,
   ceres::Problem problem;
   BuildProblem<M>(data, use, info, o, &plain, true, &problem);
   std::vector<double*> blocks;
-  const double light_distance = (s.light - data.observations[use[0]].p_in_board).norm();
-  const std::vector<FreeColumn> cols = FreeColumns(info, problem, &plain, light_distance, &blocks);
+  const double lamp_distance = (s.lamp - data.observations[use[0]].p_in_board).norm();
+  const std::vector<FreeColumn> cols = FreeColumns(info, problem, &plain, lamp_distance, &blocks);
   double cost = 0;
   const Eigen::MatrixXd J = FreeJacobian(&problem, blocks, cols, &cost);
   std::vector<double> ranges;
@@ -314,7 +314,7 @@ void CheckIrradianceContrast(const ObservationSet& data, const std::vector<size_
     const Observation& obs = data.observations[i];
     if (obs.white) continue;
     double lb[3], ls[3], vs[3];
-    LightInBoard(obs, o.light_frame, s.light.data(), lb);
+    LampInBoard(obs, o.lamp_frame, s.lamp.data(), lb);
     const double e = Geometry(obs, lb, ls, vs);
     e_min = std::min(e_min, e);
     e_max = std::max(e_max, e);
@@ -322,9 +322,9 @@ void CheckIrradianceContrast(const ObservationSet& data, const std::vector<size_
   const double contrast = e_min > 0 ? e_max / e_min - 1.0 : 0.0;
   if (std::isfinite(e_min)) r->lamp_irradiance = s.intensity * 0.5 * (e_min + e_max);
   if (contrast >= o.min_irradiance_contrast) return;
-  r->light_stddev.reset();
-  r->undetermined_light.push_back("light_distance");
-  if (!r->absolute) r->undetermined_light.push_back("intensity");
+  r->lamp_stddev.reset();
+  r->undetermined_lamp.push_back("lamp_distance");
+  if (!r->absolute) r->undetermined_lamp.push_back("intensity");
   r->warnings.push_back(fmt::format(
       "the irradiance varies only {:.2f}% across the sample: the lamp's distance cannot be "
       "measured (only its direction); move the lamp closer",
@@ -370,7 +370,7 @@ void ComputeMetrics(const ModelInfo& info, const ObservationSet& data,
     if (!HasResidual(obs, o)) continue;
     for (int c = 0; c < data.channels; ++c) {
       const double res =
-          Predict<M>(obs, c, s, info, o.light_frame, o.white_albedo) - obs.radiance[c];
+          Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo) - obs.radiance[c];
       const double z = res / Sigma(obs, c, o.relative_noise_floor);
       ssr_w += z * z;
       ++n_res;
@@ -422,7 +422,7 @@ std::optional<double> HeldOutFrameRms(const ModelInfo& info, const ObservationSe
       if (obs.white) continue;
       for (int c = 0; c < data.channels; ++c) {
         const double res =
-            Predict<M>(obs, c, t, info, o.light_frame, o.white_albedo) - obs.radiance[c];
+            Predict<M>(obs, c, t, info, o.lamp_frame, o.white_albedo) - obs.radiance[c];
         cv_sq += res * res;
         ++cv_n;
       }
@@ -448,7 +448,7 @@ State StateFromResult(const ModelInfo& info, const JointFitResult& r, const Obse
       }
     }
   }
-  s.light = r.light_position;
+  s.lamp = r.lamp_position;
   s.intensity = r.intensity;
   s.ambient_sample.assign(data.channels, 0.0);
   s.ambient_irradiance.assign(data.channels, 0.0);
@@ -462,22 +462,22 @@ State StateFromResult(const ModelInfo& info, const JointFitResult& r, const Obse
   return s;
 }
 
-// One model on the `use` observations from `light_start` (or from `warm`, a converged fit of
+// One model on the `use` observations from `lamp_start` (or from `warm`, a converged fit of
 // the same model and options): solve, uncertainty, the lamp distance's contrast check, metrics
 // and (optionally) cross-validation over frames.
 template <typename M>
 JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
-                        const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
+                        const std::vector<size_t>& use, const Eigen::Vector3d& lamp_start,
                         const JointFitOptions& o, bool cross_validate,
                         const JointFitResult* warm = nullptr) {
   using Fast = typename Tabulated<M>::type;  // estimation/joint/tabulated_models.h
   if constexpr (!std::is_same_v<Fast, M>) {
     if (o.tabulated_models) {
-      return FitModel<Fast>(info, data, use, light_start, o, cross_validate, warm);
+      return FitModel<Fast>(info, data, use, lamp_start, o, cross_validate, warm);
     }
   }
   State s = warm && warm->material.converged ? StateFromResult(info, *warm, data, o)
-                                             : InitialState<M>(info, data, use, light_start, o);
+                                             : InitialState<M>(info, data, use, lamp_start, o);
   Solve<M>(data, use, info, o, &s);
   JointFitResult r = ResultFromState(info, s, o, use.size());
   r.material.n_samples = CountResiduals(data, use, o);
@@ -495,13 +495,13 @@ JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
 JointFitResult joint_fit_internal::FitCandidate(const std::string& model,
                                                 const ObservationSet& data,
                                                 const std::vector<size_t>& use,
-                                                const Eigen::Vector3d& light_start,
+                                                const Eigen::Vector3d& lamp_start,
                                                 const JointFitOptions& options, bool cross_validate,
                                                 const JointFitResult* warm) {
   JointFitResult r;
   VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    r = FitModel<M>(FindModel(model), data, use, light_start, options, cross_validate, warm);
+    r = FitModel<M>(FindModel(model), data, use, lamp_start, options, cross_validate, warm);
   });
   return r;
 }
@@ -509,7 +509,7 @@ JointFitResult joint_fit_internal::FitCandidate(const std::string& model,
 bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles<double>* angles,
                          double* irradiance_factor) {
   double lb[3], ls[3], vs[3];
-  LightInBoard(o, fit.light_frame, fit.light_position.data(), lb);
+  LampInBoard(o, fit.lamp_frame, fit.lamp_position.data(), lb);
   // A fitted height correction moves the sample's points along their rays, as in the fit.
   *irradiance_factor =
       Geometry(o, lb, ls, vs, o.white ? 0.0 : fit.sample_height_offset.value_or(0.0));
@@ -538,7 +538,7 @@ JointFitOptions WithChosenNuisances(const JointFitOptions& options, const JointF
 double PredictedRadiance(const Observation& o, int channel, const JointFitResult& fit,
                          double white_albedo) {
   double lb[3], ls[3], vs[3];
-  LightInBoard(o, fit.light_frame, fit.light_position.data(), lb);
+  LampInBoard(o, fit.lamp_frame, fit.lamp_position.data(), lb);
   const double e = Geometry(o, lb, ls, vs, o.white ? 0.0 : fit.sample_height_offset.value_or(0));
   if (!(ls[2] > 0) || !(e > 0)) return NAN;
   auto at = [&](const std::vector<double>& v) {
@@ -562,24 +562,24 @@ double PredictedRadiance(const Observation& o, int channel, const JointFitResult
   return f * fit.intensity * e + at(fit.ambient_sample);
 }
 
-LightFrame ParseLightFrame(const std::string& word, const std::string& option_name) {
-  return ParseOptionWord(kLightFrameWords, word, option_name);
+LampFrame ParseLampFrame(const std::string& word, const std::string& option_name) {
+  return ParseOptionWord(kLampFrameWords, word, option_name);
 }
 
-std::string ToString(LightFrame frame) { return OptionWordOf(kLightFrameWords, frame); }
+std::string ToString(LampFrame frame) { return OptionWordOf(kLampFrameWords, frame); }
 
 void JointFitOptions::Check() const {
   if (white_albedo && !(*white_albedo > 0 && *white_albedo <= 1)) {
     throw InputError("--white-albedo must be in (0, 1]");
   }
-  if (light_init && !light_init->allFinite()) throw InputError("--light-init must be finite");
-  // A bench lamp is metres away, not kilometres: beyond kMaxLightDistance the start is a typo
+  if (lamp_init && !lamp_init->allFinite()) throw InputError("--lamp-init must be finite");
+  // A bench lamp is metres away, not kilometres: beyond kMaxLampDistance the start is a typo
   // (and the distance could not be measured anyway: docs/pipeline.md, identifiability).
-  if (light_init && !(light_init->norm() <= kMaxLightDistance)) {
+  if (lamp_init && !(lamp_init->norm() <= kMaxLampDistance)) {
     throw InputError(
-        fmt::format("--light-init: {:.3g} m from the origin; a lamp start must be "
+        fmt::format("--lamp-init: {:.3g} m from the origin; a lamp start must be "
                     "within {:g} m",
-                    light_init->norm(), kMaxLightDistance));
+                    lamp_init->norm(), kMaxLampDistance));
   }
   if (!(relative_noise_floor >= 0 && relative_noise_floor < 1)) {
     throw InputError("relative noise floor must be in [0, 1)");
@@ -595,7 +595,7 @@ void JointFitOptions::Check() const {
 }
 
 JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
-                        const Eigen::Vector3d& light_start, const JointFitOptions& options) {
+                        const Eigen::Vector3d& lamp_start, const JointFitOptions& options) {
   options.Check();
   std::vector<size_t> all(data.observations.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
@@ -603,7 +603,7 @@ JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
   const ModelInfo& info = FindModel(model);
   VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    r = FitModel<M>(info, data, all, light_start, options, true);
+    r = FitModel<M>(info, data, all, lamp_start, options, true);
   });
   return r;
 }
@@ -613,9 +613,9 @@ namespace {
 // Deterministic lamp starts: near the camera for a lamp fixed in the camera frame; otherwise in
 // front of the board (z < 0) at the median camera distance, on the sample's normal and on a
 // 40-degree cone around it.
-std::vector<Eigen::Vector3d> LightStarts(const ObservationSet& data, LightFrame frame) {
+std::vector<Eigen::Vector3d> LampStarts(const ObservationSet& data, LampFrame frame) {
   std::vector<Eigen::Vector3d> starts;
-  if (frame == LightFrame::kCamera) {
+  if (frame == LampFrame::kCamera) {
     for (const Eigen::Vector3d& d :
          {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.1, 0, 0), Eigen::Vector3d(-0.1, 0, 0),
           Eigen::Vector3d(0, 0.1, 0), Eigen::Vector3d(0, -0.1, 0)}) {
@@ -644,9 +644,9 @@ std::vector<Eigen::Vector3d> LightStarts(const ObservationSet& data, LightFrame 
 
 }  // namespace
 
-Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& options) {
-  if (options.light_init) return *options.light_init;
-  const std::vector<Eigen::Vector3d> starts = LightStarts(data, options.light_frame);
+Eigen::Vector3d InitialLamp(const ObservationSet& data, const JointFitOptions& options) {
+  if (options.lamp_init) return *options.lamp_init;
+  const std::vector<Eigen::Vector3d> starts = LampStarts(data, options.lamp_frame);
   JointFitOptions screen = options;
   screen.max_iterations = 50;
   const auto use = Subsample(data, 1500);
@@ -657,11 +657,11 @@ Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& 
     const JointFitResult r = FitModel<Lambert>(info, data, use, start, screen, false);
     if (r.material.converged && r.material.weighted_ssr < best_cost) {
       best_cost = r.material.weighted_ssr;
-      best = r.light_position;
+      best = r.lamp_position;
     }
   }
   spdlog::info("lamp start from {} candidates: ({:.3f}, {:.3f}, {:.3f}) m in the {} frame",
-               starts.size(), best.x(), best.y(), best.z(), ToString(options.light_frame));
+               starts.size(), best.x(), best.y(), best.z(), ToString(options.lamp_frame));
   return best;
 }
 

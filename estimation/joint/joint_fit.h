@@ -27,10 +27,10 @@ namespace gonio {
 // The frame the lamp stays fixed in while the photographs are taken: the board's (the camera
 // moves around board and lamp) or the camera's (the board turns in front of a camera that
 // carries the lamp).
-enum class LightFrame { kBoard, kCamera };
+enum class LampFrame { kBoard, kCamera };
 // "board" or "camera"; InputError naming `option_name` otherwise.
-LightFrame ParseLightFrame(const std::string& word, const std::string& option_name);
-std::string ToString(LightFrame frame);
+LampFrame ParseLampFrame(const std::string& word, const std::string& option_name);
+std::string ToString(LampFrame frame);
 
 // A nuisance of the scene, something the material does not explain but the data may show
 // (docs/pipeline.md "Nuisances chosen by evidence"): left out (kNone), fitted (kFit), or chosen
@@ -52,16 +52,16 @@ using AmbientTerm = NuisanceTerm;
 AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name);
 
 // Lamp starts farther than this from the board origin are refused as typos (metres).
-inline constexpr double kMaxLightDistance = 1000.0;
+inline constexpr double kMaxLampDistance = 1000.0;
 
 struct JointFitOptions {
-  std::vector<std::string> candidates;          // empty: AutoCandidates()
-  Criterion criterion = Criterion::kBic;        // cv: K folds of held-out frames
-  LightFrame light_frame = LightFrame::kBoard;  // where the lamp is fixed
-  std::optional<Eigen::Vector3d> light_init;    // in light_frame; none: multi-start
-  std::optional<double> white_albedo;           // known albedo of the white reference
-  bool per_channel = true;                      // per-channel albedo-like parameters (colour data)
-  AmbientTerm ambient = AmbientTerm::kAuto;     // --ambient
+  std::vector<std::string> candidates;       // empty: AutoCandidates()
+  Criterion criterion = Criterion::kBic;     // cv: K folds of held-out frames
+  LampFrame lamp_frame = LampFrame::kBoard;  // where the lamp is fixed
+  std::optional<Eigen::Vector3d> lamp_init;  // in lamp_frame; none: multi-start
+  std::optional<double> white_albedo;        // known albedo of the white reference
+  bool per_channel = true;                   // per-channel albedo-like parameters (colour data)
+  AmbientTerm ambient = AmbientTerm::kAuto;  // --ambient
   // --sample-height: a correction to board.json's sample_height_m fitted with the rest (the
   // sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
   NuisanceTerm sample_height = NuisanceTerm::kAuto;
@@ -121,13 +121,13 @@ struct JointFitResult {
   // per channel, their values in that order (fit.json: params_per_channel).
   std::vector<std::string> per_channel_param_names;
   std::vector<std::vector<double>> per_channel_params;
-  LightFrame light_frame = LightFrame::kBoard;
-  Eigen::Vector3d light_position = Eigen::Vector3d::Zero();
-  std::optional<Eigen::Vector3d> light_stddev;
+  LampFrame lamp_frame = LampFrame::kBoard;
+  Eigen::Vector3d lamp_position = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> lamp_stddev;
   double intensity = 1.0;
   std::optional<double> intensity_stddev;
-  bool absolute = false;                        // a white reference fixed the intensity
-  std::vector<std::string> undetermined_light;  // "light_x", "intensity", ...
+  bool absolute = false;                       // a white reference fixed the intensity
+  std::vector<std::string> undetermined_lamp;  // "lamp_x", "intensity", ...
   // The ambient terms per colour channel (AmbientTerm::kFit; empty otherwise): the sample's
   // ambient radiance and the ambient irradiance on the white reference (empty without a
   // white reference), with their standard deviations; lamp_irradiance: the lamp's mean
@@ -165,13 +165,13 @@ struct JointSelectionResult {
 bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles<double>* angles,
                          double* irradiance_factor);
 
-// One model, from a given lamp start (in options.light_frame).
+// One model, from a given lamp start (in options.lamp_frame).
 JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
-                        const Eigen::Vector3d& light_start, const JointFitOptions& options);
+                        const Eigen::Vector3d& lamp_start, const JointFitOptions& options);
 
-// Lamp starting points: options.light_init, else a deterministic set over the hemisphere in
+// Lamp starting points: options.lamp_init, else a deterministic set over the hemisphere in
 // front of the board, screened with a Lambertian fit; returns the best.
-Eigen::Vector3d InitialLight(const ObservationSet& data, const JointFitOptions& options);
+Eigen::Vector3d InitialLamp(const ObservationSet& data, const JointFitOptions& options);
 
 // `options` with the nuisances as `fit` has them (kAuto resolved to kFit or kNone): what a refit
 // of the same model must use (the calibration error's refits, the split test).

@@ -25,31 +25,31 @@ namespace gonio::joint_fit_internal {
 // A fitted sample-height correction is searched within this many metres of board.json's.
 inline constexpr double kMaxSampleHeightOffset = 0.05;
 
-// Lamp position in the board frame for one observation: `light` as fitted, in the board frame,
+// Lamp position in the board frame for one observation: `lamp` as fitted, in the board frame,
 // or in the camera frame (then moved by the observation's board_from_cam pose).
 template <typename T>
-void LightInBoard(const Observation& o, LightFrame frame, const T* light, T* light_in_board) {
-  if (frame == LightFrame::kBoard) {
-    for (int k = 0; k < 3; ++k) light_in_board[k] = light[k];
+void LampInBoard(const Observation& o, LampFrame frame, const T* lamp, T* lamp_in_board) {
+  if (frame == LampFrame::kBoard) {
+    for (int k = 0; k < 3; ++k) lamp_in_board[k] = lamp[k];
     return;
   }
   const T aa[3] = {T(o.board_from_cam_aa.x()), T(o.board_from_cam_aa.y()),
                    T(o.board_from_cam_aa.z())};
-  ceres::AngleAxisRotatePoint(aa, light, light_in_board);
-  for (int k = 0; k < 3; ++k) light_in_board[k] += T(o.camera_in_board[k]);
+  ceres::AngleAxisRotatePoint(aa, lamp, lamp_in_board);
+  for (int k = 0; k < 3; ++k) lamp_in_board[k] += T(o.camera_in_board[k]);
 }
 
-// Irradiance factor cos(theta_i)/d^2 at the observed point for the lamp at `light_in_board`,
+// Irradiance factor cos(theta_i)/d^2 at the observed point for the lamp at `lamp_in_board`,
 // and the (unnormalized) directions to lamp and camera in the sample frame (board x, -y, -z:
 // the sample's outward normal is -z_board). Call sites name them lb, ls and vs.
 // height_offset: the sample's surface this much further out of the board than the
 // observation's point (metres; the fitted correction to board.json's sample_height_m): the
 // point moves along the pixel's ray, from the camera, to the plane z = p.z - height_offset.
 template <typename T>
-T Geometry(const Observation& o, const T* light_in_board, T* light_dir_in_sample,
+T Geometry(const Observation& o, const T* lamp_in_board, T* lamp_dir_in_sample,
            T* view_dir_in_sample, const T& height_offset = T(0)) {
-  const T* lb = light_in_board;
-  T* ls = light_dir_in_sample;
+  const T* lb = lamp_in_board;
+  T* ls = lamp_dir_in_sample;
   T* vs = view_dir_in_sample;
   const Eigen::Vector3d& c = o.camera_in_board;
   const Eigen::Vector3d ray = o.p_in_board - c;
@@ -76,15 +76,15 @@ struct SampleRadianceResidual {
   const Observation* o;
   int channel;
   double inv_sigma;
-  LightFrame light_frame;
+  LampFrame lamp_frame;
   std::array<bool, 16> per_channel;
   // ambient: this channel's ambient radiance of the sample (0 and constant unless fitted).
   // height_offset: the fitted correction to the sample's height (0 and constant unless fitted).
   template <typename T>
-  bool operator()(const T* shared, const T* chan, const T* light, const T* intensity,
+  bool operator()(const T* shared, const T* chan, const T* lamp, const T* intensity,
                   const T* ambient, const T* height_offset, T* r) const {
     T lb[3], ls[3], vs[3];
-    LightInBoard(*o, light_frame, light, lb);
+    LampInBoard(*o, lamp_frame, lamp, lb);
     const T e = Geometry(*o, lb, ls, vs, height_offset[0]);
     T p[M::kNumParams];
     for (int k = 0; k < M::kNumParams; ++k) p[k] = per_channel[k] ? chan[k] : shared[k];
@@ -100,13 +100,13 @@ struct WhiteRadianceResidual {
   const Observation* o;
   int channel;
   double inv_sigma, white_albedo;
-  LightFrame light_frame;
+  LampFrame lamp_frame;
   // ambient_irradiance: this channel's ambient irradiance E_a (0 and constant unless fitted);
   // the Lambertian reference reflects A_w / pi of it.
   template <typename T>
-  bool operator()(const T* light, const T* intensity, const T* ambient_irradiance, T* r) const {
+  bool operator()(const T* lamp, const T* intensity, const T* ambient_irradiance, T* r) const {
     T lb[3], ls[3], vs[3];
-    LightInBoard(*o, light_frame, light, lb);
+    LampInBoard(*o, lamp_frame, lamp, lb);
     const T e = Geometry(*o, lb, ls, vs);
     const T model =
         T(white_albedo * kInvPi) * ((e > T(0) ? intensity[0] * e : T(0)) + ambient_irradiance[0]);
@@ -149,7 +149,7 @@ inline ceres::LossFunction* NewLoss(RobustLoss loss) {
 struct State {
   std::vector<double> shared;
   std::vector<std::vector<double>> chan;  // per channel (one when options.per_channel is off)
-  Eigen::Vector3d light;
+  Eigen::Vector3d lamp;
   double intensity = 1;
   // Per channel: the sample's ambient radiance and the ambient irradiance on the white
   // reference (docs/pipeline.md "Ambient light"); zero and held constant unless fitted.
@@ -174,14 +174,14 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
       if (obs.white) {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<WhiteRadianceResidual, 1, 3, 1, 1>(
-                new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.light_frame}),
-            loss, s->light.data(), &s->intensity, &s->ambient_irradiance[c]);
+                new WhiteRadianceResidual{&obs, c, inv_sigma, *o.white_albedo, o.lamp_frame}),
+            loss, s->lamp.data(), &s->intensity, &s->ambient_irradiance[c]);
       } else {
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
                                             M::kNumParams, 3, 1, 1, 1>(
-                new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.light_frame, per_channel}),
-            loss, s->shared.data(), s->chan[chan].data(), s->light.data(), &s->intensity,
+                new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.lamp_frame, per_channel}),
+            loss, s->shared.data(), s->chan[chan].data(), s->lamp.data(), &s->intensity,
             &s->ambient_sample[c], &s->height_offset);
       }
     }
@@ -277,14 +277,14 @@ void Solve(const ObservationSet& data, const std::vector<size_t>& use, const Mod
   ceres::Solve(so, &problem, &summary);
   s->cost = summary.final_cost;
   s->usable = summary.IsSolutionUsable() && std::isfinite(summary.final_cost) &&
-              s->light.allFinite() && std::isfinite(s->intensity);
+              s->lamp.allFinite() && std::isfinite(s->intensity);
 }
 
 template <typename M>
 double Predict(const Observation& obs, int c, const State& s, const ModelInfo& info,
-               LightFrame light_frame, std::optional<double> white_albedo) {
+               LampFrame lamp_frame, std::optional<double> white_albedo) {
   double lb[3], ls[3], vs[3];
-  LightInBoard(obs, light_frame, s.light.data(), lb);
+  LampInBoard(obs, lamp_frame, s.lamp.data(), lb);
   const double e = Geometry(obs, lb, ls, vs, obs.white ? 0.0 : s.height_offset);
   if (obs.white) {
     return white_albedo.value_or(0.0) * kInvPi *
@@ -310,7 +310,7 @@ struct FreeColumn {
 // "albedo[c]"), lamp x, y, z (range: its distance) and intensity. `blocks` receives the
 // parameter blocks in evaluation order.
 std::vector<FreeColumn> FreeColumns(const ModelInfo& info, const ceres::Problem& problem, State* s,
-                                    double light_distance, std::vector<double*>* blocks);
+                                    double lamp_distance, std::vector<double*>* blocks);
 
 // The Jacobian of the problem's residuals restricted to `cols` (one row per residual, in the
 // order they were added); `cost` is half the sum of squared residuals.
@@ -321,12 +321,12 @@ Eigen::MatrixXd FreeJacobian(ceres::Problem* problem, const std::vector<double*>
 std::vector<size_t> Subsample(const ObservationSet& data, size_t max_n);
 
 // One registry model fitted jointly with the lamp (joint_fit.cc), for the model search
-// (joint_selection.cc): from the registry defaults and `light_start`, or from `warm`, a
+// (joint_selection.cc): from the registry defaults and `lamp_start`, or from `warm`, a
 // converged fit of the same model (on other observations of the same scene, or without some of
 // the nuisance terms `options` fits, which then start at zero), so a refit does not descend
 // again from the defaults.
 JointFitResult FitCandidate(const std::string& model, const ObservationSet& data,
-                            const std::vector<size_t>& use, const Eigen::Vector3d& light_start,
+                            const std::vector<size_t>& use, const Eigen::Vector3d& lamp_start,
                             const JointFitOptions& options, bool cross_validate,
                             const JointFitResult* warm = nullptr);
 

@@ -14,17 +14,17 @@ nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 nlohmann::json JointFitResult::ToJson() const {
   nlohmann::json j = gonio::ToJson(material);
-  nlohmann::json light = {
-      {"frame", ToString(light_frame)},
-      {"position", {light_position.x(), light_position.y(), light_position.z()}},
+  nlohmann::json lamp = {
+      {"frame", ToString(lamp_frame)},
+      {"position", {lamp_position.x(), lamp_position.y(), lamp_position.z()}},
       {"intensity", Finite(intensity)},
       {"intensity_stddev", intensity_stddev ? Finite(*intensity_stddev) : nlohmann::json()},
-      {"undetermined", undetermined_light},
+      {"undetermined", undetermined_lamp},
       {"absolute", absolute}};
-  light["stddev"] = light_stddev
-                        ? nlohmann::json({light_stddev->x(), light_stddev->y(), light_stddev->z()})
-                        : nlohmann::json();
-  j["light"] = light;
+  lamp["stddev"] = lamp_stddev
+                       ? nlohmann::json({lamp_stddev->x(), lamp_stddev->y(), lamp_stddev->z()})
+                       : nlohmann::json();
+  j["lamp"] = lamp;
   if (!per_channel_param_names.empty()) {
     nlohmann::json per = nlohmann::json::object();
     for (size_t k = 0; k < per_channel_param_names.size(); ++k) {
@@ -98,7 +98,7 @@ nlohmann::json JointSelectionResult::ToJson() const {
   j["candidates_fitted_on"] = fits.empty() ? 0 : fits[0].n_observations;
   const nlohmann::json final_json = final_fit.ToJson();
   j["final"] = final_json;
-  j["light"] = final_json["light"];
+  j["lamp"] = final_json["lamp"];
   j["frames"] = final_json["frames"];
   j["warnings"] = final_json["warnings"];
   return j;
@@ -141,11 +141,11 @@ std::string JointSelectionResult::Report() const {
   s << selection.Report();
   const auto& f = final_fit;
   s << "final fit on " << f.n_observations << " observations: " << f.material.Report() << "\n";
-  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", ToString(f.light_frame),
-                   f.light_position.x(), f.light_position.y(), f.light_position.z());
-  if (f.light_stddev) {
-    s << fmt::format(" +- ({:.2g}, {:.2g}, {:.2g})", f.light_stddev->x(), f.light_stddev->y(),
-                     f.light_stddev->z());
+  s << fmt::format("lamp ({} frame): ({:.4f}, {:.4f}, {:.4f}) m", ToString(f.lamp_frame),
+                   f.lamp_position.x(), f.lamp_position.y(), f.lamp_position.z());
+  if (f.lamp_stddev) {
+    s << fmt::format(" +- ({:.2g}, {:.2g}, {:.2g})", f.lamp_stddev->x(), f.lamp_stddev->y(),
+                     f.lamp_stddev->z());
   }
   s << fmt::format("; intensity {:.5g}{}\n", f.intensity,
                    f.absolute ? "" : " (relative: no white reference)");
@@ -160,7 +160,7 @@ std::string JointSelectionResult::Report() const {
   if (!f.sample_height_reason.empty() && f.sample_height_reason != f.ambient_reason) {
     s << "sample height: " << f.sample_height_reason << "\n";
   }
-  for (const auto& u : f.undetermined_light) s << "undetermined: " << u << "\n";
+  for (const auto& u : f.undetermined_lamp) s << "undetermined: " << u << "\n";
   for (const auto& w : f.warnings) s << "warning: " << w << "\n";
   return s.str();
 }

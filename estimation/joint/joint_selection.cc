@@ -251,7 +251,7 @@ struct NuisanceTrial {
   bool ambient = false, height = false;
   double value = INFINITY;  // the criterion; INFINITY: a term within its error bar
   double z = 0;             // the first term's |value| / sd at the final size
-  Eigen::Vector3d light = Eigen::Vector3d::Zero();
+  Eigen::Vector3d lamp = Eigen::Vector3d::Zero();
   bool converged = false;
 };
 
@@ -265,13 +265,13 @@ std::optional<UnresolvedNuisance> NoteUnresolved(const std::vector<NuisanceTrial
                                                  const JointFitResult& chosen, double scale,
                                                  const JointFitOptions& options) {
   std::optional<UnresolvedNuisance> worst;
-  if (!chosen.light_stddev) return worst;
+  if (!chosen.lamp_stddev) return worst;
   for (const NuisanceTrial& t : trials) {
     if (t.ambient == t.height || !t.converged || !(t.z > 2.0 && t.z <= options.nuisance_min_z)) {
       continue;
     }
-    const Eigen::Vector3d shift = t.light - chosen.light_position;
-    const Eigen::Vector3d sd = *chosen.light_stddev / scale;
+    const Eigen::Vector3d shift = t.lamp - chosen.lamp_position;
+    const Eigen::Vector3d sd = *chosen.lamp_stddev / scale;
     double in_sd = 0;
     for (int k = 0; k < 3; ++k) {
       if (sd[k] > 0) in_sd = std::max(in_sd, std::abs(shift[k]) / sd[k]);
@@ -345,7 +345,7 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
     // starts its descent (from the registry defaults each trial cost as much as the candidate's
     // own fit: 0.8 s of pitted-exact's, three times).
     const JointFitResult f =
-        FitCandidate(chosen.material.model, data, use, chosen.light_position, o, false, &chosen);
+        FitCandidate(chosen.material.model, data, use, chosen.lamp_position, o, false, &chosen);
     // Every term of the combination must stand out of its own error bar, which the noise model
     // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
     // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
@@ -354,7 +354,7 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
                              (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
     t.value = significant ? criterion(f) : INFINITY;
     t.z = scale * NuisanceZ(f, t.ambient);
-    t.light = f.light_position;
+    t.lamp = f.lamp_position;
     t.converged = f.material.converged;
     spdlog::info(
         "nuisance trial {}{}: {} {:.1f}, z ambient {:.2f}, height {:.2f} (x {:.2f} at the "
@@ -418,7 +418,7 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
   // The restored selection's fit has these options and starts the refit; a fit with another
   // term set does not (FitCandidate's warm start).
   const JointFitResult& chosen = out->fits[out->selection.selected];
-  out->final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.light_position, o,
+  out->final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o,
                                 false, none_left ? &chosen : nullptr);
 }
 
@@ -443,7 +443,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   JointFitOptions search = options;
   if (search.ambient == AmbientTerm::kAuto) search.ambient = AmbientTerm::kNone;
   if (search.sample_height == NuisanceTerm::kAuto) search.sample_height = NuisanceTerm::kNone;
-  const Eigen::Vector3d light0 = InitialLight(data, search);
+  const Eigen::Vector3d light0 = InitialLamp(data, search);
   const auto use = Subsample(data, options.selection_max_observations);
   // The reported fits (the final one, a restored selection's) are solved to the options'
   // tolerance; the search's to the criterion's (WithSearchTolerance).
@@ -465,7 +465,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
     // of a material's shape; the criterion, not the stopping rule, must decide that).
     spdlog::info("searching the models again with the kept nuisance terms");
     const JointFitResult before = out.fits[out.selection.selected];
-    SearchModels(data, names, use, before.light_position, chosen_options, &out,
+    SearchModels(data, names, use, before.lamp_position, chosen_options, &out,
                  FindModel(before.material.model).params.size());
   }
   const auto& chosen = out.fits[out.selection.selected];
@@ -477,7 +477,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   // single cost for the expensive models: 10x the subsample, docs/bench.md).
   JointFitOptions final_options = chosen_options;
   final_options.function_tolerance = refit.function_tolerance;
-  out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.light_position,
+  out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position,
                                final_options, false, &chosen);
   DropUnsupportedNuisances(data, final_use, refit, options, without_nuisances, &nuisance_reason,
                            &out);

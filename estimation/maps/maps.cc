@@ -110,7 +110,7 @@ void MapsOptions::Check() const {
   solve.Check();
   clusters.Check();
   if (calibration_error.draws != 0) calibration_error.Check();
-  if (lamp && (!lamp->allFinite() || lamp->norm() > kMaxLightDistance)) {
+  if (lamp && (!lamp->allFinite() || lamp->norm() > kMaxLampDistance)) {
     throw InputError("--lamp: not a finite position within 1000 m");
   }
   if (white_albedo && !(*white_albedo > 0 && *white_albedo <= 1)) {

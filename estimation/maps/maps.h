@@ -54,10 +54,10 @@ struct MapsOptions {
   TexelSolveOptions solve;  // its model is set from ResolvedModel
   ClusterOptions clusters;
   RoughnessChoice roughness = RoughnessChoice::kAuto;
-  // --lamp: the lamp's position in light_frame, held fixed; none: from a uniform fit of the
+  // --lamp: the lamp's position in lamp_frame, held fixed; none: from a uniform fit of the
   // session, refined with the maps.
   std::optional<Eigen::Vector3d> lamp;
-  LightFrame light_frame = LightFrame::kBoard;
+  LampFrame lamp_frame = LampFrame::kBoard;
   std::optional<double> white_albedo;  // known albedo of the white reference
   // Relative error added to every radiance's noise (the calibration's uncertainty, e.g.
   // photometric.json's relative_accuracy; docs/maps.md "Noise").

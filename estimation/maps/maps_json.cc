@@ -177,7 +177,7 @@ json MapsResult::ToJson() const {
   if (uniform_fit) {
     j["uniform_fit"] = {{"model", uniform_fit->material.model},
                         {"params", uniform_fit->material.params},
-                        {"light_position", Vec3Json(uniform_fit->light_position)},
+                        {"lamp_position", Vec3Json(uniform_fit->lamp_position)},
                         {"intensity", uniform_fit->intensity}};
   }
   if (calibration_error) {

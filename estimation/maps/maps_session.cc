@@ -113,7 +113,7 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
   }
   ObservationSet obs = extractor.Finish(session.dir.string());
   JointFitOptions jo;
-  jo.light_frame = o.light_frame;
+  jo.lamp_frame = o.lamp_frame;
   jo.white_albedo = o.white_albedo;
   jo.threads = o.threads;
   // A deterministic subsample, as the joint fit's final fit takes (30000 observations).
@@ -126,7 +126,7 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
       maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
   spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
                obs.observations.size());
-  JointFitResult fit = FitJoint(model, obs, InitialLight(obs, jo), jo);
+  JointFitResult fit = FitJoint(model, obs, InitialLamp(obs, jo), jo);
   if (o.calibration_error.draws == 0 || !fit.material.converged) return fit;
   const std::optional<CalibrationErrorModel> e =
       CalibrationErrorModelAt(in.photometric, obs, in.camera);
@@ -164,7 +164,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   const double read_s = SecondsSince(t0);
   MapsLamp lamp;
   lamp.frame =
-      o.light_frame == LightFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
+      o.lamp_frame == LampFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
   lamp.white_albedo = o.white_albedo;
   std::optional<JointFitResult> uniform;
   std::optional<CalibrationPropagation> calibration;
@@ -178,7 +178,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
     uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration);
   }
   if (uniform) {
-    lamp.position = uniform->light_position;
+    lamp.position = uniform->lamp_position;
     lamp.intensity = uniform->intensity;
     lamp.refine_position = true;
   }
@@ -250,9 +250,9 @@ void AddMapsCalibrationUncertainty(const CalibrationPropagation& calibration,
   }
   if (f.lamp.position_sd) {
     for (int k = 0; k < 3; ++k) {
-      (*f.lamp.position_sd)[k] = std::hypot((*f.lamp.position_sd)[k], calibration.light_stddev[k]);
+      (*f.lamp.position_sd)[k] = std::hypot((*f.lamp.position_sd)[k], calibration.lamp_stddev[k]);
     }
-    added.push_back(fmt::format("lamp +-{:.2g} m", calibration.light_stddev.maxCoeff()));
+    added.push_back(fmt::format("lamp +-{:.2g} m", calibration.lamp_stddev.maxCoeff()));
   }
   r->calibration_error = calibration;
   r->calibration_error_use = added.empty() ? "none of it (the maps' model has other parameters)"

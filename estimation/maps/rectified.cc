@@ -125,10 +125,10 @@ MapsResult MapsFromRectified(const fs::path& dir, const MapsOptions& o) {
   o.Check();
   const std::vector<fs::path> files = ViewFiles(dir);
   const std::vector<Eigen::Vector3d> cameras = ReadPositions(dir / "camera_pos.txt");
-  const std::vector<Eigen::Vector3d> lights = ReadPositions(dir / "light_pos.txt");
-  if (cameras.size() != files.size() || lights.size() != files.size()) {
-    throw InputError(fmt::format("{}: {} views, {} camera and {} light positions", dir.string(),
-                                 files.size(), cameras.size(), lights.size()));
+  const std::vector<Eigen::Vector3d> lamps = ReadPositions(dir / "light_pos.txt");
+  if (cameras.size() != files.size() || lamps.size() != files.size()) {
+    throw InputError(fmt::format("{}: {} views, {} camera and {} lamp positions", dir.string(),
+                                 files.size(), cameras.size(), lamps.size()));
   }
   const double side = ReadSide(dir / "image_size.txt");
   const cv::Mat first = cv::imread(files[0].string(), cv::IMREAD_UNCHANGED);
@@ -147,8 +147,8 @@ MapsResult MapsFromRectified(const fs::path& dir, const MapsOptions& o) {
   lamp.frame = MapsLamp::Frame::kPerView;
   lamp.intensity = 1;  // the flash power: in the albedo's scale (docs/maps.md)
   for (size_t v = 0; v < files.size(); ++v) {
-    if (!(cameras[v].z() < 0) || !(lights[v].z() < 0)) {
-      throw InputError(fmt::format("{}: view {} has its camera or light below the sample (z <= 0)",
+    if (!(cameras[v].z() < 0) || !(lamps[v].z() < 0)) {
+      throw InputError(fmt::format("{}: view {} has its camera or lamp below the sample (z <= 0)",
                                    dir.string(), v));
     }
     TexelView view;
@@ -157,7 +157,7 @@ MapsResult MapsFromRectified(const fs::path& dir, const MapsOptions& o) {
     view.board_from_cam.t = cameras[v];
     data.views.push_back(view);
     data.samples.push_back(DecodeView(files[v], n, data.channels));
-    lamp.per_view.push_back(lights[v]);
+    lamp.per_view.push_back(lamps[v]);
   }
   MapsResult r = SolveMaps(std::move(data), lamp, o);
   r.input = dir.string();

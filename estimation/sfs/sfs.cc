@@ -89,7 +89,7 @@ void FitGlobalDepth(const SfsProblem& pr, const Level& lv, cv::Mat* u) {
       for (size_t i = 0; i < measured.size(); ++i) {
         const double pred =
             Radiance<M, double>(pr.params.data(), false, 1.0, normals[i], points[i] * std::exp(c),
-                                pr.light_in_cam, pr.light_intensity);
+                                pr.lamp_in_cam, pr.lamp_intensity);
         const double r = (std::isfinite(pred) ? pred : 0.0) - measured[i];
         sum += r * r;
       }
@@ -148,8 +148,8 @@ size_t AddLevelResiduals(const SfsProblem& pr, const SfsOptions& opt, const Leve
                                          lv.Ray(x, y + 1),
                                          pr.params.data(),
                                          lambert,
-                                         pr.light_in_cam,
-                                         pr.light_intensity,
+                                         pr.lamp_in_cam,
+                                         pr.lamp_intensity,
                                          lv.radiance.at<double>(y, x),
                                          inv_ref};
         problem->AddResidualBlock(
@@ -288,7 +288,7 @@ void SfsProblem::Check() const {
   if (!(anchor_depth > 0) || !std::isfinite(anchor_depth)) {
     throw InputError("sfs: need a positive object distance (anchor depth)");
   }
-  if (!(light_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
+  if (!(lamp_intensity > 0)) throw InputError("sfs: lamp intensity must be > 0");
   bool found = VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     if (static_cast<int>(params.size()) != M::kNumParams) {
@@ -323,7 +323,7 @@ double SfsRadiance(const SfsProblem& pr, const std::string& reflectance, double 
   VisitModel(pr.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
     value = Radiance<M, double>(pr.params.data(), reflectance == "lambert", scale, normal, point,
-                                pr.light_in_cam, pr.light_intensity);
+                                pr.lamp_in_cam, pr.lamp_intensity);
   });
   return std::isfinite(value) ? value : 0.0;
 }

@@ -65,8 +65,8 @@ struct SfsProblem {
   cv::Mat radiance;  // CV_64F, linear radiance (absolute or relative units)
   cv::Mat mask;      // CV_8U, nonzero on the object
   CameraModel camera;
-  Eigen::Vector3d light_in_cam = Eigen::Vector3d::Zero();  // lamp position, metres
-  double light_intensity = 1.0;
+  Eigen::Vector3d lamp_in_cam = Eigen::Vector3d::Zero();  // lamp position, metres
+  double lamp_intensity = 1.0;
   std::string model;           // registry name of the material
   std::vector<double> params;  // registry order
   double anchor_depth = 0;     // camera-frame z of the brightest interior pixel, metres

@@ -36,12 +36,12 @@ Angles<T> AnglesOf(const Vec3<T>& n, const Vec3<T>& l, const Vec3<T>& v) {
 // Predicted radiance at surface point p with outward normal n (not necessarily unit).
 template <typename M, typename T>
 T Radiance(const double* params, bool lambert, const T& k, const Vec3<T>& n_raw, const Vec3<T>& p,
-           const Eigen::Vector3d& light_in_cam, double light_intensity) {
+           const Eigen::Vector3d& lamp_in_cam, double lamp_intensity) {
   using std::sqrt;
   const Vec3<T> n = n_raw / sqrt(n_raw.squaredNorm() + T(kTiny));
-  const Vec3<T> to_light = light_in_cam.cast<T>() - p;
-  const T d2 = to_light.squaredNorm();
-  const Vec3<T> l = to_light / sqrt(d2);
+  const Vec3<T> to_lamp = lamp_in_cam.cast<T>() - p;
+  const T d2 = to_lamp.squaredNorm();
+  const Vec3<T> l = to_lamp / sqrt(d2);
   const Vec3<T> v = -p / sqrt(p.squaredNorm());
   const T cos_i = n.dot(l);
   if (!(cos_i > T(0))) return T(0);  // attached shadow
@@ -55,7 +55,7 @@ T Radiance(const double* params, bool lambert, const T& k, const Vec3<T>& n_raw,
     if (a.theta_r > T(M_PI / 2)) a.theta_r = T(M_PI / 2);
     f = M::Evaluate(pt, a);
   }
-  return k * f * T(light_intensity) * cos_i / d2;
+  return k * f * T(lamp_intensity) * cos_i / d2;
 }
 
 // Photometric residual of an interior pixel: parameters u_c, u_left, u_right, u_up, u_down,
@@ -65,8 +65,8 @@ struct PhotometricCost {
   Eigen::Vector3d rc, rl, rr, ru, rd;  // rays (x, y, 1)
   const double* params;
   bool lambert;
-  Eigen::Vector3d light_in_cam;
-  double light_intensity, measured, inv_ref;
+  Eigen::Vector3d lamp_in_cam;
+  double lamp_intensity, measured, inv_ref;
   template <typename T>
   bool operator()(const T* uc, const T* ul, const T* ur, const T* uu, const T* ud, const T* lk,
                   T* res) const {
@@ -75,7 +75,7 @@ struct PhotometricCost {
     const Vec3<T> tx = rr.cast<T>() * exp(ur[0]) - rl.cast<T>() * exp(ul[0]);
     const Vec3<T> ty = rd.cast<T>() * exp(ud[0]) - ru.cast<T>() * exp(uu[0]);
     const Vec3<T> n = ty.cross(tx);
-    res[0] = (Radiance<M>(params, lambert, exp(lk[0]), n, pc, light_in_cam, light_intensity) -
+    res[0] = (Radiance<M>(params, lambert, exp(lk[0]), n, pc, lamp_in_cam, lamp_intensity) -
               T(measured)) *
              T(inv_ref);
     return true;

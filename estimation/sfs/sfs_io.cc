@@ -23,9 +23,9 @@ namespace {
 
 using json = nlohmann::json;
 
-Eigen::Vector3d ParseLight(const std::string& s) {
+Eigen::Vector3d ParseLamp(const std::string& s) {
   if (s == "collocated") return Eigen::Vector3d::Zero();
-  return ParseVector3(s, "--light (X,Y,Z metres in the camera frame, or collocated)");
+  return ParseVector3(s, "--lamp (X,Y,Z metres in the camera frame, or collocated)");
 }
 
 }  // namespace
@@ -36,44 +36,47 @@ void SfsInputPaths::FillFromFolder(const fs::path& dir) {
   if (camera.empty()) camera = dir / "camera.cameramodel";
   if (material.empty()) material = dir / "material.json";
   if (mask.empty()) mask = dir / "mask.png";
-  if (light_json.empty() && fs::exists(dir / "light.json")) light_json = dir / "light.json";
+  // lamp.json, or light.json in folders rendered before the lamp's file was renamed.
+  for (const char* name : {"lamp.json", "light.json"}) {
+    if (lamp_json.empty() && fs::exists(dir / name)) lamp_json = dir / name;
+  }
   if (truth_dir.empty()) truth_dir = dir;
 }
 
 namespace {
 
-// The lamp from light.json and/or --light (which overrides the position), and the radiometry
-// light.json may carry: radiance_per_dn (absolute radiance), black level, intensity.
-void ReadLight(const SfsInputPaths& paths, SfsInput* in) {
+// The lamp from lamp.json and/or --lamp (which overrides the position), and the radiometry
+// lamp.json may carry: radiance_per_dn (absolute radiance), black level, intensity.
+void ReadLamp(const SfsInputPaths& paths, SfsInput* in) {
   SfsProblem& pr = in->problem;
-  bool have_light = false;
-  if (!paths.light_json.empty()) {
-    const json l = ReadJsonFile(paths.light_json);
+  bool have_lamp = false;
+  if (!paths.lamp_json.empty()) {
+    const json l = ReadJsonFile(paths.lamp_json);
     if (l.contains("position")) {
       const auto& p = l["position"];
       if (!p.is_array() || p.size() != 3) {
-        throw InputError(paths.light_json.string() + ": 'position' is not [x, y, z]");
+        throw InputError(paths.lamp_json.string() + ": 'position' is not [x, y, z]");
       }
-      pr.light_in_cam = {p[0].get<double>(), p[1].get<double>(), p[2].get<double>()};
-      have_light = true;
+      pr.lamp_in_cam = {p[0].get<double>(), p[1].get<double>(), p[2].get<double>()};
+      have_lamp = true;
     }
     if (l.value("frame", std::string("camera")) != "camera") {
-      throw InputError(paths.light_json.string() + ": only frame 'camera' lamps are supported");
+      throw InputError(paths.lamp_json.string() + ": only frame 'camera' lamps are supported");
     }
-    pr.light_intensity = l.value("intensity", 1.0);
+    pr.lamp_intensity = l.value("intensity", 1.0);
     if (l.contains("radiance_per_dn")) {
       in->radiance_per_dn = l["radiance_per_dn"].get<double>();
       in->black_level = l.value("black_level", 0.0);
       in->absolute = l.contains("intensity");
     }
   }
-  if (!paths.light.empty()) {
-    pr.light_in_cam = ParseLight(paths.light);
-    have_light = true;
+  if (!paths.lamp.empty()) {
+    pr.lamp_in_cam = ParseLamp(paths.lamp);
+    have_lamp = true;
   }
-  if (!have_light) throw InputError("--light: required (X,Y,Z or collocated) without light.json");
+  if (!have_lamp) throw InputError("--lamp: required (X,Y,Z or collocated) without lamp.json");
   if (!(in->radiance_per_dn > 0)) {
-    throw InputError(paths.light_json.string() + ": radiance_per_dn must be > 0");
+    throw InputError(paths.lamp_json.string() + ": radiance_per_dn must be > 0");
   }
 }
 
@@ -96,13 +99,13 @@ void SetAnchorDepth(const SfsInputPaths& paths, bool have_material, SfsInput* in
     cv::minMaxLoc(blurred, nullptr, &lmax, nullptr, nullptr, eroded);
     double f0 = 0;
     EvaluateChecked(pr.model, pr.params, Angles<double>{0, 0, 0}, &f0);
-    if (lmax > 0 && f0 > 0) pr.anchor_depth = std::sqrt(pr.light_intensity * f0 / lmax);
+    if (lmax > 0 && f0 > 0) pr.anchor_depth = std::sqrt(pr.lamp_intensity * f0 / lmax);
     in->anchor_source = "absolute radiometry: z = sqrt(I f_r(0,0,0) / L_max)";
   }
   if (!(pr.anchor_depth > 0)) {
     throw InputError(
         "--distance: required (object distance in metres) when the radiance is not absolute "
-        "(no radiance_per_dn in light.json) or no material is given");
+        "(no radiance_per_dn in lamp.json) or no material is given");
   }
 }
 
@@ -134,12 +137,12 @@ cv::Mat ReadMask(const fs::path& path, const cv::Size& image_size, const fs::pat
 }
 
 // Clipped pixels carry no shading: a mask with more than 0.1% of its pixels at the white level
-// (light.json's "white_level", else the container's maximum) is refused, not solved into a
+// (lamp.json's "white_level", else the container's maximum) is refused, not solved into a
 // wrong shape.
 void CheckNotSaturated(const cv::Mat& image, const cv::Mat& mask, const SfsInputPaths& paths) {
   if (image.depth() != CV_8U && image.depth() != CV_16U) return;
   double white = image.depth() == CV_8U ? 255 : 65535;
-  if (!paths.light_json.empty()) white = ReadJsonFile(paths.light_json).value("white_level", white);
+  if (!paths.lamp_json.empty()) white = ReadJsonFile(paths.lamp_json).value("white_level", white);
   const int in_mask = cv::countNonZero(mask);
   const int clipped = cv::countNonZero((image >= white) & mask);
   if (in_mask > 0 && clipped > 0.001 * in_mask) {
@@ -165,7 +168,7 @@ SfsInput LoadSfsInput(const SfsInputPaths& paths, const std::string& reflectance
   if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2GRAY);
   const cv::Mat mask = ReadMask(paths.mask, image.size(), paths.image);
   pr.camera = CameraModel::Read(paths.camera);
-  ReadLight(paths, &in);
+  ReadLamp(paths, &in);
 
   image.convertTo(pr.radiance, CV_64F);
   pr.radiance = (pr.radiance - in.black_level) * in.radiance_per_dn;
@@ -418,8 +421,8 @@ json SfsJson(const SfsInput& input, const SfsResult& result,
       {"image", input.image_path},
       {"reflectance", result.reflectance},
       {"material", {{"model", pr.model}, {"params", pr.params}}},
-      {"lamp_in_camera", {pr.light_in_cam.x(), pr.light_in_cam.y(), pr.light_in_cam.z()}},
-      {"lamp_intensity", pr.light_intensity},
+      {"lamp_in_camera", {pr.lamp_in_cam.x(), pr.lamp_in_cam.y(), pr.lamp_in_cam.z()}},
+      {"lamp_intensity", pr.lamp_intensity},
       {"radiance_absolute", input.absolute},
       {"scale_k", result.scale},
       {"scale_meaning",

@@ -14,10 +14,10 @@ namespace gonio {
 
 struct SfsInputPaths {
   std::filesystem::path image, camera, material, mask;
-  std::filesystem::path light_json;  // optional: position, intensity, radiance_per_dn
-  std::string light;                 // "X,Y,Z" (camera frame, m) or "collocated"; overrides
-  std::filesystem::path truth_dir;   // optional: depth.tiff, normals.tiff
-  double distance = 0;               // anchor depth (m); 0: from absolute radiometry
+  std::filesystem::path lamp_json;  // optional: position, intensity, radiance_per_dn
+  std::string lamp;                 // "X,Y,Z" (camera frame, m) or "collocated"; overrides
+  std::filesystem::path truth_dir;  // optional: depth.tiff, normals.tiff
+  double distance = 0;              // anchor depth (m); 0: from absolute radiometry
   // A folder written by gonio synth: fills every empty path above from it.
   void FillFromFolder(const std::filesystem::path& dir);
 };

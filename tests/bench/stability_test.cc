@@ -294,7 +294,7 @@ TEST(JointFitStability, FarLampAndSingleViewAreFlagged) {
   EXPECT_EQ(by["lamp distance/0.5 m"].status, "valid") << by["lamp distance/0.5 m"].detail;
   EXPECT_EQ(by["views/24"].status, "valid");
   EXPECT_EQ(by["lamp distance/50 m"].status, "degraded");
-  EXPECT_NE(by["lamp distance/50 m"].detail.find("light_distance"), std::string::npos);
+  EXPECT_NE(by["lamp distance/50 m"].detail.find("lamp_distance"), std::string::npos);
   EXPECT_EQ(by["views/1"].status, "degraded");
   EXPECT_NE(by["views/1"].detail.find("undetermined"), std::string::npos);
 }

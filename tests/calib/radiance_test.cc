@@ -111,9 +111,9 @@ TEST(PhotometricSynthetic, ToRadianceOfPaperEqualsTruthRadiance) {
       const Eigen::Vector3d p = cam_from_board.R.transpose() * (s * ray - cam_from_board.t);
       if (cv::pointPolygonTest(white, cv::Point2f(p.x(), p.y()), true) < 0.004) continue;
       ASSERT_TRUE(valid.at<uint8_t>(y, x));
-      const Eigen::Vector3d to_light = scene.light.position - p;
-      const double d = to_light.norm();
-      const double E = scene.light.intensity * (-to_light.z() / d) / (d * d);
+      const Eigen::Vector3d to_lamp = scene.lamp.position - p;
+      const double d = to_lamp.norm();
+      const double E = scene.lamp.intensity * (-to_lamp.z() / d) / (d * d);
       const double L = scene.board.white_albedo / kPi * E * scene.photometric.exposure_scale;
       ratio.push_back(rad.at<float>(y, x) / L);
       ratio_nv.push_back(rad_nv.at<float>(y, x) / L);

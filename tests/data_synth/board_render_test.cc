@@ -50,8 +50,8 @@ TEST_F(BoardRenderTest, TruthJsonHasTheDocumentedSchema) {
   const json session = ReadJsonFile(Session(false) / "session.json");
   EXPECT_EQ(truth.at("material").at("model"), "lambert");
   EXPECT_DOUBLE_EQ(truth.at("material").at("params").at("albedo").get<double>(), 0.6);
-  ASSERT_EQ(truth.at("light").at("position_in_board").size(), 3u);
-  EXPECT_DOUBLE_EQ(truth.at("light").at("intensity").get<double>(), 1.0);
+  ASSERT_EQ(truth.at("lamp").at("position_in_board").size(), 3u);
+  EXPECT_DOUBLE_EQ(truth.at("lamp").at("intensity").get<double>(), 1.0);
   EXPECT_DOUBLE_EQ(truth.at("white_albedo").get<double>(), 0.8);
   EXPECT_EQ(truth.at("camera").at("width"), 640);
   EXPECT_EQ(truth.at("camera").at("intrinsics").size(), 12u);
@@ -68,7 +68,7 @@ TEST_F(BoardRenderTest, TruthJsonHasTheDocumentedSchema) {
     const Rigid3d pose = RigidFromJson(f.at("cam_from_board"));
     EXPECT_NEAR((pose.R * pose.R.transpose() - Eigen::Matrix3d::Identity()).norm(), 0, 1e-9);
     EXPECT_LT(pose.Inverse().t.z(), 0) << "camera in front of the board";
-    EXPECT_EQ(f.at("light_in_board"), truth.at("light").at("position_in_board"));
+    EXPECT_EQ(f.at("lamp_in_board"), truth.at("lamp").at("position_in_board"));
   }
   // The camera file agrees with truth.json.
   const CameraModel cam = CameraModel::Read(Session(false) / "camera.cameramodel");
@@ -198,7 +198,7 @@ TEST(BoardEdgeTest, EdgesLandWhereTheProjectionPutsThem) {
                      {"intrinsics", {400, 400, 159.5, 119.5}},
                      {"width", 320},
                      {"height", 240}};
-  scene["light"] = {{"type", "distant"}, {"direction", {0, 0, -1}}, {"irradiance", 2.0}};
+  scene["lamp"] = {{"type", "distant"}, {"direction", {0, 0, -1}}, {"irradiance", 2.0}};
   scene["photometric"] = {{"bit_depth", 16},  {"response", "linear"},
                           {"black_level", 0}, {"vignetting", {0, 0, 0}},
                           {"noise", false},   {"exposure_scale", 60.0}};
@@ -260,7 +260,7 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
   std::vector<double> params;
   for (const auto& p : info.params) params.push_back(truth.at("material").at("params").at(p.name));
   const auto region = truth.at("board").at("sample_region").get<std::vector<double>>();
-  const double intensity = truth.at("light").at("intensity");
+  const double intensity = truth.at("lamp").at("intensity");
   const double scale = ph.at("exposure_scale"), full_well = ph.at("noise").at("full_well_e");
   const double read = ph.at("noise").at("read_noise_e");
   SampleResidual out;
@@ -270,10 +270,10 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
     const Rigid3d board_from_cam = RigidFromJson(frame.at("cam_from_board")).Inverse();
     const Eigen::Vector3d c = board_from_cam.t;
     const double exposure = frame.at("exposure_s");
-    // The light of this frame (equal to light.position_in_board when the light is fixed to
+    // The lamp of this frame (equal to lamp.position_in_board when the lamp is fixed to
     // the board; moving with the camera when it is fixed to the camera).
-    Eigen::Vector3d light_in_board;
-    for (int i = 0; i < 3; ++i) light_in_board[i] = frame.at("light_in_board")[i];
+    Eigen::Vector3d lamp_in_board;
+    for (int i = 0; i < 3; ++i) lamp_in_board[i] = frame.at("lamp_in_board")[i];
     for (int y = 0; y < im.rows; y += 3) {
       for (int x = 0; x < im.cols; x += 3) {
         const Eigen::Vector3d d = board_from_cam.R * cam.Unproject(Eigen::Vector2d(x, y));
@@ -285,7 +285,7 @@ SampleResidual SampleResiduals(const std::filesystem::path& session) {
           continue;
         }
         // Sample frame: outward normal -z of the board, so flip z to get +z up.
-        const Eigen::Vector3d to_l = light_in_board - p, to_v = c - p;
+        const Eigen::Vector3d to_l = lamp_in_board - p, to_v = c - p;
         const double l[3] = {to_l.x(), to_l.y(), -to_l.z()}, v[3] = {to_v.x(), to_v.y(), -to_v.z()};
         const double cos_i = -to_l.normalized().z();
         double brdf = 0;
@@ -334,25 +334,24 @@ TEST_F(BoardRenderTest, SamplePixelsEqualModelRadianceWithinNoise) {
   EXPECT_NEAR(std::sqrt(var_z), 1.0, 0.05);
 }
 
-// The board turned in front of a fixed camera and light: the light is given in the camera frame
+// The board turned in front of a fixed camera and lamp: the lamp is given in the camera frame
 // and moves in the board frame from pose to pose.
-TEST(BoardTurnedTest, LightFixedToTheCameraLightsEachPoseFromItsOwnPosition) {
+TEST(BoardTurnedTest, LampFixedToTheCameraLightsEachPoseFromItsOwnPosition) {
   TempDir dir;
   json scene = SmallBoardScene(false);
-  scene["light"] = {
+  scene["lamp"] = {
       {"type", "point"}, {"frame", "camera"}, {"position", {0.15, -0.05, 0.0}}, {"intensity", 1.0}};
   const auto path = WriteScene(dir.path(), scene);
   const auto r = RunGonio("synth --scene " + path + " --out " + (dir.path() / "s").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json truth = ReadJsonFile(dir.path() / "s" / "truth.json");
-  ASSERT_EQ(truth.at("light").at("position_in_camera").size(), 3u);
-  EXPECT_FALSE(truth.at("light").contains("position_in_board"));
+  ASSERT_EQ(truth.at("lamp").at("position_in_camera").size(), 3u);
+  EXPECT_FALSE(truth.at("lamp").contains("position_in_board"));
   for (const auto& frame : truth.at("frames")) {
     const Rigid3d cam_from_board = RigidFromJson(frame.at("cam_from_board"));
-    const Eigen::Vector3d light_in_board(frame.at("light_in_board")[0],
-                                         frame.at("light_in_board")[1],
-                                         frame.at("light_in_board")[2]);
-    EXPECT_NEAR((cam_from_board * light_in_board - Eigen::Vector3d(0.15, -0.05, 0.0)).norm(), 0,
+    const Eigen::Vector3d lamp_in_board(frame.at("lamp_in_board")[0], frame.at("lamp_in_board")[1],
+                                        frame.at("lamp_in_board")[2]);
+    EXPECT_NEAR((cam_from_board * lamp_in_board - Eigen::Vector3d(0.15, -0.05, 0.0)).norm(), 0,
                 1e-12);
   }
   const SampleResidual res = SampleResiduals(dir.path() / "s");

@@ -34,9 +34,9 @@ synth::Scene HalfSize(const std::string& preset) {
 TEST(FlashPreset, LampBesideTheLensSeesTheSampleNearRetroreflection) {
   for (const char* preset : {"flash", "flash-8bit"}) {
     const synth::Scene s = synth::PresetScene(preset);
-    ASSERT_EQ(s.light.frame, "camera") << preset;
-    EXPECT_GE(s.light.position.norm(), 0.02) << preset;
-    EXPECT_LE(s.light.position.norm(), 0.06) << preset;
+    ASSERT_EQ(s.lamp.frame, "camera") << preset;
+    EXPECT_GE(s.lamp.position.norm(), 0.02) << preset;
+    EXPECT_LE(s.lamp.position.norm(), 0.06) << preset;
     EXPECT_EQ(s.material.model, "oren-nayar");
     const auto& sr = s.board.sample_region;
     const Eigen::Vector3d centre(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0);
@@ -45,7 +45,7 @@ TEST(FlashPreset, LampBesideTheLensSeesTheSampleNearRetroreflection) {
     double max_angle = 0, min_tilt = 90, max_tilt = 0;
     for (const Rigid3d& cam_from_board : poses) {
       const Rigid3d board_from_cam = cam_from_board.Inverse();
-      const Eigen::Vector3d camera = board_from_cam.t, lamp = board_from_cam * s.light.position;
+      const Eigen::Vector3d camera = board_from_cam.t, lamp = board_from_cam * s.lamp.position;
       const double angle =
           std::acos((lamp - centre).normalized().dot((camera - centre).normalized()));
       max_angle = std::max(max_angle, RadToDeg(angle));
@@ -70,7 +70,7 @@ TEST(FlashPreset, BitDepthsAndNoSaturation) {
     for (double f : r.saturated_fraction) EXPECT_EQ(f, 0.0) << v.preset;
     const nlohmann::json truth = ReadJsonFile(dir.path() / "truth.json");
     EXPECT_EQ(truth["photometric"]["bit_depth"].get<int>(), v.bits);
-    EXPECT_EQ(truth["light"]["frame"], "camera");
+    EXPECT_EQ(truth["lamp"]["frame"], "camera");
     const cv::Mat frame =
         cv::imread((dir.path() / "frame_0000.png").string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(frame.depth(), v.depth) << v.preset;

@@ -38,13 +38,13 @@ double Linearize(const json& ph, double value) {
                   ph.at("response").at("gamma").get<double>());
 }
 
-TEST(PresetOptions, LightOffAxisBeyondNinetyDegreesIsAnInputError) {
+TEST(PresetOptions, LampOffAxisBeyondNinetyDegreesIsAnInputError) {
   synth::PresetOptions options;
-  options.sfs_light_offaxis_deg = 120;
+  options.sfs_lamp_offaxis_deg = 120;
   EXPECT_THROW(synth::PresetScene("sfs-sphere", options), InputError);
-  options.sfs_light_offaxis_deg = std::nan("");
+  options.sfs_lamp_offaxis_deg = std::nan("");
   EXPECT_THROW(synth::PresetScene("sfs-sphere", options), InputError);
-  options.sfs_light_offaxis_deg = 30;
+  options.sfs_lamp_offaxis_deg = 30;
   EXPECT_NO_THROW(synth::PresetScene("sfs-sphere", options));
 }
 
@@ -57,7 +57,7 @@ TEST(PresetTest, FlatFieldIsVignettingThroughTheResponse) {
   const json& ph = truth.at("photometric");
   ASSERT_EQ(truth.at("frames").size(), 6u);
   // Lambertian white under parallel light along the normal: L = albedo / pi * E everywhere.
-  const double radiance = 0.8 / M_PI * truth.at("light").at("irradiance").get<double>();
+  const double radiance = 0.8 / M_PI * truth.at("lamp").at("irradiance").get<double>();
   double worst = 0, corner_ratio = 1;
   for (const auto& frame : truth.at("frames")) {
     const cv::Mat im = cv::imread((dir.path() / "s" / frame.at("file").get<std::string>()).string(),
@@ -94,7 +94,7 @@ TEST(PresetTest, EightBitFlatFieldIsWrittenAsEightBitPng) {
                                 cv::IMREAD_UNCHANGED);
   ASSERT_EQ(im.type(), CV_8U);
   const double x0 = ph.at("exposure_scale").get<double>() * 0.8 / M_PI *
-                    truth.at("light").at("irradiance").get<double>() *
+                    truth.at("lamp").at("irradiance").get<double>() *
                     frame.at("exposure_s").get<double>();
   double worst = 0;
   for (int y = 0; y < im.rows; ++y) {

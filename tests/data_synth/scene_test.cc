@@ -36,13 +36,13 @@ TEST(SceneTest, DefaultPresetIsTheIssueSession) {
   EXPECT_EQ(s.photometric.bit_depth, 12);
   EXPECT_TRUE(s.photometric.noise);
   const Eigen::Vector3d sample_centre(0.155, 0.095, 0);
-  EXPECT_NEAR((s.light.position - sample_centre).norm(), 0.5, 1e-12);
+  EXPECT_NEAR((s.lamp.position - sample_centre).norm(), 0.5, 1e-12);
   const auto poses = s.CamFromBoardPoses();
   ASSERT_EQ(poses.size(), 24u);
   // Wide coverage of viewing angles: theta_r at the sample centre from <20 to >55 deg, and
   // cameras on both sides of the plane of incidence (phi spread over [0, pi]).
   double theta_min = 90, theta_max = 0, phi_min = 10, phi_max = -1;
-  const Eigen::Vector3d to_l = (s.light.position - sample_centre).normalized();
+  const Eigen::Vector3d to_l = (s.lamp.position - sample_centre).normalized();
   for (const auto& pose : poses) {
     const Eigen::Vector3d to_v = (pose.Inverse().t - sample_centre).normalized();
     const double l[3] = {to_l.x(), to_l.y(), -to_l.z()}, v[3] = {to_v.x(), to_v.y(), -to_v.z()};
@@ -56,6 +56,22 @@ TEST(SceneTest, DefaultPresetIsTheIssueSession) {
   EXPECT_GT(theta_max, 55);
   EXPECT_LT(phi_min, 0.5);
   EXPECT_GT(phi_max, M_PI - 0.5);
+}
+
+// Scene files written before the lamp's part was renamed say "light" (docs/formats.md
+// "Renamed keys"): read as the lamp; a file with both is refused.
+TEST(SceneTest, TheLampsOldKeyIsStillRead) {
+  json old = synth::SceneToJson(synth::PresetScene("default"));
+  old["lamp"]["position"] = {0.1, 0.2, -0.45};
+  old["light"] = old["lamp"];
+  old.erase("lamp");
+  const synth::Scene s = synth::SceneFromJson(old, "old.json");
+  EXPECT_EQ(s.lamp.position, Eigen::Vector3d(0.1, 0.2, -0.45));
+  EXPECT_TRUE(synth::SceneToJson(s).contains("lamp"));
+  EXPECT_FALSE(synth::SceneToJson(s).contains("light"));
+  old["lamp"] = old["light"];
+  const std::string msg = InputErrorOf([&] { synth::SceneFromJson(old, "both.json"); });
+  EXPECT_NE(msg.find("both.json: both lamp and light"), std::string::npos) << msg;
 }
 
 TEST(SceneTest, UnregisteredModelIsAnInputError) {
@@ -85,7 +101,7 @@ struct BadScene {
 
 // Each checked field refuses a value outside its range with an InputError that names it
 // ("part.key"), read and checked in-process; values the table does not apply to (a distant
-// light's position, board keys of an sfs scene) are not written.
+// lamp's position, board keys of an sfs scene) are not written.
 TEST(SceneTest, OutOfRangeFieldsAreNamedAndInapplicableOnesNotWritten) {
   const std::vector<std::pair<std::function<void(json&)>, std::string>> cases = {
       {[](json& j) { j["supersampling"] = 0; }, "scene.supersampling"},
@@ -110,11 +126,11 @@ TEST(SceneTest, OutOfRangeFieldsAreNamedAndInapplicableOnesNotWritten) {
          j["views"]["exposures_s"] = {0.01, -1};
        },
        "views.exposures_s"},
-      {[](json& j) { j["light"]["intensity"] = 0; }, "light.intensity"},
+      {[](json& j) { j["lamp"]["intensity"] = 0; }, "lamp.intensity"},
       {[](json& j) {
-         j["light"]["position"] = {0, 0};
+         j["lamp"]["position"] = {0, 0};
        },
-       "light.position: expected [x, y, z]"},
+       "lamp.position: expected [x, y, z]"},
   };
   for (const auto& [edit, name] : cases) {
     json j = SmallBoardScene(false);
@@ -128,8 +144,8 @@ TEST(SceneTest, OutOfRangeFieldsAreNamedAndInapplicableOnesNotWritten) {
   }
   synth::Scene flat = synth::PresetScene("flat-field");
   const json flat_json = synth::SceneToJson(flat);
-  EXPECT_FALSE(flat_json.at("light").contains("position"));
-  EXPECT_TRUE(flat_json.at("light").contains("irradiance"));
+  EXPECT_FALSE(flat_json.at("lamp").contains("position"));
+  EXPECT_TRUE(flat_json.at("lamp").contains("irradiance"));
   const json sfs_json = synth::SceneToJson(synth::PresetScene("sfs-sphere"));
   EXPECT_FALSE(sfs_json.contains("board"));
   EXPECT_EQ(sfs_json.at("views").size(), 1u) << sfs_json.at("views");
@@ -150,9 +166,9 @@ TEST(SceneTest, BadSceneFilesExitWithCode2) {
       {"wrong type", [](json& j) { j["board"]["tag_size"] = "big"; }, "tag_size"},
       {"lamp behind the board",
        [](json& j) {
-         j["light"]["position"] = {0.1, 0.1, 0.3};
+         j["lamp"]["position"] = {0.1, 0.1, 0.3};
        },
-       "light.position"},
+       "lamp.position"},
       {"camera behind the board",
        [](json& j) {
          j["views"] = {

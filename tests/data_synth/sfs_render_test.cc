@@ -1,4 +1,4 @@
-// sfs scenes: the image equals the material's radiance under the collocated light through the
+// sfs scenes: the image equals the material's radiance under the collocated lamp through the
 // chain, and the depth/normal truth describes the rendered shape.
 #include <algorithm>
 #include <cmath>
@@ -22,7 +22,7 @@ using json = nlohmann::json;
 // A preset made small and Lambertian (registered on every build).
 json SmallSfsScene(const std::string& preset, double offaxis_deg = 0) {
   synth::PresetOptions options;
-  options.sfs_light_offaxis_deg = offaxis_deg;
+  options.sfs_lamp_offaxis_deg = offaxis_deg;
   json j = synth::SceneToJson(synth::PresetScene(preset, options));
   j["material"] = {{"model", "lambert"}, {"params", {{"albedo", 0.8}}}};
   j["camera"]["intrinsics"] = {250, 250, 99.5, 74.5};
@@ -37,16 +37,16 @@ TEST(SfsRenderTest, SphereImageDepthAndNormalsMatchTheGeometry) {
   const auto out = dir.path() / "sphere";
   const auto r = RunGonio("synth --scene " + scene + " --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* f : {"image.png", "mask.png", "camera.cameramodel", "material.json",
-                        "light.json", "truth.json", "depth.tiff", "normals.tiff"}) {
+  for (const char* f : {"image.png", "mask.png", "camera.cameramodel", "material.json", "lamp.json",
+                        "truth.json", "depth.tiff", "normals.tiff"}) {
     EXPECT_TRUE(std::filesystem::exists(out / f)) << f;
   }
   const json truth = ReadJsonFile(out / "truth.json");
-  const json light = ReadJsonFile(out / "light.json");
+  const json lamp = ReadJsonFile(out / "lamp.json");
   const json material = ReadJsonFile(out / "material.json");
   EXPECT_EQ(material.at("selected"), "lambert");
   EXPECT_DOUBLE_EQ(material.at("candidates")[0].at("params").at("albedo").get<double>(), 0.8);
-  EXPECT_TRUE(light.at("collocated").get<bool>());
+  EXPECT_TRUE(lamp.at("collocated").get<bool>());
   const double radius = truth.at("object").at("radius");
   Eigen::Vector3d centre_in_cam;
   for (int i = 0; i < 3; ++i) centre_in_cam[i] = truth.at("object").at("centre_in_camera")[i];
@@ -58,7 +58,7 @@ TEST(SfsRenderTest, SphereImageDepthAndNormalsMatchTheGeometry) {
   const cv::Mat normals = cv::imread((out / "normals.tiff").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(depth.type(), CV_32F);
   ASSERT_EQ(normals.type(), CV_32FC3);
-  const double per_dn = light.at("radiance_per_dn");
+  const double per_dn = lamp.at("radiance_per_dn");
   int inside = 0;
   double worst_depth = 0, worst_normal = 0, worst_value = 0;
   for (int y = 0; y < image.rows; ++y) {
@@ -76,7 +76,7 @@ TEST(SfsRenderTest, SphereImageDepthAndNormalsMatchTheGeometry) {
       // Stored as RGB = (x, y, z); OpenCV hands it back as BGR.
       const cv::Vec3f nf = normals.at<cv::Vec3f>(y, x);
       worst_normal = std::max(worst_normal, (Eigen::Vector3d(nf[2], nf[1], nf[0]) - n).norm());
-      // Lambert under the collocated light: L = albedo/pi * I cos(theta_i) / d^2.
+      // Lambert under the collocated lamp: L = albedo/pi * I cos(theta_i) / d^2.
       const double cos_i = n.dot(-p.normalized());
       const double radiance = 0.8 / M_PI * cos_i / p.squaredNorm();
       worst_value = std::max(worst_value, std::abs(image.at<uint16_t>(y, x) - radiance / per_dn));
@@ -102,14 +102,14 @@ TEST(SfsRenderTest, VaseAndBumpsRenderWithMaskInsideTheImageAndUnitNormals) {
     const cv::Mat mask = cv::imread((out / "mask.png").string(), cv::IMREAD_UNCHANGED);
     const cv::Mat normals = cv::imread((out / "normals.tiff").string(), cv::IMREAD_UNCHANGED);
     const cv::Mat image = cv::imread((out / "image.png").string(), cv::IMREAD_UNCHANGED);
-    const json light = ReadJsonFile(out / "light.json");
-    EXPECT_FALSE(light.at("collocated").get<bool>());
+    const json lamp = ReadJsonFile(out / "lamp.json");
+    EXPECT_FALSE(lamp.at("collocated").get<bool>());
     // 20 deg off axis, same distance from the object centre.
-    const Eigen::Vector3d light_in_cam(light.at("position")[0], light.at("position")[1],
-                                       light.at("position")[2]);
+    const Eigen::Vector3d lamp_in_cam(lamp.at("position")[0], lamp.at("position")[1],
+                                      lamp.at("position")[2]);
     const Eigen::Vector3d centre_in_cam(0, 0, 0.5);
     EXPECT_NEAR(
-        std::acos((-centre_in_cam).normalized().dot((light_in_cam - centre_in_cam).normalized())) *
+        std::acos((-centre_in_cam).normalized().dot((lamp_in_cam - centre_in_cam).normalized())) *
             180 / M_PI,
         20, 1e-9);
     int inside = 0, border = 0, lit = 0;

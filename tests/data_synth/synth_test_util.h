@@ -30,7 +30,7 @@ inline nlohmann::json SmallBoardScene(bool noise) {
         {"sample_region", {0.055, 0.055, 0.165, 0.11}},
         {"white_region", {0.05, 0.12, 0.17, 0.16}}}},
       {"material", {{"model", "lambert"}, {"params", {{"albedo", 0.6}}}}},
-      {"light", {{"type", "point"}, {"position", {0.0, 0.05, -0.4}}, {"intensity", 1.0}}},
+      {"lamp", {{"type", "point"}, {"position", {0.0, 0.05, -0.4}}, {"intensity", 1.0}}},
       {"camera",
        {{"lens_model", "LENSMODEL_OPENCV8"},
         {"intrinsics", {560, 555, 321.3, 238.7, -0.1, 0.04, 0.0004, -0.0002, -0.005, 0, 0, 0}},

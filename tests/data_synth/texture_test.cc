@@ -98,7 +98,7 @@ TEST(TextureTest, RenderedPixelIsTheModelAtTheTruthMaps) {
     cv::getRectSubPix(sigma, {1, 1}, at, patch);
     const double sig = patch.at<float>(0, 0);
     const Eigen::Vector3d n = Eigen::Vector3d(nt[0], -nt[1], -nt[2]).normalized();  // board frame
-    const Eigen::Vector3d to_l = s.light.position - p, to_v = -pose.t - p;
+    const Eigen::Vector3d to_l = s.lamp.position - p, to_v = -pose.t - p;
     const Eigen::Vector3d l = to_l.normalized(), view = to_v.normalized();
     const Eigen::Vector3d t1 = Eigen::Vector3d::UnitX().cross(n).normalized(), t2 = n.cross(t1);
     const double ll[3] = {t1.dot(l), t2.dot(l), n.dot(l)},
@@ -106,8 +106,7 @@ TEST(TextureTest, RenderedPixelIsTheModelAtTheTruthMaps) {
     const Angles<double> a = AnglesFromDirections(ll, vv);
     for (int c = 0; c < 3; ++c) {
       double f = 0;
-      const std::string reason = EvaluateChecked(
-          "oren-nayar", {rho[c], sig}, a, &f);
+      const std::string reason = EvaluateChecked("oren-nayar", {rho[c], sig}, a, &f);
       ASSERT_TRUE(reason.empty()) << reason;
       const double expected = scale * f * n.dot(l) / to_l.squaredNorm();
       const double got = frame.at<cv::Vec<uint16_t, 3>>(v, u)[2 - c];  // B, G, R in the file
@@ -139,7 +138,7 @@ TEST(TextureTest, BadTextureSpecsAreRefused) {
          j["material"] = {{"model", "pitted"}, {"params", nlohmann::json::object()}};
        },
        "cannot be textured"},
-      {[](nlohmann::json& j) { j["light"]["ambient_irradiance"] = 0.1; }, "ambient"},
+      {[](nlohmann::json& j) { j["lamp"]["ambient_irradiance"] = 0.1; }, "ambient"},
   };
   for (const auto& c : cases) {
     nlohmann::json j = base;

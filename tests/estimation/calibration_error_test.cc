@@ -18,7 +18,7 @@
 namespace gonio {
 namespace {
 
-using testing_obs::kLight;
+using testing_obs::kLamp;
 using testing_obs::Synthesize;
 
 constexpr double kPixelNoise = 0.001;
@@ -60,7 +60,7 @@ CalibrationPropagation PropagateTen(const ObservationSet& data, const JointFitRe
 }
 
 struct Errors {
-  double sigma_z, albedo_z, light_z;  // |fit - truth| / stddev (worst lamp coordinate)
+  double sigma_z, albedo_z, lamp_z;  // |fit - truth| / stddev (worst lamp coordinate)
 };
 
 Errors ZScores(const JointFitResult& r) {
@@ -69,13 +69,12 @@ Errors ZScores(const JointFitResult& r) {
   e.sigma_z = std::abs(sigma - DegToRad(30)) / r.material.stddev[1].value();
   e.albedo_z = std::abs(albedo - 0.6) / r.material.stddev[0].value();
   for (int k = 0; k < 3; ++k) {
-    e.light_z =
-        std::max(e.light_z, std::abs(r.light_position[k] - kLight[k]) / (*r.light_stddev)[k]);
+    e.lamp_z = std::max(e.lamp_z, std::abs(r.lamp_position[k] - kLamp[k]) / (*r.lamp_stddev)[k]);
   }
   std::cout << r.material.model << ": sigma " << RadToDeg(sigma) << " deg +- "
             << RadToDeg(*r.material.stddev[1]) << " (z " << e.sigma_z << "), albedo " << albedo
             << " +- " << *r.material.stddev[0] << " (z " << e.albedo_z << "), lamp off "
-            << (r.light_position - kLight).norm() * 1000 << " mm (worst z " << e.light_z << ")\n";
+            << (r.lamp_position - kLamp).norm() * 1000 << " mm (worst z " << e.lamp_z << ")\n";
   return e;
 }
 
@@ -87,11 +86,11 @@ TEST(CalibrationError, BarsCoverTheTruthOnlyWithTheCalibrationPart) {
   o.candidates = {"oren-nayar"};
   o.white_albedo = 0.8;
   o.relative_noise_floor = 0.002;
-  const JointFitResult fit = FitJoint("oren-nayar", data, kLight + Eigen::Vector3d(0.03, 0, 0), o);
+  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp + Eigen::Vector3d(0.03, 0, 0), o);
   ASSERT_TRUE(fit.material.converged);
   const Errors before = ZScores(fit);
   // The statistical bars alone do not cover the truth: the calibration error is systematic.
-  EXPECT_GT(std::max({before.sigma_z, before.albedo_z, before.light_z}), 4.0);
+  EXPECT_GT(std::max({before.sigma_z, before.albedo_z, before.lamp_z}), 4.0);
 
   CalibrationErrorModel e = ModelForTheImage();
   e.response_ratio_error = ratio_error;
@@ -103,10 +102,10 @@ TEST(CalibrationError, BarsCoverTheTruthOnlyWithTheCalibrationPart) {
   const Errors after = ZScores(with);
   EXPECT_LT(after.sigma_z, 3.0);
   EXPECT_LT(after.albedo_z, 3.0);
-  EXPECT_LT(after.light_z, 3.0);
+  EXPECT_LT(after.lamp_z, 3.0);
   // ... and are not inflated far beyond the actual deviation (measured: z about 1 for sigma,
   // albedo and lamp, from 8 to 17 before).
-  EXPECT_GT(std::max({after.sigma_z, after.albedo_z, after.light_z}), 0.3);
+  EXPECT_GT(std::max({after.sigma_z, after.albedo_z, after.lamp_z}), 0.3);
 }
 
 // The response's wiggles between its knots (calibration_error.h): a camera whose raw value is
@@ -139,8 +138,8 @@ TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
   o.candidates = {"oren-nayar"};
   o.white_albedo = 0.8;
   o.relative_noise_floor = 0.002;
-  const JointFitResult base = FitJoint("oren-nayar", clean, kLight, o);
-  const JointFitResult fit = FitJoint("oren-nayar", data, kLight, o);
+  const JointFitResult base = FitJoint("oren-nayar", clean, kLamp, o);
+  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
   ASSERT_TRUE(base.material.converged && fit.material.converged);
   CalibrationErrorModel e = ModelForTheImage();
   e.response_wiggle = kWiggle;
@@ -149,7 +148,7 @@ TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
   std::vector<double> z = {(fit.material.params[1] - base.material.params[1]) / p.param_stddev[1],
                            (fit.material.params[0] - base.material.params[0]) / p.param_stddev[0]};
   for (int k = 0; k < 3; ++k) {
-    z.push_back((fit.light_position[k] - base.light_position[k]) / p.light_stddev[k]);
+    z.push_back((fit.lamp_position[k] - base.lamp_position[k]) / p.lamp_stddev[k]);
   }
   double largest = 0;
   for (double v : z) {
@@ -164,7 +163,7 @@ TEST(CalibrationError, NoCalibrationErrorAddsNothing) {
   const ObservationSet data = Synthesize(8, 1, true, kPixelNoise);
   JointFitOptions o;
   o.white_albedo = 0.8;
-  const JointFitResult fit = FitJoint("oren-nayar", data, kLight, o);
+  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
   CalibrationErrorModel e;
   e.principal_point = kPrincipalPoint;
   e.radius_px = kRadiusPx;
@@ -172,7 +171,7 @@ TEST(CalibrationError, NoCalibrationErrorAddsNothing) {
   po.draws = 3;
   const CalibrationPropagation p = PropagateCalibrationError(data, fit, o, e, po);
   for (double s : p.param_stddev) EXPECT_LT(s, 1e-6);
-  EXPECT_LT(p.light_stddev.norm(), 1e-6);
+  EXPECT_LT(p.lamp_stddev.norm(), 1e-6);
 }
 
 TEST(CalibrationError, BadOptionsAreInputErrors) {

@@ -17,7 +17,7 @@
 namespace gonio {
 namespace {
 
-using testing_obs::kLight;
+using testing_obs::kLamp;
 using testing_obs::Synthesize;
 
 size_t CountWhite(const ObservationSet& set) {
@@ -34,7 +34,7 @@ TEST(JointFit, WhiteReferenceWithoutAlbedoDoesNotCountInAicBic) {
   ASSERT_EQ(CountWhite(without), 0u);
   JointFitOptions o;
   o.white_albedo = std::nullopt;
-  const Eigen::Vector3d start = kLight + Eigen::Vector3d(0.05, 0.0, 0.0);
+  const Eigen::Vector3d start = kLamp + Eigen::Vector3d(0.05, 0.0, 0.0);
   const JointFitResult a = FitJoint("oren-nayar", with, start, o);
   const JointFitResult b = FitJoint("oren-nayar", without, start, o);
   ASSERT_TRUE(a.material.converged && b.material.converged);
@@ -51,13 +51,13 @@ TEST(JointFit, WhiteReferenceWithAlbedoCountsEveryObservation) {
   const ObservationSet data = Synthesize(8, 1, true);
   JointFitOptions o;
   o.white_albedo = 0.8;
-  const JointFitResult r = FitJoint("oren-nayar", data, kLight + Eigen::Vector3d(0.05, 0, 0), o);
+  const JointFitResult r = FitJoint("oren-nayar", data, kLamp + Eigen::Vector3d(0.05, 0, 0), o);
   ASSERT_TRUE(r.material.converged);
   EXPECT_EQ(r.material.n_samples, data.observations.size());
   EXPECT_TRUE(r.absolute);
   EXPECT_NEAR(r.material.params[0], 0.6, 0.01);
   EXPECT_NEAR(RadToDeg(r.material.params[1]), 30.0, 1.0);
-  EXPECT_LT((r.light_position - kLight).norm(), 0.01);
+  EXPECT_LT((r.lamp_position - kLamp).norm(), 0.01);
 }
 
 // Colour data: the albedo (ParamInfo::per_channel) is fitted per channel, sigma shared; fit.json
@@ -66,7 +66,7 @@ TEST(JointFit, AlbedoIsFittedPerChannel) {
   const ObservationSet data = Synthesize(8, 3, true);
   JointFitOptions o;
   o.white_albedo = 0.8;
-  const JointFitResult r = FitJoint("oren-nayar", data, kLight, o);
+  const JointFitResult r = FitJoint("oren-nayar", data, kLamp, o);
   ASSERT_TRUE(r.material.converged);
   ASSERT_EQ(r.per_channel_param_names, std::vector<std::string>{"albedo"});
   ASSERT_EQ(r.per_channel_params.size(), 3u);
@@ -76,7 +76,7 @@ TEST(JointFit, AlbedoIsFittedPerChannel) {
   const nlohmann::json j = r.ToJson();
   ASSERT_TRUE(j.contains("params_per_channel"));
   EXPECT_EQ(j["params_per_channel"]["albedo"].size(), 3u);
-  EXPECT_EQ(j["light"]["frame"], "board");
+  EXPECT_EQ(j["lamp"]["frame"], "board");
 }
 
 TEST(JointFit, CrossValidationNeedsTwoFrames) {
@@ -88,20 +88,20 @@ TEST(JointFit, CrossValidationNeedsTwoFrames) {
 
 using testing::InputErrorOf;
 
-// Option words (--criterion, --robust, --light-frame) parse to enums and print back unchanged;
+// Option words (--criterion, --robust, --lamp-frame) parse to enums and print back unchanged;
 // an unknown word is an InputError naming the option and the accepted words.
 TEST(OptionWords, RoundTripAndUnknownWordsNameTheOption) {
   for (const char* w : {"aic", "bic", "cv"}) EXPECT_EQ(ToString(ParseCriterion(w, "-c")), w);
   for (const char* w : {"none", "huber", "cauchy"}) {
     EXPECT_EQ(ToString(ParseRobustLoss(w, "-r")), w);
   }
-  for (const char* w : {"board", "camera"}) EXPECT_EQ(ToString(ParseLightFrame(w, "-l")), w);
+  for (const char* w : {"board", "camera"}) EXPECT_EQ(ToString(ParseLampFrame(w, "-l")), w);
   EXPECT_EQ(InputErrorOf([] { ParseCriterion("r2", "--criterion"); }),
             "--criterion: 'r2' is not one of aic, bic, cv");
   EXPECT_EQ(InputErrorOf([] { ParseRobustLoss("tukey", "--robust"); }),
             "--robust: 'tukey' is not one of none, huber, cauchy");
-  EXPECT_EQ(InputErrorOf([] { ParseLightFrame("lamp", "--light-frame"); }),
-            "--light-frame: 'lamp' is not one of board, camera");
+  EXPECT_EQ(InputErrorOf([] { ParseLampFrame("lamp", "--lamp-frame"); }),
+            "--lamp-frame: 'lamp' is not one of board, camera");
 }
 
 }  // namespace

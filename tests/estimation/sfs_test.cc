@@ -30,7 +30,7 @@ const fs::path& Rendered(const std::string& preset, double offaxis_deg) {
   auto it = cache.find(key);
   if (it != cache.end()) return it->second;
   synth::PresetOptions options;
-  options.sfs_light_offaxis_deg = offaxis_deg;
+  options.sfs_lamp_offaxis_deg = offaxis_deg;
   synth::Scene scene = synth::PresetScene(preset, options);
   scene.camera.intrinsics = {300, 300, 119.5, 89.5};
   scene.camera.width = 240;

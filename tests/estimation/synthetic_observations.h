@@ -16,7 +16,7 @@ namespace gonio::testing_obs {
 
 inline const Eigen::Vector3d kSampleCentre(0.155, 0.095, 0.0);
 // Lamp 0.5 m from the sample, 35 deg off its normal (-z of the board).
-inline const Eigen::Vector3d kLight =
+inline const Eigen::Vector3d kLamp =
     kSampleCentre + 0.5 * Eigen::Vector3d(-std::sin(DegToRad(35)), 0.0, -std::cos(DegToRad(35)));
 
 // Oren-Nayar (sigma 30 deg, albedo 0.6 / 0.5 / 0.4 per channel) seen from `views` cameras on
@@ -47,7 +47,7 @@ inline ObservationSet Synthesize(int views, int channels, bool with_white, doubl
         // Pixel positions spread over a 1280x960 image (for image-position error fields).
         o.px = 640 + 110.0 * (ix - 4.5);
         o.py = 480 + 200.0 * (iy - 2);
-        const Eigen::Vector3d l = kLight - o.p_in_board, v = cam - o.p_in_board;
+        const Eigen::Vector3d l = kLamp - o.p_in_board, v = cam - o.p_in_board;
         const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
         const double e = ls[2] / std::pow(l.norm(), 3);
         for (int c = 0; c < channels; ++c) {

@@ -203,8 +203,8 @@ TEST(TabulatedModels, JointFitUnchangedBeyondItsUncertainty) {
   for (const auto& [model, params] :
        {std::pair<std::string, std::vector<double>>{"oren-nayar-vcavity", {0.6, 0.35}},
         {"van-ginneken", {0.6, 0.3, 0.1}}}) {
-    Eigen::Vector3d light;
-    const ObservationSet data = bench::SynthesizeJointObservations(model, params, 4, &light);
+    Eigen::Vector3d lamp;
+    const ObservationSet data = bench::SynthesizeJointObservations(model, params, 4, &lamp);
     JointFitOptions o;
     o.white_albedo = 0.8;
     o.threads = 1;
@@ -212,7 +212,7 @@ TEST(TabulatedModels, JointFitUnchangedBeyondItsUncertainty) {
     JointFitResult fits[2];
     for (int tab = 0; tab < 2; ++tab) {
       o.tabulated_models = tab == 1;
-      fits[tab] = FitJoint(model, data, light + Eigen::Vector3d(0.02, -0.01, 0.02), o);
+      fits[tab] = FitJoint(model, data, lamp + Eigen::Vector3d(0.02, -0.01, 0.02), o);
     }
     const BrdfFitResult &d = fits[0].material, &t = fits[1].material;
     ASSERT_TRUE(d.converged && t.converged) << model;

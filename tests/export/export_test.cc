@@ -276,7 +276,7 @@ std::filesystem::path WriteJointFitJson(const std::filesystem::path& dir) {
   const nlohmann::json j = {{"selected", "oren-nayar"},
                             {"candidates", {cand}},
                             {"final", final_fit},
-                            {"light", {{"absolute", true}}}};
+                            {"lamp", {{"absolute", true}}}};
   const auto path = dir / "joint.json";
   WriteJsonAtomically(path, j);
   return path;
@@ -295,6 +295,22 @@ TEST(ExportCli, JointFitUsesFinalBlockAndChannels) {
                                    " --format mitsuba --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(ReadTextFile(out).find("value=\"0.62, 0.6, 0.58\""), std::string::npos);
+}
+
+// A joint fit without a white reference says so in its lamp block ("lamp", or "light" in
+// fit.json files written before the rename, docs/formats.md "Renamed keys"): relative either way.
+TEST(ExportCli, ARelativeLampIsReadUnderItsOldKeyToo) {
+  testing::TempDir dir;
+  for (const char* key : {"lamp", "light"}) {
+    nlohmann::json j = ReadJsonFile(WriteJointFitJson(dir.path()));
+    j.erase("lamp");
+    j[key] = {{"absolute", false}};
+    const auto path = dir.path() / (std::string(key) + ".json");
+    WriteJsonAtomically(path, j);
+    const std::string msg = testing::InputErrorOf([&] { ReadFitFile(path); });
+    EXPECT_NE(msg.find("relative"), std::string::npos) << key << ": " << msg;
+    EXPECT_NO_THROW(ReadFitFile(path, ReadFitOptions{true})) << key;
+  }
 }
 
 TEST(ExportCli, EveryFormatFromFitJson) {

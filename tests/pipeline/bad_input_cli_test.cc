@@ -268,9 +268,9 @@ TEST_F(BadInputCli, BadOptionValuesAreRefused) {
   ExpectOneLineError(testing::RunGonio(fmt::format("run --session {} --out {} --models ''",
                                                    Session().string(), out.string())),
                      "--models", "empty");
-  ExpectOneLineError(testing::RunGonio(fmt::format("run --session {} --out {} --light-init 1,2",
+  ExpectOneLineError(testing::RunGonio(fmt::format("run --session {} --out {} --lamp-init 1,2",
                                                    Session().string(), out.string())),
-                     "--light-init", "X,Y,Z");
+                     "--lamp-init", "X,Y,Z");
   ExpectNothingLeft(out);
 }
 
@@ -350,10 +350,10 @@ TEST_F(BadInputCli, FitCommandInputsAndOutputs) {
                      "residual", "too few");
   EXPECT_FALSE(fs::exists(work.path() / "two.json"));
   ExpectOneLineError(testing::RunGonio(fmt::format(
-                         "fit --observations {} --models lambert --light-init 1e308,0,-1 "
+                         "fit --observations {} --models lambert --lamp-init 1e308,0,-1 "
                          "--out {}",
                          (out / "observations.csv").string(), (work.path() / "far.json").string())),
-                     "--light-init", "within");
+                     "--lamp-init", "within");
 }
 
 // A saturated shape-from-shading image: refused, not solved into a wrong shape.

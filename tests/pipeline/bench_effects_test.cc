@@ -36,8 +36,8 @@ Eigen::Vector3d SampleCentre(const synth::Scene& scene) {
 
 // The lamp's irradiance I cos(theta_i) / d^2 at the sample centre.
 double LampIrradianceAtCentre(const synth::Scene& scene) {
-  const Eigen::Vector3d to_lamp = scene.light.position - SampleCentre(scene);
-  return scene.light.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
+  const Eigen::Vector3d to_lamp = scene.lamp.position - SampleCentre(scene);
+  return scene.lamp.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
 }
 
 struct Outcome {
@@ -64,8 +64,8 @@ Outcome RunOn(const std::filesystem::path& dir, const synth::Scene& scene, Ambie
   out.warnings = run.warnings;
   out.report = run.Report();
   out.albedo = out.fit.material.params.at(0);  // albedo is the first parameter of both
-  const double distance = (scene.light.position - SampleCentre(scene)).norm();
-  out.lamp_error = (out.fit.light_position - scene.light.position).norm() / distance;
+  const double distance = (scene.lamp.position - SampleCentre(scene)).norm();
+  out.lamp_error = (out.fit.lamp_position - scene.lamp.position).norm() / distance;
   out.intensity = out.fit.intensity;
   return out;
 }
@@ -126,14 +126,14 @@ TEST(BenchEffects, RaisedSampleNeedsItsHeight) {
 TEST(BenchEffects, AmbientLightNeedsLampOffFramesOrAFittedTerm) {
   synth::Scene scene = LambertScene();
   const double lamp_e = LampIrradianceAtCentre(scene);
-  scene.light.ambient_irradiance = 0.05 * lamp_e;
-  scene.light.lamp_off_frames = true;
+  scene.lamp.ambient_irradiance = 0.05 * lamp_e;
+  scene.lamp.lamp_off_frames = true;
   testing::TempDir dir;
   synth::RenderBoardSession(scene, dir.path(), 0);
   WriteTruePhotometric(dir.path());
   // The fit's intensity is in the photometric calibration's radiance units: the renderer's
   // exposure_scale per W/(m^2 sr) s.
-  const double intensity = scene.light.intensity * scene.photometric.exposure_scale;
+  const double intensity = scene.lamp.intensity * scene.photometric.exposure_scale;
 
   const Outcome off = RunOn(dir.path(), scene, AmbientTerm::kNone);
   EXPECT_EQ(off.fit.lamp_off_frames, 12u);
@@ -173,7 +173,7 @@ TEST(BenchEffects, AmbientLightNeedsLampOffFramesOrAFittedTerm) {
   // (Lambertian: albedo / pi E_a), in the fit's intensity units.
   ASSERT_EQ(fit.fit.ambient_irradiance.size(), 1u);
   ASSERT_TRUE(fit.fit.ambient_irradiance_stddev.at(0) && fit.fit.ambient_sample_stddev.at(0));
-  const double e_a = scene.light.ambient_irradiance * fit.intensity / scene.light.intensity;
+  const double e_a = scene.lamp.ambient_irradiance * fit.intensity / scene.lamp.intensity;
   EXPECT_NEAR(fit.fit.ambient_irradiance[0], e_a, 3 * *fit.fit.ambient_irradiance_stddev[0]);
   EXPECT_NEAR(fit.fit.ambient_sample[0], kAlbedo * kInvPi * e_a,
               3 * *fit.fit.ambient_sample_stddev[0]);

@@ -55,11 +55,11 @@ TEST(DemoCli, RunsTheUsersChainAndComparesWithTheTruth) {
   ASSERT_NE(sigma_line, "") << r.out;
   const double z = (sigma - DegToRad(30)) / fin["stddev"]["sigma"].get<double>();
   EXPECT_NE(sigma_line.find(fmt::format("z {:+.2f}", z)), std::string::npos) << sigma_line;
-  for (const char* name : {"albedo", "light_x", "light_y", "light_z"}) {
+  for (const char* name : {"albedo", "lamp_x", "lamp_y", "lamp_z"}) {
     EXPECT_NE(LineOf(r.out, name).find(" z "), std::string::npos) << name << "\n" << r.out;
   }
-  const auto& lt = truth["light"]["position_in_board"];
-  const auto& lf = fin["light"]["position"];
+  const auto& lt = truth["lamp"]["position_in_board"];
+  const auto& lf = fin["lamp"]["position"];
   const double lamp_error = std::hypot(lf[0].get<double>() - lt[0].get<double>(),
                                        lf[1].get<double>() - lt[1].get<double>(),
                                        lf[2].get<double>() - lt[2].get<double>());
@@ -73,7 +73,7 @@ TEST(DemoCli, RunsTheUsersChainAndComparesWithTheTruth) {
   sum_z2 += z_sigma * z_sigma + z_albedo * z_albedo;
   for (int k = 0; k < 3; ++k) {
     const double zk =
-        (lf[k].get<double>() - lt[k].get<double>()) / fin["light"]["stddev"][k].get<double>();
+        (lf[k].get<double>() - lt[k].get<double>()) / fin["lamp"]["stddev"][k].get<double>();
     EXPECT_LT(std::abs(zk), 3.0) << "lamp axis " << k << "\n" << r.out;
     sum_z2 += zk * zk;
   }

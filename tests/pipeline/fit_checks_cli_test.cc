@@ -54,7 +54,7 @@ class FitChecksCli : public ::testing::Test {
     synth::Scene a = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
     a.views.per_ring = 2;
     synth::Scene b = a;
-    b.light.position += Eigen::Vector3d(0.12, 0.0, 0.05);
+    b.lamp.position += Eigen::Vector3d(0.12, 0.0, 0.05);
     synth::RenderBoardSession(a, Dir("a"), 0);
     synth::RenderBoardSession(b, Dir("b"), 0);
     fs::copy(Dir("a"), Dir("moved"), fs::copy_options::recursive);

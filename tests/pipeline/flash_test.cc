@@ -5,7 +5,7 @@
 //   gonio photometric response (an exposure sweep rendered with the same camera)
 //   gonio photometric vignette (a flat-field session of the same camera; the flash session
 //                               itself is refused, its lamp moves with the camera)
-//   gonio run --light-frame camera
+//   gonio run --lamp-frame camera
 // truth.json only judges the result (and gives the flat field's poses: a tag-free target has
 // none to locate). The same session with the renderer's own calibration (the oracle) is
 // measured beside it. Figures: docs/capture.md "A flash beside the lens".
@@ -47,8 +47,8 @@ Recovered Judge(const fs::path& fit_json, const fs::path& truth_json) {
   const json& p = f.at("params");
   if (p.contains("sigma")) r.sigma_deg = RadToDeg(p.at("sigma").get<double>());
   if (p.contains("albedo")) r.albedo = p.at("albedo").get<double>();
-  const auto lamp = f.at("light").at("position").get<std::vector<double>>();
-  const auto lamp_true = truth.at("light").at("position_in_camera").get<std::vector<double>>();
+  const auto lamp = f.at("lamp").at("position").get<std::vector<double>>();
+  const auto lamp_true = truth.at("lamp").at("position_in_camera").get<std::vector<double>>();
   r.backscatter_only = fit.at("observed_angles").at("backscatter_only").get<bool>();
   r.lamp_error_m =
       std::hypot(lamp[0] - lamp_true[0], lamp[1] - lamp_true[1], lamp[2] - lamp_true[2]);
@@ -134,14 +134,14 @@ void ExpectFlashVignetteRefused(const FlashSessions& s, const fs::path& camera,
       << r.err;
   EXPECT_NE(r.err.find("flat field"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out.parent_path())) << "a refused calibration wrote output";
-  r = RunGonio(fmt::format("{} --session {} --board {} --poses {} --light-frame camera", common,
+  r = RunGonio(fmt::format("{} --session {} --board {} --poses {} --lamp-frame camera", common,
                            s.flat.string(), (s.flat / "board.json").string(),
                            s.flat_poses.string()));
   EXPECT_EQ(r.exit_code, 2) << r.out;
-  EXPECT_NE(r.err.find("--light-frame camera"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--lamp-frame camera"), std::string::npos) << r.err;
 }
 
-// calibrate -> response -> vignette (flat field) -> run --light-frame camera.
+// calibrate -> response -> vignette (flat field) -> run --lamp-frame camera.
 Recovered UserChain(const FlashSessions& s, const fs::path& dir) {
   const fs::path camera = dir / "camera.cameramodel", response = dir / "response.json",
                  photometric = dir / "photometric.json", out = dir / "user_run";
@@ -160,7 +160,7 @@ Recovered UserChain(const FlashSessions& s, const fs::path& dir) {
   EXPECT_TRUE(lamp_test.at("detectable").get<bool>()) << lamp_test;
   EXPECT_NEAR(lamp_test.at("camera_lamp_exponent").get<double>(), 0.0, 0.02) << lamp_test;
   RunGonioOk(
-      fmt::format("run --session {} --out {} --camera {} --photometric {} --light-frame camera "
+      fmt::format("run --session {} --out {} --camera {} --photometric {} --lamp-frame camera "
                   "--white-albedo 0.8",
                   s.flash.string(), out.string(), camera.string(), photometric.string()));
   return Judge(out / "fit.json", s.flash / "truth.json");
@@ -174,7 +174,7 @@ Recovered OracleChain(const FlashSessions& s, const fs::path& dir) {
   PhotometricFromSynthTruth(ReadJsonFile(s.flash / "truth.json"), camera.width, camera.height)
       .Write(photometric);
   RunGonioOk(fmt::format(
-      "run --session {} --out {} --camera {} --photometric {} --light-frame camera "
+      "run --session {} --out {} --camera {} --photometric {} --lamp-frame camera "
       "--white-albedo 0.8",
       s.flash.string(), out.string(), (dir / "true.cameramodel").string(), photometric.string()));
   return Judge(out / "fit.json", s.flash / "truth.json");

@@ -30,7 +30,7 @@ json ThickSampleScene(bool thick) {
   json s = json::parse(R"({
     "format": "gonio-scene", "type": "board", "seed": 7, "supersampling": 8,
     "material": {"model": "oren-nayar", "params": {"sigma": 0.4363323129985824, "albedo": 0.45}},
-    "light": {"type": "point", "frame": "board", "position": [0.155, 0.395, -0.5196152422706632],
+    "lamp": {"type": "point", "frame": "board", "position": [0.155, 0.395, -0.5196152422706632],
               "intensity": 1.2, "ambient_irradiance": 0.14433756729740646,
               "lamp_off_frames": false},
     "camera": {"lens_model": "LENSMODEL_OPENCV8", "width": 960, "height": 720,
@@ -40,7 +40,7 @@ json ThickSampleScene(bool thick) {
               "rings_deg": [20, 35, 50, 65], "per_ring": 4, "roll_deg": 6}
   })");
   if (!thick) {
-    s["light"]["ambient_irradiance"] = 0.0;
+    s["lamp"]["ambient_irradiance"] = 0.0;
     s["board"]["sample_height"] = 0.0;
   }
   return s;
@@ -83,8 +83,8 @@ Outcome RunChain(const fs::path& session, const fs::path& out, const std::string
   const auto& fin = o.fit["final"];
   o.albedo_error = fin["params"].value("albedo", NAN) / 0.45 - 1;
   o.sigma_error_deg = RadToDeg(fin["params"].value("sigma", NAN)) - 25.0;
-  const auto& lt = truth["light"]["position_in_board"];
-  const auto& lf = fin["light"]["position"];
+  const auto& lt = truth["lamp"]["position_in_board"];
+  const auto& lf = fin["lamp"]["position"];
   const Eigen::Vector3d t(lt[0], lt[1], lt[2]), f(lf[0], lf[1], lf[2]);
   o.lamp_error = (f - t).norm() / (t - Eigen::Vector3d(0.155, 0.095, 0)).norm();
   std::cout << fmt::format("{}: {} albedo {:+.2f}%, sigma {:+.2f} deg, lamp {:.2f}%; {}\n",
@@ -113,7 +113,7 @@ TEST(NuisanceCli, ThickSampleUnderRoomLightNothingDeclared) {
   EXPECT_LT(std::abs(o.sigma_error_deg), 1.5);
   EXPECT_LT(o.lamp_error, 0.03);
   EXPECT_NEAR(o.fit["final"].value("sample_height_offset_m", 0.0), 0.004, 0.001);
-  for (const char* result : {"albedo", "sigma", "light"}) {
+  for (const char* result : {"albedo", "sigma", "lamp"}) {
     EXPECT_TRUE(o.fit["checks"]["touched_results"].contains(result)) << result;
   }
   const Outcome off =

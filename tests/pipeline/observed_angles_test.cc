@@ -21,8 +21,8 @@ struct Scene {
 
 Scene MakeScene(const Eigen::Vector3d& camera, const Eigen::Vector3d& lamp) {
   Scene s;
-  s.fit.light_frame = LightFrame::kBoard;
-  s.fit.light_position = lamp;
+  s.fit.lamp_frame = LampFrame::kBoard;
+  s.fit.lamp_position = lamp;
   for (int i = 0; i <= 10; ++i) {
     for (int j = 0; j <= 10; ++j) {
       Observation o;

@@ -29,7 +29,7 @@ struct SceneRun {
   RunResult run;
   JointSelectionResult fit;
   nlohmann::json truth;
-  Eigen::Vector3d light_true;
+  Eigen::Vector3d lamp_true;
   Eigen::Vector3d sample_centre;
 };
 
@@ -48,8 +48,8 @@ SceneRun RenderAndFit(const synth::Scene& scene, JointFitOptions options, int pa
   synth::RenderBoardSession(scene, dir.path(), 0);
   SceneRun r;
   r.truth = ReadJsonFile(dir.path() / "truth.json");
-  const auto& lt = r.truth["light"]["position_in_board"];
-  r.light_true = Eigen::Vector3d(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
+  const auto& lt = r.truth["lamp"]["position_in_board"];
+  r.lamp_true = Eigen::Vector3d(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
   const auto& sr = scene.board.sample_region;
   r.sample_centre = Eigen::Vector3d(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0.0);
   options.white_albedo = r.truth["white_albedo"].get<double>();
@@ -75,16 +75,16 @@ TEST(Pipeline, DefaultPresetRecoversMaterialAndLamp) {
   const Eigen::Vector3d centre(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0.0);
   JointFitOptions o;
   o.candidates = {"lambert", "oren-nayar-qualitative", "oren-nayar", "tson"};
-  o.light_init = scene.light.position +
-                 0.3 * (scene.light.position - centre).norm() *
-                     (scene.light.position - centre).cross(Eigen::Vector3d::UnitY()).normalized();
+  o.lamp_init = scene.lamp.position +
+                0.3 * (scene.lamp.position - centre).norm() *
+                    (scene.lamp.position - centre).cross(Eigen::Vector3d::UnitY()).normalized();
   const SceneRun r = RenderAndFit(scene, o, 4);
   const JointFitResult& f = r.fit.final_fit;
   EXPECT_EQ(f.material.model, "oren-nayar") << r.fit.Report();
   EXPECT_NEAR(RadToDeg(Param(f, "sigma")), 30.0, 0.5);
   EXPECT_NEAR(Param(f, "albedo"), 0.6, 0.006);
-  const double distance = (r.light_true - centre).norm();
-  EXPECT_LT((f.light_position - r.light_true).norm(), 0.005 * distance);
+  const double distance = (r.lamp_true - centre).norm();
+  EXPECT_LT((f.lamp_position - r.lamp_true).norm(), 0.005 * distance);
   EXPECT_TRUE(f.material.undetermined.empty());
   EXPECT_TRUE(f.warnings.empty()) << r.fit.Report();
   // Good data: the checks do not fire, and each of the 24 frames was decoded once.
@@ -144,17 +144,16 @@ TEST(Pipeline, PittedSampleSelectsPittedFamily) {
 // sample); its distance must be reported as undetermined, not printed with confidence.
 TEST(Pipeline, FarLampIsReportedUndetermined) {
   synth::Scene scene = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
-  const Eigen::Vector3d dir =
-      (scene.light.position - Eigen::Vector3d(0.155, 0.095, 0)).normalized();
-  scene.light.position = Eigen::Vector3d(0.155, 0.095, 0) + 50.0 * dir;
-  scene.light.intensity = 1e4;  // same irradiance as 0.5 m
+  const Eigen::Vector3d dir = (scene.lamp.position - Eigen::Vector3d(0.155, 0.095, 0)).normalized();
+  scene.lamp.position = Eigen::Vector3d(0.155, 0.095, 0) + 50.0 * dir;
+  scene.lamp.intensity = 1e4;  // same irradiance as 0.5 m
   JointFitOptions o;
   o.candidates = {"oren-nayar"};
-  o.light_init = Eigen::Vector3d(0.155, 0.095, 0) + 40.0 * dir;
+  o.lamp_init = Eigen::Vector3d(0.155, 0.095, 0) + 40.0 * dir;
   const SceneRun r = RenderAndFit(scene, o, 4);
   const JointFitResult& f = r.fit.final_fit;
-  EXPECT_FALSE(f.undetermined_light.empty()) << r.fit.Report();
-  EXPECT_FALSE(f.light_stddev.has_value());
+  EXPECT_FALSE(f.undetermined_lamp.empty()) << r.fit.Report();
+  EXPECT_FALSE(f.lamp_stddev.has_value());
   // The material itself is still measured: the lamp direction is known.
   EXPECT_NEAR(RadToDeg(Param(f, "sigma")), 30.0, 1.5);
 }
@@ -168,7 +167,7 @@ TEST(Pipeline, SingleViewpointLeavesRoughnessUndetermined) {
   scene.views.cam_from_board = {poses[0], poses[0], poses[0]};
   JointFitOptions o;
   o.candidates = {"oren-nayar"};
-  o.light_init = scene.light.position;
+  o.lamp_init = scene.lamp.position;
   o.white_albedo = std::nullopt;
   testing::TempDir dir;
   // No white reference either: nothing fixes the scale.
@@ -185,7 +184,7 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
   testing::TempDir dir;
   synth::RenderBoardSession(a, dir.path(), 0);
   synth::Scene b = a;
-  b.light.position += Eigen::Vector3d(0.12, 0.0, 0.05);
+  b.lamp.position += Eigen::Vector3d(0.12, 0.0, 0.05);
   const auto poses = a.CamFromBoardPoses();
   b.views.mode = "explicit";
   b.views.cam_from_board = {poses[poses.size() - 2], poses[poses.size() - 1]};
@@ -265,7 +264,7 @@ TEST(Pipeline, HalfTheFramesFromAnotherSceneIsRefused) {
   testing::TempDir dir, moved;
   synth::RenderBoardSession(a, dir.path(), 0);
   synth::Scene b = a;
-  b.light.position += Eigen::Vector3d(0.12, 0.0, 0.05);
+  b.lamp.position += Eigen::Vector3d(0.12, 0.0, 0.05);
   synth::RenderBoardSession(b, moved.path(), 0);
   const size_t n = a.CamFromBoardPoses().size();
   for (size_t k = n / 2; k < n; ++k) {
@@ -309,7 +308,7 @@ TEST(Pipeline, MaterialOutsideTheCandidatesIsNotAMeasurement) {
   const nlohmann::json checks = r.ToJson()["checks"];
   ASSERT_FALSE(checks["warnings"].empty()) << checks;
   EXPECT_EQ(checks["warnings"][0]["cause"], "not-explained") << checks;
-  for (const char* result : {"albedo", "light", "intensity"}) {
+  for (const char* result : {"albedo", "lamp", "intensity"}) {
     ASSERT_TRUE(checks["touched_results"].contains(result)) << checks;
     EXPECT_EQ(checks["touched_results"][result][0], "not-explained") << checks;
   }

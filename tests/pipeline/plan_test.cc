@@ -67,7 +67,7 @@ TEST_F(Plan, SingleViewpointLeavesSigmaPoorlyDetermined) {
 TEST_F(Plan, FarLampLeavesTheLampDistanceUndetermined) {
   PlanOptions far = options_;
   const Eigen::Vector3d centre(0.155, 0.095, 0);
-  far.hypothesis.light = centre + 100.0 * (options_.hypothesis.light - centre);
+  far.hypothesis.lamp = centre + 100.0 * (options_.hypothesis.lamp - centre);
   far.hypothesis.intensity = 1e4;  // the same irradiance at 50 m
   const std::vector<Rigid3d> orbit = DefaultOrbit(board_, 8);
   const PredictedUncertainty near = Predict(orbit, options_);
@@ -75,7 +75,7 @@ TEST_F(Plan, FarLampLeavesTheLampDistanceUndetermined) {
   fmt::print("lamp scatter: near {:.3g} m, far {:.3g} m\n", near.LampScatter(), u.LampScatter());
   EXPECT_FALSE(near.lamp_distance_undetermined);
   EXPECT_TRUE(u.lamp_distance_undetermined);
-  EXPECT_FALSE(u.reported.at(u.Index("light_x")).has_value());
+  EXPECT_FALSE(u.reported.at(u.Index("lamp_x")).has_value());
   // Measured: 1.3 m against 0.5 mm.
   EXPECT_GT(u.LampScatter(), 100 * near.LampScatter());
 }
@@ -205,9 +205,9 @@ TEST(PlanScatter, PredictionHoldsOnRenderedSessions) {
 // the nearest poses. Measured (6 seeds): 0.80 sigma, 0.94 albedo, 0.98 lamp.
 TEST(PlanScatter, FlashPredictionHolds) {
   synth::Scene scene = bench::PlanBenchScene("quick");
-  scene.light.frame = "camera";
-  scene.light.position = Eigen::Vector3d(0, -0.015, 0);
-  scene.light.intensity = 0.5;
+  scene.lamp.frame = "camera";
+  scene.lamp.position = Eigen::Vector3d(0, -0.015, 0);
+  scene.lamp.intensity = 0.5;
   const Board board = bench::SceneBoard(scene);
   const PlanResult r = MakePlan(board, scene.camera, bench::PlanOptionsForScene(scene, 8, 0));
   std::vector<Rigid3d> poses;

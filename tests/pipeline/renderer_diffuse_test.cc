@@ -48,8 +48,8 @@ TEST(RendererDiffuse, FujiiAtRoughnessOneIsRecoveredByModelsAuto) {
   const json& f = fit.at("final");
   const double albedo = f.at("params").at("albedo").get<double>();
   const double roughness = f.at("params").at("roughness").get<double>();
-  const auto lamp = f.at("light").at("position").get<std::vector<double>>();
-  const auto lamp_true = truth.at("light").at("position_in_board").get<std::vector<double>>();
+  const auto lamp = f.at("lamp").at("position").get<std::vector<double>>();
+  const auto lamp_true = truth.at("lamp").at("position_in_board").get<std::vector<double>>();
   const double lamp_error =
       std::hypot(lamp[0] - lamp_true[0], lamp[1] - lamp_true[1], lamp[2] - lamp_true[2]);
   const double lamp_distance = std::hypot(lamp_true[0], lamp_true[1], lamp_true[2]);

@@ -15,7 +15,7 @@
 namespace gonio {
 namespace {
 
-using testing_obs::kLight;
+using testing_obs::kLamp;
 using testing_obs::Synthesize;
 
 // The generating scene as a fit result (oren-nayar, albedo 0.6, sigma 30 deg, intensity 1).
@@ -26,7 +26,7 @@ JointFitResult TrueFit() {
   f.material.params = {0.6, DegToRad(30)};
   f.material.stddev = {0.001, 0.001};
   f.material.converged = true;
-  f.light_position = kLight;
+  f.lamp_position = kLamp;
   f.intensity = 1.0;
   return f;
 }
@@ -133,12 +133,12 @@ TEST(ResidualStructure, AStructureWithinTheCalibrationsAccuracyIsNone) {
 TEST(RunWarnings, TouchedResultsListEachCauseOnce) {
   const std::vector<RunWarning> w = {
       {WarningCause::kAtBound, "sigma on its bound", {"sigma"}},
-      {WarningCause::kResidualView, "view", {"albedo", "sigma", "light", "intensity"}},
+      {WarningCause::kResidualView, "view", {"albedo", "sigma", "lamp", "intensity"}},
       {WarningCause::kResidualView, "view again", {"sigma"}},
       {WarningCause::kFrameSkipped, "frame skipped", {}}};
   const nlohmann::json t = TouchedResults(w);
   EXPECT_EQ(t["sigma"], nlohmann::json({"at-bound", "residual-view"}));
-  EXPECT_EQ(t["light"], nlohmann::json({"residual-view"}));
+  EXPECT_EQ(t["lamp"], nlohmann::json({"residual-view"}));
   EXPECT_FALSE(t.contains("frame"));
   EXPECT_EQ(w[0].ToJson()["cause"], "at-bound");
 }

@@ -119,16 +119,16 @@ Recovered Judge(const UserChainDirs& d, const nlohmann::json& fit, const std::st
   r.albedo_error = albedo / 0.6 - 1;
   r.sigma_z = std::abs(sigma - DegToRad(30)) / fin["stddev"]["sigma"].get<double>();
   r.albedo_z = std::abs(albedo - 0.6) / fin["stddev"]["albedo"].get<double>();
-  const auto& lt = truth["light"]["position_in_board"];
-  const auto& lf = fit["light"]["position"];
-  const Eigen::Vector3d light_true(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
-  const Eigen::Vector3d light(lf[0].get<double>(), lf[1].get<double>(), lf[2].get<double>());
+  const auto& lt = truth["lamp"]["position_in_board"];
+  const auto& lf = fit["lamp"]["position"];
+  const Eigen::Vector3d lamp_true(lt[0].get<double>(), lt[1].get<double>(), lt[2].get<double>());
+  const Eigen::Vector3d lamp(lf[0].get<double>(), lf[1].get<double>(), lf[2].get<double>());
   const auto& sr = d.scene.board.sample_region;
   const Eigen::Vector3d centre(0.5 * (sr[0] + sr[2]), 0.5 * (sr[1] + sr[3]), 0.0);
-  r.lamp_error = (light - light_true).norm() / (light_true - centre).norm();
+  r.lamp_error = (lamp - lamp_true).norm() / (lamp_true - centre).norm();
   for (int k = 0; k < 3; ++k) {
-    const double sd = fit["light"]["stddev"][k].get<double>();
-    r.lamp_z = std::max(r.lamp_z, std::abs(light[k] - light_true[k]) / sd);
+    const double sd = fit["lamp"]["stddev"][k].get<double>();
+    r.lamp_z = std::max(r.lamp_z, std::abs(lamp[k] - lamp_true[k]) / sd);
   }
   std::cout << fmt::format(
       "{}: {} sigma {:+.3f} +- {:.3f} deg (z {:.2f}), albedo {:+.2f}% (z {:.2f}), lamp {:.2f}% of "
