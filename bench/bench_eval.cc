@@ -262,23 +262,14 @@ std::vector<EvalRow> RunEvaluationBench(const BenchSizes& s, int threads) {
   return rows;
 }
 
-namespace {
-
-struct ReferenceLoopEntry {
-  const char* model;
-  const char* formula;
-  ReferenceLoopFn loop;
-};
-
-// Every vectorised closed form with an angle-dependent formula (lambert's batch is a constant
-// store) and its independent loop.
-const std::vector<ReferenceLoopEntry>& ReferenceLoopEntries() {
-  static const std::vector<ReferenceLoopEntry> entries = {
+const std::vector<ReferenceLoop>& ReferenceLoops() {
+  static const std::vector<ReferenceLoop> loops = {
       {"oren-nayar-qualitative", "Oren & Nayar 1994 eq. 30", OrenNayarQualitativeReferenceLoop},
       {"oren-nayar", "Oren & Nayar 1994 eq. 27-29", OrenNayarReferenceLoop},
       {"minnaert", "Minnaert 1941 (Oren & Nayar 1994 sec. 1)", MinnaertReferenceLoop},
-      {"oren-nayar-fujii", "Fujii 2012 (Cycles, MaterialX)", OrenNayarFujiiReferenceLoop},
-      {"oren-nayar-fujii-ec", "Fujii 2012 + OpenPBR compensation (MaterialX)",
+      {"oren-nayar-fujii", "Fujii's lobe in Cycles' form (docs/models/oren-nayar-fujii.md)",
+       OrenNayarFujiiReferenceLoop},
+      {"oren-nayar-fujii-ec", "Fujii + OpenPBR compensation from Cycles' E, E_avg, E_ms",
        OrenNayarFujiiEcReferenceLoop},
       {"torrance-sparrow", "Oren & Nayar 1994 eq. 31, 26, 11/38; Cook & Torrance Fresnel",
        TorranceSparrowReferenceLoop},
@@ -292,8 +283,10 @@ const std::vector<ReferenceLoopEntry>& ReferenceLoopEntries() {
       {"li-torrance:dd+uds+fs", "Li & Torrance eq. 5-10, 12-14", LiTorranceDdUdsFsReferenceLoop},
       {"li-torrance:coh+dd", "Li & Torrance eq. 3-10", LiTorranceCohDdReferenceLoop},
   };
-  return entries;
+  return loops;
 }
+
+namespace {
 
 // n evaluations as passes over the first `block` entries of the arrays: the inputs and output
 // (32 bytes per entry) stay in L2, so the timing measures arithmetic, not memory bandwidth.
@@ -321,7 +314,7 @@ std::vector<ReferenceLoopResult> RunReferenceLoops(const BenchSizes& s) {
   std::vector<double> out_ref(kReferenceBlock), out_reg(kReferenceBlock),
       out_scalar(kReferenceBlock);
   std::vector<ReferenceLoopResult> results;
-  for (const ReferenceLoopEntry& e : ReferenceLoopEntries()) {
+  for (const ReferenceLoop& e : ReferenceLoops()) {
     const std::vector<double> params = BenchParams(FindModel(e.model));
     ReferenceLoopResult r;
     r.model = e.model;

@@ -6,13 +6,26 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 namespace gonio::bench {
 
 // out[k] = f_r(theta_i[k], theta_r[k], phi[k]) in 1/sr for one parameter vector, in the
-// registry's parameter order and angle convention (docs/conventions.md).
+// registry's parameter order and angle convention (docs/conventions.md), for theta in
+// [0, 90 deg) and phi in [0, pi] (the bench feeds theta <= 80 deg).
 using ReferenceLoopFn = void (*)(const double* params, const double* theta_i, const double* theta_r,
                                  const double* phi, size_t n, double* out);
+
+// A registry model and its independent loop.
+struct ReferenceLoop {
+  const char* model;
+  const char* formula;  // where the loop's formula comes from
+  ReferenceLoopFn loop;
+};
+
+// Every vectorised closed form whose value depends on the angles (lambert's batch is a constant
+// store), with its loop (defined in bench_eval.cc, compiled with the normal flags).
+const std::vector<ReferenceLoop>& ReferenceLoops();
 
 // Oren & Nayar 1994 eq. 30 (params: rho, sigma).
 void OrenNayarQualitativeReferenceLoop(const double* params, const double* theta_i,
@@ -25,15 +38,17 @@ void OrenNayarReferenceLoop(const double* params, const double* theta_i, const d
 void MinnaertReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
                            const double* phi, size_t n, double* out);
 
-// Fujii's improved Oren-Nayar as Cycles and MaterialX define it (docs/models/oren-nayar-fujii.md;
-// params: albedo, roughness).
+// Fujii's improved Oren-Nayar in Cycles' form (docs/models/oren-nayar-fujii.md; params:
+// albedo, roughness).
 void OrenNayarFujiiReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
                                  const double* phi, size_t n, double* out);
-// The same plus the OpenPBR energy compensation (MaterialX mx_oren_nayar_compensated_diffuse).
+// The same plus the OpenPBR energy compensation, from Cycles' E, E_avg and E_ms with the
+// colour applied once (MaterialX's mx_oren_nayar_compensated_diffuse; same doc).
 void OrenNayarFujiiEcReferenceLoop(const double* params, const double* theta_i,
                                    const double* theta_r, const double* phi, size_t n, double* out);
 // Oren & Nayar 1994 eq. 31 with the normalised slope-area distribution of eq. 26 and the GAF of
-// eq. 11/38, Fresnel of Cook & Torrance 1982 (params: ks, sigma_s, n) or F = 1 (ks, sigma_s).
+// eq. 11/38, Fresnel of Cook & Torrance 1982 (params: ks, sigma_s, n) or F = 1 (ks, sigma_s)
+// (bench_reference_loops_specular.cc, as the rest of this header).
 void TorranceSparrowReferenceLoop(const double* params, const double* theta_i,
                                   const double* theta_r, const double* phi, size_t n, double* out);
 void TorranceSparrowF1ReferenceLoop(const double* params, const double* theta_i,
@@ -43,8 +58,8 @@ void TorranceSparrowF1ReferenceLoop(const double* params, const double* theta_i,
 // sigma_s).
 void TsonReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
                        const double* phi, size_t n, double* out);
-// Li & Torrance eq. 3-14 (docs/models/li-torrance.md), the registry's six variants in their
-// parameter orders.
+// Li & Torrance eq. 5-14 (eq. 3-4 for coh), the registry's six variants in their parameter
+// orders (reflectance/li_torrance.h).
 void LiTorranceFullReferenceLoop(const double* params, const double* theta_i, const double* theta_r,
                                  const double* phi, size_t n, double* out);
 void LiTorranceDdReferenceLoop(const double* params, const double* theta_i, const double* theta_r,

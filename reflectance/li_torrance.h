@@ -263,8 +263,14 @@ void AddForwardScatter(const T& k_fs, const T l[3], const T v[3], const Bisector
   const T aniso =
       has_b ? (h.hx * h.hx / (r.mx * r.mx) + h.hy * h.hy / (r.my * r.my)) / (has_b ? h.hxy2 : one)
             : one / (r.mx * r.mx);
+  // The exponent is floored at -700 (e^-700 = 1e-304, nothing next to the other terms): in the
+  // batch kernel, libmvec's exp leaves its vector path for every lane that underflows (near
+  // theta_f = 90 deg, and on the backward half, computed there and then not selected): with
+  // the floor, li-torrance's batch takes 18.5 instead of 23.4 ns per entry (docs/bench.md
+  // "Batch evaluation"). A value select, Jet-safe.
+  const T expo = -tan2_f * aniso / T(16.0);
   const T fs = k_fs * T(kInvPi) * trans_i * trans_r * (one - ci) * (one - cr) *
-               exp(-tan2_f * aniso / T(16.0));
+               exp(expo > T(-700.0) ? expo : T(-700.0));
   if (forward) *f += fs;
 }
 
