@@ -32,28 +32,118 @@ bool Masked(const ExposureFrame& f, int y, int x) {
   return !f.mask.empty() && f.mask.at<uint8_t>(y, x) == 0;
 }
 
+// The frames' pixel values read in place: 8- and 16-bit frames (what sweeps hold) without a
+// copy, anything else converted once to int. The checks below visit every pixel of every pair
+// of a 40-frame sweep; splitting and converting each frame for each pair allocated (and faulted
+// in) a full-frame plane per channel per call, most of the check's time on an RGB sweep.
+template <typename P>
+struct Pixels {
+  const cv::Mat& image;
+  int channels;
+  int At(int y, int x, int c) const { return image.ptr<P>(y)[x * channels + c]; }
+};
+
+template <typename F>
+void WithPixels(const cv::Mat& image, const F& f) {
+  if (image.depth() == CV_8U) return f(Pixels<uint8_t>{image, image.channels()});
+  if (image.depth() == CV_16U) return f(Pixels<uint16_t>{image, image.channels()});
+  cv::Mat as_int;
+  image.convertTo(as_int, CV_32S);
+  f(Pixels<int>{as_int, image.channels()});
+}
+
 // Per-pixel ratio errors |ratio - 1| of one pair of frames, over pixels whose values lie in
-// [lo, hi] in both.
-void PixelErrors(const ExposureFrame& fa, const ExposureFrame& fb, double expected,
-                 const std::vector<std::vector<double>>& inverse_response,
-                 const std::vector<double>& lo, const std::vector<double>& hi,
-                 std::vector<double>* abs_err) {
-  std::vector<cv::Mat> pa, pb;
-  cv::split(fa.image, pa);
-  cv::split(fb.image, pb);
+// [lo, hi] in both (every second row and column).
+template <typename A, typename B>
+void PixelErrorsOf(const ExposureFrame& fa, const ExposureFrame& fb, const A& ia, const B& ib,
+                   double expected, const std::vector<std::vector<double>>& inverse_response,
+                   const std::vector<double>& lo, const std::vector<double>& hi,
+                   std::vector<double>* abs_err) {
   for (int c = 0; c < fa.image.channels(); ++c) {
-    cv::Mat ia, ib;
-    pa[c].convertTo(ia, CV_32S);
-    pb[c].convertTo(ib, CV_32S);
     const auto& table = inverse_response[c];
-    for (int y = 0; y < ia.rows; y += 2) {
-      for (int x = 0; x < ia.cols; x += 2) {
-        const int za = ia.at<int>(y, x), zb = ib.at<int>(y, x);
+    for (int y = 0; y < fa.image.rows; y += 2) {
+      for (int x = 0; x < fa.image.cols; x += 2) {
+        const int za = ia.At(y, x, c), zb = ib.At(y, x, c);
         if (za < lo[c] || za > hi[c] || zb < lo[c] || zb > hi[c]) continue;
         if (Masked(fa, y, x) || Masked(fb, y, x)) continue;
         const double e = table[za] / table[zb] / expected - 1.0;
         if (std::isfinite(e)) abs_err->push_back(std::abs(e));
       }
+    }
+  }
+}
+
+void PixelErrors(const ExposureFrame& fa, const ExposureFrame& fb, double expected,
+                 const std::vector<std::vector<double>>& inverse_response,
+                 const std::vector<double>& lo, const std::vector<double>& hi,
+                 std::vector<double>* abs_err) {
+  WithPixels(fa.image, [&](const auto& ia) {
+    WithPixels(fb.image, [&](const auto& ib) {
+      PixelErrorsOf(fa, fb, ia, ib, expected, inverse_response, lo, hi, abs_err);
+    });
+  });
+}
+
+// One channel's pixel values of a pair of frames, `za` and `zb`, in groups (BandErrors): the
+// median of each group's za and zb. Values are integers below `top` (2^bit depth), so up to 12
+// bits a group keeps a count per value (a few MB in all, no sort); deeper frames keep lists.
+// Either way the median is the element at rank n/2 (Median, common/stats.h): the same figure.
+class GroupedValues {
+ public:
+  GroupedValues(int groups, int top)
+      : groups_(groups), top_(top), counted_(top <= 4096), n_(groups) {
+    if (counted_) {
+      count_a_.resize(static_cast<size_t>(groups) * top);
+      count_b_.resize(count_a_.size());
+    } else {
+      list_a_.resize(groups);
+      list_b_.resize(groups);
+    }
+  }
+  int groups() const { return groups_; }
+  void Add(int g, int za, int zb) {
+    ++n_[g];
+    if (counted_) {  // values beyond the table are refused before (ChannelPlanes); clamped here
+      ++count_a_[static_cast<size_t>(g) * top_ + std::clamp(za, 0, top_ - 1)];
+      ++count_b_[static_cast<size_t>(g) * top_ + std::clamp(zb, 0, top_ - 1)];
+    } else {
+      list_a_[g].push_back(za);
+      list_b_[g].push_back(zb);
+    }
+  }
+  size_t Size(int g) const { return n_[g]; }
+  double MedianA(int g) const { return counted_ ? RankValue(count_a_, g) : Median(list_a_[g]); }
+  double MedianB(int g) const { return counted_ ? RankValue(count_b_, g) : Median(list_b_[g]); }
+
+ private:
+  // The value of rank n/2 among group g's counted values.
+  double RankValue(const std::vector<uint32_t>& counts, int g) const {
+    const size_t rank = n_[g] / 2;
+    size_t below = 0;
+    for (int z = 0; z < top_; ++z) {
+      below += counts[static_cast<size_t>(g) * top_ + z];
+      if (below > rank) return z;
+    }
+    return NAN;  // not reached for a group with values
+  }
+
+  int groups_, top_;
+  bool counted_;
+  std::vector<size_t> n_;
+  std::vector<uint32_t> count_a_, count_b_;
+  std::vector<std::vector<double>> list_a_, list_b_;
+};
+
+template <typename A, typename B, typename C>
+void GroupByThird(const ExposureFrame& fa, const ExposureFrame& fb, const ExposureFrame& fc,
+                  const A& ia, const B& ib, const C& ic, int c, double table_top,
+                  GroupedValues* grouped) {
+  const int groups = grouped->groups();
+  for (int y = 0; y < fa.image.rows; ++y) {
+    for (int x = 0; x < fa.image.cols; ++x) {
+      if (Masked(fa, y, x) || Masked(fb, y, x) || Masked(fc, y, x)) continue;
+      const int g = std::min(groups - 1, static_cast<int>(ic.At(y, x, c) / table_top * groups));
+      grouped->Add(g, ia.At(y, x, c), ib.At(y, x, c));
     }
   }
 }
@@ -67,34 +157,24 @@ void BandErrors(const ExposureFrame& fa, const ExposureFrame& fb, const Exposure
                 double expected, const std::vector<std::vector<double>>& inverse_response,
                 const std::vector<double>& lo, const std::vector<double>& hi,
                 std::vector<std::vector<double>>* bands) {
-  std::vector<cv::Mat> pa, pb, pc;
-  cv::split(fa.image, pa);
-  cv::split(fb.image, pb);
-  cv::split(fc.image, pc);
   const int nb = PairConsistency::kBands, groups = 128;
   for (int c = 0; c < fa.image.channels(); ++c) {
-    cv::Mat ia, ib, ic;
-    pa[c].convertTo(ia, CV_32S);
-    pb[c].convertTo(ib, CV_32S);
-    pc[c].convertTo(ic, CV_32S);
-    const double table_top = inverse_response[c].size();
-    std::vector<std::vector<double>> za(groups), zb(groups);
-    for (int y = 0; y < ia.rows; ++y) {
-      for (int x = 0; x < ia.cols; ++x) {
-        if (Masked(fa, y, x) || Masked(fb, y, x) || Masked(fc, y, x)) continue;
-        const int g = std::min(groups - 1, static_cast<int>(ic.at<int>(y, x) / table_top * groups));
-        za[g].push_back(ia.at<int>(y, x));
-        zb[g].push_back(ib.at<int>(y, x));
-      }
-    }
     const auto& table = inverse_response[c];
+    GroupedValues grouped(groups, static_cast<int>(table.size()));
+    WithPixels(fa.image, [&](const auto& ia) {
+      WithPixels(fb.image, [&](const auto& ib) {
+        WithPixels(fc.image, [&](const auto& ic) {
+          GroupByThird(fa, fb, fc, ia, ib, ic, c, static_cast<double>(table.size()), &grouped);
+        });
+      });
+    });
     const double width = (hi[c] - lo[c]) / nb;
     auto band = [&](double z) {
       return std::clamp(static_cast<int>((z - lo[c]) / width), 0, nb - 1);
     };
     for (int g = 0; g < groups; ++g) {
-      if (za[g].size() < 30) continue;
-      const double ma = Median(za[g]), mb = Median(zb[g]);
+      if (grouped.Size(g) < 30) continue;
+      const double ma = grouped.MedianA(g), mb = grouped.MedianB(g);
       if (ma < lo[c] || ma > hi[c] || mb < lo[c] || mb > hi[c]) continue;
       const double e = table[static_cast<int>(ma)] / table[static_cast<int>(mb)] / expected - 1.0;
       if (!std::isfinite(e)) continue;
@@ -337,13 +417,21 @@ double RegionalMappingDifference(const std::vector<ExposureFrame>& frames, int b
             [&](int a, int b) { return frames[a].exposure_s < frames[b].exposure_s; });
   const int grid = 4, bins = 32;
   std::vector<double> per_pair;
+  // Consecutive pairs share a frame: its grey image is made once.
+  int grey_of = -1;
+  cv::Mat grey;
+  const auto grey_at = [&](int j) {
+    if (j != grey_of) grey = Grey(frames[j]), grey_of = j;
+    return grey;
+  };
   for (size_t q = 0; q + 1 < order.size(); ++q) {
     const ExposureFrame &fs = frames[order[q]], &fl = frames[order[q + 1]];
     if (fl.exposure_s < 1.01 * fs.exposure_s) continue;
-    const cv::Mat gs = Grey(fs), gl = Grey(fl);
+    const cv::Mat gs = grey_at(order[q]), gl = grey_at(order[q + 1]);
     // Per grid cell, the pixels read in both frames: neither near black nor saturated.
     std::vector<std::vector<PairSample>> cells(grid * grid);
     std::vector<PairSample> all;
+    all.reserve(gs.total());
     for (int y = 0; y < gs.rows; ++y) {
       for (int x = 0; x < gs.cols; ++x) {
         const float zs = gs.at<float>(y, x), zl = gl.at<float>(y, x);
