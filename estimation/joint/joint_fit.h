@@ -143,6 +143,7 @@ struct JointFitResult {
   std::string sample_height_reason;  // kAuto: why the correction was kept or left out
   std::optional<UnresolvedNuisance> unresolved_nuisance;  // kAuto: see UnresolvedNuisance
   size_t lamp_off_frames = 0;  // frames whose lamp-off radiance extraction subtracted
+  double fit_s = 0;  // wall time of this fit's solves (a search candidate's: docs/pipeline.md)
   std::vector<FrameResidual> frames;
   std::vector<std::string> warnings;
   size_t n_observations = 0;

@@ -25,6 +25,7 @@ nlohmann::json JointFitResult::ToJson() const {
                        ? nlohmann::json({lamp_stddev->x(), lamp_stddev->y(), lamp_stddev->z()})
                        : nlohmann::json();
   j["lamp"] = lamp;
+  j["fit_s"] = Finite(fit_s);
   if (!per_channel_param_names.empty()) {
     nlohmann::json per = nlohmann::json::object();
     for (size_t k = 0; k < per_channel_param_names.size(); ++k) {

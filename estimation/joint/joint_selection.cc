@@ -4,6 +4,7 @@
 // (joint_fit.cc).
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -15,6 +16,7 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "common/parallel.h"
+#include "common/stopwatch.h"
 #include "estimation/joint/joint_fit.h"
 #include "estimation/joint/joint_fit_problem.h"
 #include "reflectance/registry.h"
@@ -69,7 +71,9 @@ std::vector<JointFitResult> FitStage(const std::vector<std::string>& names,
   ParallelFor(workers, static_cast<int>(workers), [&](size_t, size_t) {
     for (size_t i = next++; i < order.size(); i = next++) {
       const size_t k = order[i];
+      const auto start = std::chrono::steady_clock::now();
       fits[k] = FitCandidate(names[k], data, use, light0, per, cross_validate);
+      fits[k].fit_s = SecondsSince(start);
       std::lock_guard<std::mutex> lock(mutex);
       progress->Step();
     }
@@ -200,9 +204,9 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
     bool explained = false;
     for (const auto& f : fits) {
       explained = explained || ExplainsToTheNoise(f);
-      spdlog::info("{}: weighted residual {:.3g} per residual{}", f.material.model,
+      spdlog::info("{}: weighted residual {:.3g} per residual{} ({:.2f} s)", f.material.model,
                    f.material.weighted_ssr / std::max<double>(f.material.n_samples, 1),
-                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "");
+                   ExplainsToTheNoise(f) ? " (explains the data to the noise)" : "", f.fit_s);
       out->fits.push_back(f);
     }
     if (explained && !search.exhaustive && FindModel(stage[0]).params.size() >= min_stage_params) {
