@@ -1,4 +1,5 @@
-// How accurate the fitted vignetting V is (docs/photometric.md "Vignetting accuracy").
+// How accurate the fitted vignetting V is (docs/photometric.md "Vignetting accuracy"), and
+// the result's report that states it.
 //
 // The samples' residual about V C (VignetteResult::rms_relative_residual) is each pixel's
 // scatter: shot and read noise, the paper's grain. V is fitted to thousands of samples per
@@ -11,8 +12,10 @@
 // does not show; the radial-vs-map spread is the report's figure for that.
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
 
 #include "calib/photometry/vignette_internal.h"
 #include "common/error.h"
@@ -73,3 +76,42 @@ void MeasureMapError(const CameraModel& camera, const PixelGrid& grid,
 }
 
 }  // namespace gonio::vignette_internal
+
+namespace gonio {
+
+std::string VignetteResult::Report() const {
+  const std::string source = lamp_test.run
+                                 ? fmt::format("{} frames from {} poses", frames_used, poses)
+                                 : fmt::format("{} flat-field frames", frames_used);
+  std::string s = fmt::format(
+      "vignetting ({}): {}, {} samples, coverage {:.0f}% of the grid, {} iterations, relative "
+      "residual {:.2f}%\n",
+      ToString(model_used), source, samples, 100 * coverage, iterations,
+      100 * rms_relative_residual);
+  s += fmt::format("radial fit: V = 1 + {:.4f} r^2 + {:.4f} r^4 + {:.4f} r^6", radial[0], radial[1],
+                   radial[2]);
+  if (model_used == VignetteModel::kMap)
+    s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
+  s += "\n";
+  s += std::isfinite(map_error_rms)
+           ? fmt::format(
+                 "V's own error: split halves {:.3f}% RMS, stated as {:.3f}% (twice: the "
+                 "halves cannot see what they share)\n",
+                 100 * map_error_rms, 100 * Accuracy())
+           : fmt::format(
+                 "V's own error not measured ({}): the samples' residual {:.2f}% stands "
+                 "for it\n",
+                 map_error_note, 100 * rms_relative_residual);
+  if (!note.empty()) s += note + "\n";
+  s += lamp_test.Report() + "\n";
+  double vmin = 0, vmax = 0;
+  if (!map.empty()) cv::minMaxLoc(map, &vmin, &vmax);
+  s += fmt::format("V ranges over [{:.3f}, {:.3f}]\n", vmin, vmax);
+  return s;
+}
+
+double VignetteResult::Accuracy() const {
+  return std::isfinite(map_error_rms) ? 2 * map_error_rms : rms_relative_residual;
+}
+
+}  // namespace gonio
