@@ -1,14 +1,11 @@
 // gonio bench --coverage (bench/bench_coverage.h): the z statistics and the misses that need a
-// warning (unit, on made-up runs), the plans of each size, and the CLI at --smoke size (one
-// run of the user's chain through the gonio executable).
+// warning (on made-up runs) and the plans of each size. The command at --smoke size (one run of
+// the user's chain through the gonio executable): tests/apps/bench_command_test.cc.
 #include <cmath>
-#include <filesystem>
 
 #include <gtest/gtest.h>
 
 #include "bench/bench_coverage.h"
-#include "common/io.h"
-#include "tests/test_util.h"
 
 namespace gonio::bench {
 namespace {
@@ -102,23 +99,6 @@ TEST(Coverage, FullPlanCoversTheIssuesGrid) {
     flash |= k.flash;
   }
   EXPECT_TRUE(tson && pitted && srgb8 && gamma12 && linear16 && flash);
-}
-
-// --smoke through the CLI: one run of the user's chain (synth, calibrate, locate, response,
-// vignette, run), coverage.json with the run judged and the chart.
-TEST(CoverageCli, SmokeRunsTheUsersChain) {
-  testing::TempDir dir;
-  const auto r = testing::RunGonio("bench --coverage --smoke --out " + dir.path().string());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const nlohmann::json j = ReadJsonFile(dir.path() / "coverage.json");
-  ASSERT_EQ(j["runs"].size(), 1u) << j.dump(1);
-  const auto& run = j["runs"][0];
-  EXPECT_EQ(run["failed"], "") << run;
-  EXPECT_EQ(run["true_model"], "oren-nayar");
-  EXPECT_GE(run["values"].size(), 3u) << run;  // at least the lamp's three axes
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "coverage_z.png"));
-  EXPECT_FALSE(std::filesystem::exists(dir.path() / "work"));
-  EXPECT_NE(r.err.find("coverage 1/1"), std::string::npos) << r.err;  // progress on stderr
 }
 
 }  // namespace

@@ -15,33 +15,15 @@
 #include "common/io.h"
 #include "common/session.h"
 #include "data_synth/board_renderer.h"
-#include "tests/calib/photometric_test_util.h"
+#include "tests/calib/response_test_util.h"
 #include "tests/test_util.h"
 
 namespace gonio {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct Camera {
-  int bit_depth;
-  const char* response;
-  double black_level;
-};
-
-std::ostream& operator<<(std::ostream& os, const Camera& c) {
-  return os << c.bit_depth << "-bit " << c.response << ", black " << c.black_level;
-}
-
-// The exposure-sweep preset at a quarter of the resolution, with `dark` dark frames.
-void RenderSweep(const Camera& cam, int dark, const fs::path& dir) {
-  synth::Scene scene = testing::SmallPreset("exposure-sweep", 4);
-  scene.photometric.bit_depth = cam.bit_depth;
-  scene.photometric.response = cam.response;
-  scene.photometric.black_level = cam.black_level;
-  scene.views.dark_frames = dark;
-  synth::RenderBoardSession(scene, dir);
-}
+using Camera = testing::SweepCamera;
+using testing::RenderSweep;
 
 // The options as `gonio photometric response` resolves them for the sweep in `dir`.
 ResponseOptions Resolve(const ExposureSweep& sweep, std::optional<double> option) {
@@ -193,74 +175,6 @@ TEST(EstimatedBlackLevel, WithoutAPedestalInViewTheRangeStillCoversTheTruth) {
   EXPECT_LE(r.black_level_range[0][0], r.black_level[0]);
   EXPECT_GE(r.black_level_range[0][1], 64.0);
   EXPECT_TRUE(r.BlackLevelUncertain());
-}
-
-// Through the CLI: a lit dark frame and contradicting levels are one line naming the file or
-// option and exit 2 with nothing written; the source lands in response.json, and an estimate
-// with a wide range is warned about.
-TEST(BlackLevelCli, RefusalsSourcesAndTheWarning) {
-  testing::TempDir dir;
-  const fs::path sweep = dir.path() / "sweep", out = dir.path() / "response.json";
-  RenderSweep({8, "srgb", 64}, 2, sweep);
-  const std::string base =
-      fmt::format("photometric response --sweep '{}' --out '{}'", sweep.string(), out.string());
-
-  const testing::CommandResult measured = testing::RunGonio(base);
-  ASSERT_EQ(measured.exit_code, 0) << measured.err;
-  const nlohmann::json j = ReadJsonFile(out);
-  EXPECT_EQ(j["black_level_source"], "dark frames");
-  EXPECT_EQ(j["black_level"][0], 64.0);
-  EXPECT_EQ(measured.err.find("warning"), std::string::npos) << measured.err;
-  fs::remove(out);
-
-  const testing::CommandResult contradicting = testing::RunGonio(base + " --black-level 60");
-  EXPECT_EQ(contradicting.exit_code, 2);
-  EXPECT_NE(contradicting.err.find("the dark frames show black level 64.0, but --black-level "
-                                   "states 60"),
-            std::string::npos)
-      << contradicting.err;
-  EXPECT_EQ(testing::MessageLines(contradicting.err), 1) << contradicting.err;
-  EXPECT_FALSE(fs::exists(out));
-
-  fs::copy_file(sweep / "frame_0006.png", sweep / "dark_0001.png",
-                fs::copy_options::overwrite_existing);
-  const testing::CommandResult lit = testing::RunGonio(base);
-  EXPECT_EQ(lit.exit_code, 2);
-  EXPECT_NE(lit.err.find("dark_0001.png: not dark"), std::string::npos) << lit.err;
-  EXPECT_EQ(testing::MessageLines(lit.err), 1) << lit.err;
-  EXPECT_FALSE(fs::exists(out));
-
-  // Without dark frames: estimated, with its range, and the warning.
-  nlohmann::json session = ReadJsonFile(sweep / "session.json");
-  session.erase("dark_frames");
-  WriteJsonAtomically(sweep / "session.json", session);
-  const testing::CommandResult estimated = testing::RunGonio(base);
-  ASSERT_EQ(estimated.exit_code, 0) << estimated.err;
-  const nlohmann::json e = ReadJsonFile(out);
-  EXPECT_EQ(e["black_level_source"], "estimated");
-  EXPECT_LT(e["black_level_range"][0][0].get<double>(), 60.0);
-  EXPECT_NE(estimated.err.find("shoot dark frames"), std::string::npos) << estimated.err;
-  fs::remove(out);
-
-  // Dark frames session.json does not list (an image-list sweep has no place for them) are
-  // named with --dark.
-  const testing::CommandResult listed = testing::RunGonio(base + " --dark dark_0000.png");
-  ASSERT_EQ(listed.exit_code, 0) << listed.err;
-  const nlohmann::json l = ReadJsonFile(out);
-  EXPECT_EQ(l["black_level_source"], "dark frames");
-  EXPECT_EQ(l["black_level"][0], 64.0);
-  fs::remove(out);
-  const testing::CommandResult missing = testing::RunGonio(base + " --dark no_such.png");
-  EXPECT_EQ(missing.exit_code, 2);
-  EXPECT_NE(missing.err.find("no_such.png: no such file"), std::string::npos) << missing.err;
-  EXPECT_EQ(testing::MessageLines(missing.err), 1) << missing.err;
-  EXPECT_FALSE(fs::exists(out));
-  session["dark_frames"] = {"dark_0000.png"};
-  WriteJsonAtomically(sweep / "session.json", session);
-  const testing::CommandResult twice = testing::RunGonio(base + " --dark dark_0000.png");
-  EXPECT_EQ(twice.exit_code, 2);
-  EXPECT_NE(twice.err.find("give them in one place"), std::string::npos) << twice.err;
-  EXPECT_FALSE(fs::exists(out));
 }
 
 // session.json's black_level and dark_frames survive WriteSession / ReadSession.

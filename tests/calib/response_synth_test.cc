@@ -2,28 +2,26 @@
 // of camera, with the bit depth read from the sweep's session.json, against the renderer's own
 // response (synth::PhotometricChain). Also the sweeps the calibration must refuse.
 #include <cmath>
-#include <fstream>
-#include <functional>
 #include <iostream>
-#include <random>
 #include <string>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/photometry/photometric.h"
 #include "calib/photometry/response.h"
 #include "common/error.h"
 #include "common/io.h"
-#include "common/session.h"
 #include "data_synth/board_renderer.h"
 #include "data_synth/photometric.h"
 #include "tests/calib/photometric_test_util.h"
+#include "tests/calib/response_test_util.h"
 #include "tests/test_util.h"
 
 namespace gonio {
 namespace {
+
+using testing::ToneSweep;
 
 struct Camera {
   int bit_depth;
@@ -184,38 +182,6 @@ TEST(ResponseSynthSweep, SixteenBitLinear) {
   EXPECT_LT(e.end_ratio, 8.0);
 }
 
-// A sweep of a smooth scene (ln E from 0.003 to 1 along y, a little texture along x) through a
-// tone curve that may vary across the image: value = max * (1 - black) * x^(1 / gamma(u)) with
-// u = column / width; 7 exposures a factor 2 apart, 0.5 DN of noise.
-std::vector<ExposureFrame> ToneSweep(int bit_depth, const std::function<double(double)>& gamma) {
-  const int w = 240, h = 160;
-  const double maxv = std::ldexp(1.0, bit_depth) - 1;
-  std::mt19937 rng(11);
-  std::normal_distribution<double> noise(0, 0.5);
-  std::vector<ExposureFrame> frames;
-  for (double t : {0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0}) {
-    ExposureFrame f;
-    f.file = fmt::format("tone_{}", t);
-    f.exposure_s = t;
-    f.image = cv::Mat(h, w, bit_depth == 8 ? CV_8U : CV_16U);
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        const double e = std::exp(std::log(0.003) + 5.8 * (y + 3 * std::sin(x * 0.3)) / h) * t / 16;
-        const double v = std::clamp(
-            std::round(maxv * std::pow(std::min(1.0, e), 1 / gamma(double(x) / w)) + noise(rng)),
-            0.0, maxv);
-        if (bit_depth == 8) {
-          f.image.at<uint8_t>(y, x) = static_cast<uint8_t>(v);
-        } else {
-          f.image.at<uint16_t>(y, x) = static_cast<uint16_t>(v);
-        }
-      }
-    }
-    frames.push_back(f);
-  }
-  return frames;
-}
-
 // Local tone mapping: the left half of the image gets gamma 1.5, the right half gamma 3, so
 // neighbouring frames map values differently in different regions. Refused; the same scene with
 // one curve passes the check (measured: 0.03 vs 0.59 of the step between frames; the real
@@ -304,102 +270,6 @@ TEST(ResponseRefusals, BlackBackgroundStillCalibrates) {
             << r.saturation_level[0] << "\n";
   EXPECT_LT(worst, 0.002) << r.Report();  // measured 0.04 %
   EXPECT_GT(r.saturation_level[0], 0.9 * maxv);
-}
-
-// A camera whose output falls while exposure rises over part of the range (values 100..140
-// reversed, as a solarizing film or a broken tone curve gives): no monotone inverse exists and
-// the monotone fit is flat over that band. Refused with a NumericalError (exit 3) instead of a
-// table that maps many values to one exposure.
-TEST(ResponseSynthCli, FlatCurveIsANumericalError) {
-  auto frames = ToneSweep(8, [](double) { return 1.0; });
-  for (auto& f : frames) {
-    f.image.forEach<uint8_t>([](uint8_t& v, const int*) {
-      if (v > 100 && v <= 140) v = static_cast<uint8_t>(240 - v);
-    });
-  }
-  try {
-    const ResponseResult r = CalibrateResponse(frames, {});
-    ADD_FAILURE() << "calibrated:\n" << r.Report();
-  } catch (const NumericalError& e) {
-    std::cout << e.what() << "\n";
-  } catch (const InputError& e) {
-    ADD_FAILURE() << "InputError: " << e.what();
-  }
-  // The command: exit 3, one line, no response.json.
-  testing::TempDir dir;
-  std::ofstream list(dir.path() / "image_list.txt");
-  for (const auto& f : frames) {
-    cv::imwrite((dir.path() / (f.file + ".png")).string(), f.image);
-    list << f.file << ".png " << f.exposure_s << "\n";
-  }
-  list.close();
-  const auto out = dir.path() / "r.json";
-  const auto r = testing::RunGonio("photometric response --sweep " + dir.path().string() +
-                                   " --out " + out.string());
-  EXPECT_EQ(r.exit_code, 3) << r.err;
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(out));
-}
-
-// A sweep folder of 12-bit values in 16-bit PNGs, with or without session.json.
-void WriteTwelveBitSweep(const std::filesystem::path& dir, int session_bit_depth, int shift) {
-  auto frames = ToneSweep(12, [](double) { return 2.2; });
-  Session session;
-  session.camera_id = "test";
-  session.bit_depth = session_bit_depth;
-  std::ofstream list(dir / "image_list.txt");
-  for (auto& f : frames) {
-    const std::string file = f.file + ".png";
-    cv::Mat out = f.image * (1 << shift);
-    cv::imwrite((dir / file).string(), out);
-    list << file << " " << f.exposure_s << "\n";
-    SessionFrame sf;
-    sf.file = file;
-    sf.exposure_s = f.exposure_s;
-    session.frames.push_back(sf);
-  }
-  if (session_bit_depth > 0) WriteSession(dir, session);
-}
-
-TEST(ResponseSynthCli, BitDepthFromSessionAndRefusals) {
-  testing::TempDir dir;
-  const std::string out = " --out " + (dir.path() / "r.json").string();
-  // No session.json: the 16-bit container's range, of which the values span 6 %: refused.
-  const auto plain = dir.path() / "plain";
-  std::filesystem::create_directories(plain);
-  WriteTwelveBitSweep(plain, 0, 0);
-  auto r = testing::RunGonio("photometric response --sweep " + plain.string() + out);
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find("bit depth"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir.path() / "r.json"));
-  // The same frames with session.json stating 12 bits calibrate.
-  const auto good = dir.path() / "good";
-  std::filesystem::create_directories(good);
-  WriteTwelveBitSweep(good, 12, 0);
-  r = testing::RunGonio("photometric response --sweep " + good.string() + out);
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_EQ(ReadJsonFile(dir.path() / "r.json")["bit_depth"], 12);
-  std::filesystem::remove(dir.path() / "r.json");
-  // --bit-depth contradicting session.json; a depth the values do not fit.
-  r = testing::RunGonio("photometric response --sweep " + good.string() + " --bit-depth 10" + out);
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("session.json"), std::string::npos) << r.err;
-  const auto ten = dir.path() / "ten";
-  std::filesystem::create_directories(ten);
-  WriteTwelveBitSweep(ten, 10, 0);
-  r = testing::RunGonio("photometric response --sweep " + ten.string() + out);
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("does not fit the 10 bits"), std::string::npos) << r.err;
-  // 12 bits MSB-aligned in 16 (values x 16): detected and refused with what to do.
-  const auto msb = dir.path() / "msb";
-  std::filesystem::create_directories(msb);
-  WriteTwelveBitSweep(msb, 12, 4);
-  r = testing::RunGonio("photometric response --sweep " + msb.string() + out);
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find("MSB-aligned"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir.path() / "r.json"));
 }
 
 }  // namespace

@@ -1,24 +1,21 @@
 #include "calib/photometry/response.h"
 
-#include <fstream>
 #include <functional>
 #include <random>
 #include <tuple>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "common/io.h"
+#include "tests/calib/response_test_util.h"
 #include "tests/test_util.h"
 
 namespace gonio {
 namespace {
 
-using testing::RunGonio;
-
-std::string SweepDir() { return (testing::TestData() / "hdr_sweep" / "desktop").string(); }
+using testing::SweepDir;
 
 // Real sweep: the frames listed as 32..2 s are not what their brightness says (the issue's
 // warning); gonio must notice, and on what it uses, neighbouring exposures must agree.
@@ -244,72 +241,6 @@ TEST(ResponseJson, RoundTripAndValidation) {
   auto j = r.ToJson();
   j["inverse_response"][0][100] = -1.0;
   EXPECT_THROW(ResponseResult::FromJson(j, "r.json"), InputError);
-}
-
-TEST(ResponseCli, RealSweepWritesJsonAndPlot) {
-  GONIO_REQUIRE_TEST_DATA();
-  testing::TempDir dir;
-  const auto out = dir.path() / "response.json";
-  const auto r = RunGonio("photometric response --compare-opencv --sweep " + SweepDir() +
-                          " --out " + out.string());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto j = ReadJsonFile(out);
-  EXPECT_EQ(j["bit_depth"], 8);
-  EXPECT_EQ(j["inverse_response"].size(), 3u);
-  EXPECT_EQ(j["inverse_response"][0].size(), 256u);
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "response.png"));
-  EXPECT_NE(r.out.find("Debevec"), std::string::npos);
-  // Each method's own calibration time, so that gonio's can be compared with OpenCV's.
-  ASSERT_EQ(j.at("comparison").size(), 3u) << j.at("comparison");
-  for (const auto& m : j.at("comparison")) EXPECT_GT(m.at("calibrate_s").get<double>(), 0.0) << m;
-  EXPECT_DOUBLE_EQ(j.at("comparison")[0].at("calibrate_s").get<double>(),
-                   j.at("calibrate_s").get<double>());
-}
-
-TEST(ResponseCli, BadSweepsExitTwo) {
-  GONIO_REQUIRE_TEST_DATA();
-  testing::TempDir dir;
-  // One exposure.
-  std::ofstream(dir.path() / "one.txt") << "DSC_0110.png 0.5\n";
-  auto r =
-      RunGonio("photometric response --sweep " + SweepDir() + " --list " +
-               (dir.path() / "one.txt").string() + " --out " + (dir.path() / "r.json").string());
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  // Mismatched sizes.
-  cv::imwrite((dir.path() / "small.png").string(), cv::Mat(10, 10, CV_8UC3, cv::Scalar(100)));
-  cv::imwrite((dir.path() / "big.png").string(), cv::Mat(20, 10, CV_8UC3, cv::Scalar(100)));
-  std::ofstream(dir.path() / "mix.txt") << "small.png 1\nbig.png 2\n";
-  r = RunGonio("photometric response --sweep " + dir.path().string() + " --list " +
-               (dir.path() / "mix.txt").string() + " --out " + (dir.path() / "r.json").string());
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("big.png"), std::string::npos) << r.err;
-  // All saturated.
-  cv::imwrite((dir.path() / "s1.png").string(),
-              cv::Mat(20, 20, CV_8UC3, cv::Scalar(255, 255, 255)));
-  cv::imwrite((dir.path() / "s2.png").string(),
-              cv::Mat(20, 20, CV_8UC3, cv::Scalar(255, 255, 255)));
-  std::ofstream(dir.path() / "sat.txt") << "s1.png 1\ns2.png 2\n";
-  r = RunGonio("photometric response --sweep " + dir.path().string() + " --list " +
-               (dir.path() / "sat.txt").string() + " --out " + (dir.path() / "r.json").string());
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("saturated everywhere"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir.path() / "r.json"));
-  // OpenCV's methods read 8 bits: asking for them on a 12-bit sweep is refused before the work.
-  cv::Mat ramp(20, 20, CV_16UC1);
-  for (int y = 0; y < ramp.rows; ++y) {
-    for (int x = 0; x < ramp.cols; ++x) ramp.at<uint16_t>(y, x) = 100 + 4 * (20 * y + x);
-  }
-  cv::imwrite((dir.path() / "d1.png").string(), ramp);
-  cv::imwrite((dir.path() / "d2.png").string(), 2 * ramp);
-  std::ofstream(dir.path() / "deep.txt") << "d1.png 1\nd2.png 2\n";
-  r = RunGonio("photometric response --compare-opencv --bit-depth 12 --sweep " +
-               dir.path().string() + " --list " + (dir.path() / "deep.txt").string() + " --out " +
-               (dir.path() / "r.json").string());
-  EXPECT_EQ(r.exit_code, 2) << r.out;
-  EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find("--compare-opencv"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir.path() / "r.json"));
 }
 
 // Noise-free frames of a horizontal radiance ramp (one value per column, 1..top/2 per unit

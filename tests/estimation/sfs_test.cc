@@ -1,44 +1,22 @@
 // Shape from shading (docs/sfs.md) on small data_synth renders: the rough-surface prior recovers
 // normals within a few degrees where a Lambertian prior, on the same images, does not.
+// gonio sfs's outputs and refusals: tests/apps/sfs_command_test.cc.
 #include <cmath>
-#include <map>
 #include <random>
 #include <string>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
-#include "common/io.h"
-#include "data_synth/scene.h"
-#include "data_synth/sfs_renderer.h"
 #include "estimation/sfs/sfs.h"
 #include "estimation/sfs/sfs_io.h"
+#include "tests/estimation/sfs_test_util.h"
 #include "tests/test_util.h"
 
 namespace gonio::testing {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The issue-11 preset (oren-nayar sigma 30 deg, albedo 0.8, lamp collocated or turned about
-// the object centre) with the camera scaled down to 240x180 so a solve takes about a second.
-const fs::path& Rendered(const std::string& preset, double offaxis_deg) {
-  static TempDir root;
-  static std::map<std::string, fs::path> cache;
-  const std::string key = preset + "_" + std::to_string(static_cast<int>(offaxis_deg));
-  auto it = cache.find(key);
-  if (it != cache.end()) return it->second;
-  synth::PresetOptions options;
-  options.sfs_lamp_offaxis_deg = offaxis_deg;
-  synth::Scene scene = synth::PresetScene(preset, options);
-  scene.camera.intrinsics = {300, 300, 119.5, 89.5};
-  scene.camera.width = 240;
-  scene.camera.height = 180;
-  const fs::path dir = root.path() / key;
-  synth::RenderSfsScene(scene, dir);
-  return cache[key] = dir;
-}
 
 struct SfsRun {
   SfsResult result;
@@ -148,52 +126,6 @@ TEST(SfsTest, WrongStartDistanceIsRecoveredWithAbsoluteRadiometry) {
   const SfsTruthComparison truth = *CompareWithTruth(dir, input, result);
   EXPECT_LE(truth.mean_normal_error_deg, 3.0);
   EXPECT_LE(truth.median_depth_error_rel, 0.01);
-}
-
-TEST(SfsTest, CliWritesOutputsAndReportsTruthErrors) {
-  const fs::path& dir = Rendered("sfs-vase", 0);
-  TempDir out;
-  const auto r = RunGonio("sfs --input " + dir.string() + " --levels 1 --compare-lambert --out " +
-                          out.path().string());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* f : {"depth.tiff", "normals.png", "rerender.png", "cross_section.png",
-                        "depth_section.png", "normal_error.png", "comparison_depth.png", "sfs.json",
-                        "lambert/sfs.json", "lambert/depth.tiff", "lambert/cross_section.png"}) {
-    EXPECT_TRUE(fs::exists(out.path() / f)) << f;
-  }
-  const auto j = ReadJsonFile(out.path() / "sfs.json");
-  EXPECT_LE(j.at("mean_normal_error_deg").get<double>(), 3.0);
-  // Oren-Nayar figs. 22-23 through the CLI: the Lambertian prior on the same vase image.
-  const auto& c = j.at("comparison");
-  EXPECT_EQ(c.at("reflectance"), "lambert");
-  EXPECT_GE(c.at("mean_error_ratio_lambert_over_material").get<double>(), 3.0);
-  EXPECT_NEAR(
-      c.at("mean_normal_error_deg").get<double>(),
-      ReadJsonFile(out.path() / "lambert/sfs.json").at("mean_normal_error_deg").get<double>(),
-      1e-9);
-  EXPECT_GE(j.at("p95_normal_error_deg").get<double>(),
-            j.at("mean_normal_error_deg").get<double>());
-  const cv::Mat depth = cv::imread((out.path() / "depth.tiff").string(), cv::IMREAD_UNCHANGED);
-  EXPECT_EQ(depth.type(), CV_32F);
-}
-
-TEST(SfsTest, EmptyMaskOrMaskOnTheBorderIsAOneLineError) {
-  const fs::path& dir = Rendered("sfs-sphere", 0);
-  TempDir tmp;
-  const cv::Mat mask = cv::imread((dir / "mask.png").string(), cv::IMREAD_GRAYSCALE);
-  const std::string empty = (tmp.path() / "empty.png").string();
-  cv::imwrite(empty, cv::Mat::zeros(mask.size(), CV_8U));
-  cv::Mat border = mask.clone();
-  border.row(0).setTo(255);
-  const std::string touching = (tmp.path() / "border.png").string();
-  cv::imwrite(touching, border);
-  for (const auto& [m, word] : {std::pair{empty, "empty"}, std::pair{touching, "border"}}) {
-    const auto r = RunGonio("sfs --input " + dir.string() + " --mask " + m +
-                            " --distance 0.4 --out " + (tmp.path() / "o").string());
-    EXPECT_EQ(r.exit_code, 2) << r.err;
-    EXPECT_EQ(MessageLines(r.err), 1) << r.err;
-    EXPECT_NE(r.err.find(word), std::string::npos) << r.err;
-  }
 }
 
 }  // namespace

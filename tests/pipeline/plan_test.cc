@@ -1,7 +1,8 @@
 // gonio plan (pipeline/plan.h, estimation/joint/design.h): the predicted uncertainty of the joint
 // fit shows the known instabilities (one viewpoint, a far lamp), the planned poses beat the default
-// orbit on the prediction, and the CLI refuses bad options with one line and exit 2. The
-// prediction against measured scatter on rendered sessions: PlanScatter.* (e2e, slow).
+// orbit on the prediction, and bad options are input errors. The prediction against measured
+// scatter on rendered sessions: PlanScatter.* (e2e, slow). The command's files and refusals:
+// tests/apps/plan_command_test.cc.
 #include <cmath>
 
 #include <fmt/format.h>
@@ -13,33 +14,13 @@
 #include "common/io.h"
 #include "common/math.h"
 #include "pipeline/plan.h"
+#include "tests/pipeline/plan_test_util.h"
 #include "tests/test_util.h"
 
 namespace gonio {
 namespace {
 
-namespace fs = std::filesystem;
-
-// The default preset at 640x480 (bench/bench_plan.h): oren-nayar sigma 30 deg, albedo 0.6, the
-// lamp 0.5 m from the sample, 35 deg off its normal; a white reference of albedo 0.8.
-class Plan : public ::testing::Test {
- protected:
-  Plan()
-      : scene_(bench::PlanBenchScene("quick")),
-        board_(bench::SceneBoard(scene_)),
-        options_(bench::PlanOptionsForScene(scene_, 8, 0)) {}
-  PredictedUncertainty Predict(const std::vector<Rigid3d>& poses, const PlanOptions& o) const {
-    std::vector<PlannedView> views;
-    for (const auto& p : poses) views.push_back(PredictView(p, scene_.camera, board_, o));
-    return PredictViews(views, o);
-  }
-  static double Scatter(const PredictedUncertainty& u, const std::string& name) {
-    return u.scatter.at(u.Index(name));
-  }
-  synth::Scene scene_;
-  Board board_;
-  PlanOptions options_;
-};
+using Plan = testing::PlanFixture;
 
 // Log det and trace of the range-scaled scatter covariance.
 std::pair<double, double> LogDetAndTrace(const PredictedUncertainty& u, const PlanResult& r) {
@@ -223,59 +204,6 @@ TEST(PlanScatter, FlashPredictionHolds) {
   for (int q = 0; q < 3; ++q) {
     EXPECT_GT(ratios[q], 0.5) << "quantity " << q;
     EXPECT_LT(ratios[q], 1.5) << "quantity " << q;
-  }
-}
-
-// Board and camera files of the 640x480 preset for the CLI cases.
-class PlanCli : public Plan {
- protected:
-  void SetUp() override {
-    WriteJsonAtomically(dir_.path() / "board.json", board_.ToJson());
-    scene_.camera.Write(dir_.path() / "camera.cameramodel");
-  }
-  std::string Args(const std::string& extra) const {
-    return fmt::format(
-        "plan --board {} --camera {} --out {} {}", (dir_.path() / "board.json").string(),
-        (dir_.path() / "camera.cameramodel").string(), (dir_.path() / "plan").string(), extra);
-  }
-  testing::TempDir dir_;
-};
-
-TEST_F(PlanCli, WritesThePlanFiles) {
-  const auto r = testing::RunGonio(
-      Args("--lamp -0.1318,0.095,-0.4096 --material oren-nayar:sigma=0.5236,albedo=0.6 "
-           "--white-albedo 0.8 --views 6"));
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* f : {"plan.json", "plan.csv", "plan.png", "coverage.png"}) {
-    EXPECT_TRUE(fs::exists(dir_.path() / "plan" / f)) << f;
-  }
-  const nlohmann::json j = ReadJsonFile(dir_.path() / "plan" / "plan.json");
-  EXPECT_EQ(j.at("views").size(), 6u);
-  EXPECT_EQ(ReadPlanPoses(dir_.path() / "plan" / "plan.json").size(), 6u);
-  // A flash: the lamp moves with the camera.
-  const auto f = testing::RunGonio(
-      Args("--lamp flash --material oren-nayar:sigma=0.5236,albedo=0.6 --white-albedo 0.8 "
-           "--views 6"));
-  EXPECT_EQ(f.exit_code, 0) << f.err;
-}
-
-TEST_F(PlanCli, BadInputIsOneLineNamingTheOption) {
-  const std::string material = "--material oren-nayar:sigma=0.5,albedo=0.6";
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {"--lamp 1,2 " + material, "--lamp"},
-      {"--lamp 0.1,0.1,0.5 " + material, "--lamp"},
-      {"--lamp 0,0,-0.5 --material oren-nayar:sigma=9", "--material"},
-      {"--lamp 0,0,-0.5 --material glass", "--material"},
-      {"--lamp 0,0,-0.5 " + material + " --views 0", "--views"},
-      {"--lamp 0,0,-0.5 " + material + " --criterion e", "--criterion"},
-      {"--lamp 0,0,-0.5 " + material + " --exposure -1", "--exposure"},
-      {"--lamp 0,0,-0.5 " + material + " --white-albedo 2", "--white-albedo"}};
-  for (const auto& [extra, option] : cases) {
-    const auto r = testing::RunGonio(Args(extra));
-    EXPECT_EQ(r.exit_code, 2) << extra << "\n" << r.err;
-    EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
-    EXPECT_NE(r.err.find(option), std::string::npos) << r.err;
-    EXPECT_FALSE(fs::exists(dir_.path() / "plan")) << extra;
   }
 }
 
