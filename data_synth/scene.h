@@ -19,9 +19,19 @@
 
 #include "common/camera_model.h"
 #include "common/geometry.h"
+#include "common/lamp_frame.h"
 #include "data_synth/texture.h"
 
 namespace gonio::synth {
+
+// The scene's closed sets of words are enums here; scene.json's words are parsed once where
+// the file is read and written back unchanged (SceneFromJson, SceneToJson; the word tables
+// are scene.cc's). ToString gives the word, e.g. for truth.json.
+enum class SceneType { kBoard, kSfs };     // "board", "sfs"
+enum class LampType { kPoint, kDistant };  // "point", "distant"
+std::string ToString(SceneType type);
+std::string ToString(LampType type);
+std::string ToString(TextureType type);
 
 // AprilTag grid on white paper; tag k (row-major) has its top-left black-border corner at
 // (col * pitch, row * pitch) in the board frame (docs/conventions.md).
@@ -60,12 +70,12 @@ struct MaterialSpec {
 };
 
 struct LampSpec {
-  // "point": isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
-  // "distant": parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
-  std::string type = "point";
-  // Frame the position (or direction) is given in: "board" (lamp fixed while the camera
-  // moves) or "camera" (lamp fixed to the camera while the board turns).
-  std::string frame = "board";
+  // kPoint: isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
+  // kDistant: parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
+  LampType type = LampType::kPoint;
+  // Frame the position (or direction) is given in: kBoard (lamp fixed while the camera
+  // moves) or kCamera (lamp fixed to the camera while the board turns).
+  LampFrame frame = LampFrame::kBoard;
   Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point lamp
   double intensity = 1.0;                        // W/sr (arbitrary but consistent units)
   Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the lamp, distant lamp
@@ -121,7 +131,7 @@ struct SfsSpec {
 };
 
 struct Scene {
-  std::string type = "board";  // "board" or "sfs"
+  SceneType type = SceneType::kBoard;
   uint64_t seed = 1;
   int supersampling = 8;  // per axis, for pixels whose footprint crosses an edge
   BoardSpec board;

@@ -105,7 +105,7 @@ struct BadScene {
 TEST(SceneTest, OutOfRangeFieldsAreNamedAndInapplicableOnesNotWritten) {
   const std::vector<std::pair<std::function<void(json&)>, std::string>> cases = {
       {[](json& j) { j["supersampling"] = 0; }, "scene.supersampling"},
-      {[](json& j) { j["type"] = "movie"; }, "scene.type"},
+      {[](json& j) { j["type"] = "movie"; }, "scene.json.type: 'movie' is not one of board, sfs"},
       {[](json& j) { j["camera"]["width"] = 8; }, "camera.width"},
       {[](json& j) {
          j["camera"]["intrinsics"] = {560, 555, 321.3};
