@@ -151,7 +151,7 @@ PlanScatterRow MeasurePlanScatter(const std::string& label, const synth::Scene& 
   std::vector<double> lx, ly, lz;
   for (int seed = 1; seed <= seeds; ++seed) {
     synth::Scene s = scene;
-    s.views.mode = "explicit";
+    s.views.mode = synth::ViewsMode::kExplicit;
     s.views.cam_from_board = poses;
     s.seed = static_cast<uint64_t>(seed);
     const fs::path dir = work / fmt::format("{}-{}", label, seed);

@@ -63,7 +63,7 @@ Scene FlatFieldPreset(const std::string&, const PresetOptions&) {
 Scene ExposureSweepPreset(const std::string&, const PresetOptions&) {
   Scene s = PresetBase();
   s.material = {"lambert", {{"albedo", 0.5}}};
-  s.views.mode = "explicit";
+  s.views.mode = ViewsMode::kExplicit;
   Rigid3d pose;
   pose.R = Eigen::AngleAxisd(DegToRad(20.0), Eigen::Vector3d::UnitY()).toRotationMatrix();
   pose.t = Eigen::Vector3d(0, 0, 0.45) - pose.R * s.views.target;
@@ -85,9 +85,11 @@ Scene SfsPreset(const std::string& name, const PresetOptions& options) {
   s.camera.intrinsics = {800, 800, 319.5, 239.5};
   s.camera.width = 640;
   s.camera.height = 480;
-  s.sfs.shape = name.substr(4);
+  s.sfs.shape = name == "sfs-vase"    ? SfsShape::kVase
+                : name == "sfs-bumps" ? SfsShape::kBumps
+                                      : SfsShape::kSphere;
   s.sfs.distance = 0.5;
-  s.sfs.size = s.sfs.shape == "vase" ? 0.07 : 0.1;
+  s.sfs.size = s.sfs.shape == SfsShape::kVase ? 0.07 : 0.1;
   const Eigen::Vector3d centre(0, 0, s.sfs.distance);
   const Eigen::Matrix3d turn =
       Eigen::AngleAxisd(DegToRad(options.sfs_lamp_offaxis_deg), Eigen::Vector3d::UnitY())
@@ -96,7 +98,7 @@ Scene SfsPreset(const std::string& name, const PresetOptions& options) {
   s.lamp.position = centre + turn * (Eigen::Vector3d::Zero() - centre);
   s.lamp.intensity = 1.0;
   s.photometric.bit_depth = 16;
-  s.photometric.response = "linear";
+  s.photometric.response = ResponseCurve::kLinear;
   s.photometric.black_level = 0;
   s.photometric.vignetting = {0, 0, 0};
   s.photometric.noise = false;
@@ -126,11 +128,11 @@ Scene FlashPreset(const std::string& name, const PresetOptions&) {
   s.views.per_ring = 4;
   if (name == "flash-8bit") {
     s.photometric.bit_depth = 8;
-    s.photometric.response = "srgb";
+    s.photometric.response = ResponseCurve::kSrgb;
     s.photometric.black_level = 0;
   } else {
     s.photometric.bit_depth = 12;
-    s.photometric.response = "linear";
+    s.photometric.response = ResponseCurve::kLinear;
     s.photometric.black_level = 64;
   }
   return s;

@@ -82,7 +82,7 @@ double AutoExposure(const std::vector<RadianceView>& views, int size) {
 PhotometricSpec PhoneEncoding(const Scene& scene) {
   PhotometricSpec spec = scene.photometric;
   spec.bit_depth = 8;
-  spec.response = "gamma";
+  spec.response = ResponseCurve::kGamma;
   spec.gamma = 2.2;
   spec.black_level = 0;
   spec.vignetting = {0, 0, 0};

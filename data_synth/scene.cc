@@ -26,6 +26,13 @@ constexpr OptionWord<SceneType> kSceneTypeWords[] = {{SceneType::kBoard, "board"
                                                      {SceneType::kSfs, "sfs"}};
 constexpr OptionWord<LampType> kLampTypeWords[] = {{LampType::kPoint, "point"},
                                                    {LampType::kDistant, "distant"}};
+constexpr OptionWord<ResponseCurve> kResponseWords[] = {{ResponseCurve::kLinear, "linear"},
+                                                        {ResponseCurve::kGamma, "gamma"},
+                                                        {ResponseCurve::kSrgb, "srgb"}};
+constexpr OptionWord<ViewsMode> kViewsModeWords[] = {{ViewsMode::kOrbit, "orbit"},
+                                                     {ViewsMode::kExplicit, "explicit"}};
+constexpr OptionWord<SfsShape> kSfsShapeWords[] = {
+    {SfsShape::kSphere, "sphere"}, {SfsShape::kVase, "vase"}, {SfsShape::kBumps, "bumps"}};
 constexpr OptionWord<TextureType> kTextureTypeWords[] = {{TextureType::kNone, "none"},
                                                          {TextureType::kProcedural, "procedural"}};
 
@@ -61,8 +68,8 @@ bool BoardScene(const Scene& s) { return s.type == SceneType::kBoard; }
 bool SfsScene(const Scene& s) { return s.type == SceneType::kSfs; }
 bool PointLamp(const Scene& s) { return s.lamp.type == LampType::kPoint; }
 bool DistantLamp(const Scene& s) { return s.lamp.type == LampType::kDistant; }
-bool OrbitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "orbit"; }
-bool ExplicitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "explicit"; }
+bool OrbitViews(const Scene& s) { return BoardScene(s) && s.views.mode == ViewsMode::kOrbit; }
+bool ExplicitViews(const Scene& s) { return BoardScene(s) && s.views.mode == ViewsMode::kExplicit; }
 
 // A value the JSON cannot hold as the member (the message says what was expected).
 struct ValueError {
@@ -341,7 +348,7 @@ void AddPhotometricAndLampFields(std::vector<Field>* f) {
       .Add("bit_depth", &P::bit_depth,
            Must([](int v, const Scene&) { return v == 8 || v == 12 || v == 16; },
                 "must be 8, 12 or 16"))
-      .Add("response", &P::response, OneOf({"linear", "gamma", "srgb"}))
+      .AddWord("response", &P::response, kResponseWords)
       .Add("gamma", &P::gamma,
            Must([](double v, const Scene&) { return v >= 0.2 && v <= 5; }, "must be in [0.2, 5]"))
       .Add("black_level", &P::black_level,
@@ -428,7 +435,7 @@ void AddBoardFields(std::vector<Field>* f) {
 void AddViewsAndSfsFields(std::vector<Field>* f) {
   using V = ViewsSpec;
   Section<V>("views", &Scene::views, BoardScene, f)
-      .Add("mode", &V::mode, OneOf({"orbit", "explicit"}))
+      .AddWord("mode", &V::mode, kViewsModeWords)
       .Add("target", &V::target, NoCheck(), OrbitViews)
       .Add("distance", &V::distance,
            Must([](double v, const Scene&) { return v > 0; }, "must be > 0"), OrbitViews)
@@ -460,7 +467,7 @@ void AddViewsAndSfsFields(std::vector<Field>* f) {
            Must([](int v, const Scene&) { return v >= 0 && v <= 100; }, "must be in [0, 100]"),
            BoardScene);
   Section<SfsSpec>("sfs", &Scene::sfs, SfsScene, f)
-      .Add("shape", &SfsSpec::shape, OneOf({"sphere", "vase", "bumps"}))
+      .AddWord("shape", &SfsSpec::shape, kSfsShapeWords)
       .Add("distance", &SfsSpec::distance,
            Must([](double v, const Scene& s) { return v > 2 * s.sfs.size; }, "must be > 2 size"))
       .Add("size", &SfsSpec::size,
@@ -582,6 +589,9 @@ void RequireKnownKeys(const json& j, const std::string& part, const std::string&
 
 std::string ToString(SceneType type) { return OptionWordOf(kSceneTypeWords, type); }
 std::string ToString(LampType type) { return OptionWordOf(kLampTypeWords, type); }
+std::string ToString(ResponseCurve response) { return OptionWordOf(kResponseWords, response); }
+std::string ToString(ViewsMode mode) { return OptionWordOf(kViewsModeWords, mode); }
+std::string ToString(SfsShape shape) { return OptionWordOf(kSfsShapeWords, shape); }
 std::string ToString(TextureType type) { return OptionWordOf(kTextureTypeWords, type); }
 
 std::vector<int> BoardSpec::ResolvedIds() const {
@@ -634,7 +644,7 @@ void Scene::Check() const {
 }
 
 std::vector<Rigid3d> Scene::CamFromBoardPoses() const {
-  if (views.mode == "explicit") return views.cam_from_board;
+  if (views.mode == ViewsMode::kExplicit) return views.cam_from_board;
   std::vector<Rigid3d> poses;
   for (size_t ring = 0; ring < views.rings_deg.size(); ++ring) {
     const double theta = DegToRad(views.rings_deg[ring]);
