@@ -406,7 +406,7 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
   photometric["channels"] = scene.Channels();
   json truth = {{"format", "gonio-synth-truth"},
                 {"version", 1},
-                {"scene_type", "board"},
+                {"scene_type", ToString(scene.type)},
                 {"material", material.ToJson()},
                 {"lamp", LampTruthJson(scene.lamp)},
                 {"white_albedo", scene.board.white_albedo},

@@ -292,7 +292,7 @@ SfsImages RenderImages(const Scene& scene, const Shape& shape, const Material& m
 // radiance of one digital number.
 json SfsLampJson(const Scene& scene, const PhotometricChain& chain) {
   const auto& p = scene.lamp.position;
-  json lamp = {{"frame", "camera"},
+  json lamp = {{"frame", ToString(scene.lamp.frame)},  // kCamera (Scene::Check)
                {"position", {p.x(), p.y(), p.z()}},
                {"collocated", p.norm() < 1e-9},
                {"intensity", scene.lamp.intensity},
@@ -315,7 +315,7 @@ json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_j
   return {
       {"format", "gonio-synth-truth"},
       {"version", 1},
-      {"scene_type", "sfs"},
+      {"scene_type", ToString(scene.type)},
       {"object", shape.ToJson()},
       {"material", material_json},
       {"lamp", lamp},
