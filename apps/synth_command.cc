@@ -61,7 +61,7 @@ void RunSynth(const SynthArgs& args) {
                {"seconds", r.seconds}});
     return;
   }
-  if (scene.type == "sfs") {
+  if (scene.type == synth::SceneType::kSfs) {
     const auto r = synth::RenderSfsScene(scene, args.out_dir, args.threads);
     spdlog::info("synth: {}", r.Report());
     PrintJson({{"out", args.out_dir},

@@ -327,32 +327,32 @@ CoveragePlan CoveragePlanFor(const BenchOptions& options) {
                                 "oren-nayar",
                                 {{"sigma", DegToRad(30)}, {"albedo", 0.6}},
                                 12,
-                                "gamma",
+                                synth::ResponseCurve::kGamma,
                                 64};
   const CoverageKind tson{
       "tson/linear16",
       "tson",
       {{"albedo", 0.5}, {"sigma", DegToRad(20)}, {"ks", 0.3}, {"sigma_s", 0.15}},
       16,
-      "linear",
+      synth::ResponseCurve::kLinear,
       64};
   const CoverageKind pitted{"pitted-exact/srgb8",
                             "pitted-exact",
                             {{"albedo", 0.7}, {"aperture", DegToRad(60)}, {"coverage", 0.8}},
                             8,
-                            "srgb",
+                            synth::ResponseCurve::kSrgb,
                             0};
   const CoverageKind dark{"dark-oren-nayar/srgb8",
                           "oren-nayar",
                           {{"sigma", DegToRad(20)}, {"albedo", 0.3}},
                           8,
-                          "srgb",
+                          synth::ResponseCurve::kSrgb,
                           0};
   const CoverageKind flash{"flash/linear12",
                            "oren-nayar",
                            {{"sigma", DegToRad(30)}, {"albedo", 0.6}},
                            12,
-                           "linear",
+                           synth::ResponseCurve::kLinear,
                            64,
                            true};
   CoveragePlan p;

@@ -28,7 +28,7 @@ struct CoverageKind {
   std::string model;
   std::map<std::string, double> params;  // registry names and units
   int bit_depth = 12;
-  std::string response = "gamma";  // data_synth response: linear, gamma, srgb
+  synth::ResponseCurve response = synth::ResponseCurve::kGamma;
   double black_level = 64;
   // The lamp beside the lens (data_synth's flash preset, board turned in front of the camera):
   // vignetting from a flat field, `gonio run --lamp-frame camera`.

@@ -141,7 +141,7 @@ json CoverageReport::ToJson() const {
                      {"model", k.model},
                      {"params", k.params},
                      {"bit_depth", k.bit_depth},
-                     {"response", k.response},
+                     {"response", synth::ToString(k.response)},
                      {"black_level", k.black_level},
                      {"lamp_on_camera", k.flash}});
   }

@@ -76,7 +76,7 @@ JointFitResult FitRendered(const fs::path& dir, const synth::Scene& scene, int t
   JointFitOptions fo;
   fo.candidates = {scene.material.model};
   fo.white_albedo = scene.board.white_albedo;
-  fo.lamp_frame = ParseLampFrame(scene.lamp.frame, "lamp.frame");
+  fo.lamp_frame = scene.lamp.frame;  // one enum for both (common/lamp_frame.h)
   fo.threads = threads;
   return FitAndSelect(set, fo).final_fit;
 }
@@ -117,7 +117,7 @@ PlanOptions PlanOptionsForScene(const synth::Scene& scene, int views, int thread
   PlanOptions o;
   o.hypothesis.model = scene.material.model;
   o.hypothesis.params = scene.material.ParamVector();
-  o.hypothesis.lamp_frame = ParseLampFrame(scene.lamp.frame, "lamp.frame");
+  o.hypothesis.lamp_frame = scene.lamp.frame;
   o.hypothesis.lamp = scene.lamp.position;
   o.hypothesis.intensity = scene.lamp.intensity;
   o.white_albedo = scene.board.white_albedo;
@@ -151,7 +151,7 @@ PlanScatterRow MeasurePlanScatter(const std::string& label, const synth::Scene& 
   std::vector<double> lx, ly, lz;
   for (int seed = 1; seed <= seeds; ++seed) {
     synth::Scene s = scene;
-    s.views.mode = "explicit";
+    s.views.mode = synth::ViewsMode::kExplicit;
     s.views.cam_from_board = poses;
     s.seed = static_cast<uint64_t>(seed);
     const fs::path dir = work / fmt::format("{}-{}", label, seed);

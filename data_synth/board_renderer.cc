@@ -80,7 +80,7 @@ bool InRect(const Eigen::Vector2d& p, const std::array<double, 4>& r) {
 class BoardShader {
  public:
   BoardShader(const Scene& scene, const Material& material)
-      : scene_(scene), material_(material), point_lamp_(scene.lamp.type == "point") {
+      : scene_(scene), material_(material), point_lamp_(scene.lamp.type == LampType::kPoint) {
     // rho_dh(theta_r) tabulated once: the ambient term of the sample (scene.h LampSpec).
     if (scene.lamp.ambient_irradiance > 0) {
       for (int k = 0; k <= kAlbedoSteps; ++k) {
@@ -328,7 +328,7 @@ PoseGeometry PoseGeometryOf(const Scene& scene, const Rigid3d& cam_from_board) {
   g.cam_from_board = cam_from_board;
   const Rigid3d board_from_cam = cam_from_board.Inverse();
   g.camera_in_board = board_from_cam.t;
-  const bool lamp_in_cam = scene.lamp.frame == "camera";
+  const bool lamp_in_cam = scene.lamp.frame == LampFrame::kCamera;
   g.lamp_in_board = lamp_in_cam ? board_from_cam * scene.lamp.position : scene.lamp.position;
   g.to_lamp_in_board =
       (lamp_in_cam ? board_from_cam.R * scene.lamp.direction : scene.lamp.direction).normalized();
@@ -374,14 +374,14 @@ cv::Mat ExposeFrame(const Scene& scene, const PhotometricChain& chain, const cv:
 
 // truth.json "lamp": the lamp as the scene gives it, in its frame.
 json LampTruthJson(const LampSpec& lamp) {
-  json out = {{"type", lamp.type}, {"frame", lamp.frame}};
-  if (lamp.type == "point") {
-    out[lamp.frame == "board" ? "position_in_board" : "position_in_camera"] = Vec(lamp.position);
+  json out = {{"type", ToString(lamp.type)}, {"frame", ToString(lamp.frame)}};
+  const bool in_board = lamp.frame == LampFrame::kBoard;
+  if (lamp.type == LampType::kPoint) {
+    out[in_board ? "position_in_board" : "position_in_camera"] = Vec(lamp.position);
     out["intensity"] = lamp.intensity;
     out["falloff"] = "inverse-square: E = intensity * cos(theta_i) / d^2";
   } else {
-    out[lamp.frame == "board" ? "direction_in_board" : "direction_in_camera"] =
-        Vec(lamp.direction.normalized());
+    out[in_board ? "direction_in_board" : "direction_in_camera"] = Vec(lamp.direction.normalized());
     out["irradiance"] = lamp.irradiance;
   }
   return out;
@@ -406,7 +406,7 @@ void WriteSessionFiles(const Scene& scene, const TagBoard& board, const Material
   photometric["channels"] = scene.Channels();
   json truth = {{"format", "gonio-synth-truth"},
                 {"version", 1},
-                {"scene_type", "board"},
+                {"scene_type", ToString(scene.type)},
                 {"material", material.ToJson()},
                 {"lamp", LampTruthJson(scene.lamp)},
                 {"white_albedo", scene.board.white_albedo},
@@ -532,7 +532,7 @@ BoardRenderResult RenderBoardSession(const Scene& scene, const fs::path& out_dir
                  {"exposure_s", exposure_s},
                  {"camera_in_board", Vec(g.camera_in_board)},
                  {"tag_corners", corners}};
-      if (scene.lamp.type == "point") tf["lamp_in_board"] = Vec(g.lamp_in_board);
+      if (scene.lamp.type == LampType::kPoint) tf["lamp_in_board"] = Vec(g.lamp_in_board);
       truth_frames.push_back(tf);
       ++frame;
       progress.Step();

@@ -8,7 +8,6 @@ namespace gonio::synth {
 PhotometricChain::PhotometricChain(const PhotometricSpec& spec, const CameraModel& camera)
     : spec_(spec), vignetting_geometry_(VignettingGeometry::Of(camera)) {
   max_value_ = std::ldexp(1.0, spec.bit_depth) - 1.0;
-  response_kind_ = spec.response == "gamma" ? 1 : spec.response == "srgb" ? 2 : 0;
 }
 
 double PhotometricChain::Vignetting(double x, double y) const {
@@ -17,8 +16,8 @@ double PhotometricChain::Vignetting(double x, double y) const {
 
 double PhotometricChain::Response(double x) const {
   x = std::clamp(x, 0.0, 1.0);
-  if (response_kind_ == 1) return std::pow(x, 1.0 / spec_.gamma);
-  if (response_kind_ == 2) {
+  if (spec_.response == ResponseCurve::kGamma) return std::pow(x, 1.0 / spec_.gamma);
+  if (spec_.response == ResponseCurve::kSrgb) {
     // IEC 61966-2-1 encoding curve: linear toe, then 1.055 x^(1/2.4) - 0.055.
     return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
   }
@@ -54,11 +53,11 @@ uint16_t PhotometricChain::Value(double radiance, double exposure_s, double x, d
 }
 
 nlohmann::json PhotometricChain::ToJson() const {
-  nlohmann::json response = {{"type", spec_.response}};
-  if (spec_.response == "gamma") {
+  nlohmann::json response = {{"type", ToString(spec_.response)}};
+  if (spec_.response == ResponseCurve::kGamma) {
     response["gamma"] = spec_.gamma;
     response["formula"] = "f(x) = x^(1/gamma)";
-  } else if (spec_.response == "srgb") {
+  } else if (spec_.response == ResponseCurve::kSrgb) {
     response["formula"] = "f(x) = 12.92 x for x <= 0.0031308, else 1.055 x^(1/2.4) - 0.055";
   } else {
     response["formula"] = "f(x) = x";

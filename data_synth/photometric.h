@@ -37,7 +37,6 @@ class PhotometricChain {
   PhotometricSpec spec_;
   VignettingGeometry vignetting_geometry_;
   double max_value_;
-  int response_kind_ = 0;  // 0 linear, 1 gamma, 2 srgb
 };
 
 }  // namespace gonio::synth

@@ -48,7 +48,7 @@ Scene FlatFieldPreset(const std::string&, const PresetOptions&) {
   // The sample region is required by the format; park it far outside every view.
   s.board.sample_region = {-1.95, -1.95, -1.9, -1.9};
   s.board.white_region = {-1.5, -1.5, 1.5, 1.5};
-  s.lamp.type = "distant";
+  s.lamp.type = LampType::kDistant;
   s.lamp.direction = {0, 0, -1};
   s.lamp.irradiance = 4.0;
   s.views.target = {0, 0, 0};
@@ -63,7 +63,7 @@ Scene FlatFieldPreset(const std::string&, const PresetOptions&) {
 Scene ExposureSweepPreset(const std::string&, const PresetOptions&) {
   Scene s = PresetBase();
   s.material = {"lambert", {{"albedo", 0.5}}};
-  s.views.mode = "explicit";
+  s.views.mode = ViewsMode::kExplicit;
   Rigid3d pose;
   pose.R = Eigen::AngleAxisd(DegToRad(20.0), Eigen::Vector3d::UnitY()).toRotationMatrix();
   pose.t = Eigen::Vector3d(0, 0, 0.45) - pose.R * s.views.target;
@@ -78,25 +78,27 @@ Scene ExposureSweepPreset(const std::string&, const PresetOptions&) {
 // vignetting.
 Scene SfsPreset(const std::string& name, const PresetOptions& options) {
   Scene s = PresetBase();
-  s.type = "sfs";
+  s.type = SceneType::kSfs;
   s.supersampling = 4;
   s.material = {"oren-nayar", {{"sigma", DegToRad(30.0)}, {"albedo", 0.8}}};
   s.camera.lens_model = LensModel::kPinhole;
   s.camera.intrinsics = {800, 800, 319.5, 239.5};
   s.camera.width = 640;
   s.camera.height = 480;
-  s.sfs.shape = name.substr(4);
+  s.sfs.shape = name == "sfs-vase"    ? SfsShape::kVase
+                : name == "sfs-bumps" ? SfsShape::kBumps
+                                      : SfsShape::kSphere;
   s.sfs.distance = 0.5;
-  s.sfs.size = s.sfs.shape == "vase" ? 0.07 : 0.1;
+  s.sfs.size = s.sfs.shape == SfsShape::kVase ? 0.07 : 0.1;
   const Eigen::Vector3d centre(0, 0, s.sfs.distance);
   const Eigen::Matrix3d turn =
       Eigen::AngleAxisd(DegToRad(options.sfs_lamp_offaxis_deg), Eigen::Vector3d::UnitY())
           .toRotationMatrix();
-  s.lamp.frame = "camera";
+  s.lamp.frame = LampFrame::kCamera;
   s.lamp.position = centre + turn * (Eigen::Vector3d::Zero() - centre);
   s.lamp.intensity = 1.0;
   s.photometric.bit_depth = 16;
-  s.photometric.response = "linear";
+  s.photometric.response = ResponseCurve::kLinear;
   s.photometric.black_level = 0;
   s.photometric.vignetting = {0, 0, 0};
   s.photometric.noise = false;
@@ -117,7 +119,7 @@ Scene FlashPreset(const std::string& name, const PresetOptions&) {
   s.camera.width = 640;
   s.camera.height = 480;
   s.camera.intrinsics = {550, 550, 319.5, 239.5, -0.12, 0.05, 0.0005, -0.0003, -0.01, 0, 0, 0};
-  s.lamp.frame = "camera";
+  s.lamp.frame = LampFrame::kCamera;
   s.lamp.position = {0.04, 0.0, 0.0};
   // Paper head-on at 0.4 m: X = 60 * 0.01 * (0.8 / pi) * I / 0.16, about 0.57 of full scale.
   s.lamp.intensity = 0.6;
@@ -126,11 +128,11 @@ Scene FlashPreset(const std::string& name, const PresetOptions&) {
   s.views.per_ring = 4;
   if (name == "flash-8bit") {
     s.photometric.bit_depth = 8;
-    s.photometric.response = "srgb";
+    s.photometric.response = ResponseCurve::kSrgb;
     s.photometric.black_level = 0;
   } else {
     s.photometric.bit_depth = 12;
-    s.photometric.response = "linear";
+    s.photometric.response = ResponseCurve::kLinear;
     s.photometric.black_level = 64;
   }
   return s;
@@ -166,7 +168,7 @@ Scene TexturedPreset(const std::string& name, const PresetOptions& options) {
   Scene s = name == "textured-flash" ? FlashPreset("flash", options) : DefaultPreset(name, options);
   s.material = {"oren-nayar", {{"sigma", DegToRad(30.0)}, {"albedo", 0.6}}};
   s.board.sample_region = {0.09, 0.04, 0.20, 0.15};
-  s.texture.type = "procedural";
+  s.texture.type = TextureType::kProcedural;
   s.texture.materials = {{{0.65, 0.5, 0.35}, DegToRad(30.0)}};
   if (name == "textured-3mat") {
     s.texture.materials = {{{0.7, 0.62, 0.45}, DegToRad(15.0)},

@@ -46,8 +46,8 @@ RadianceView RenderRadiance(const Scene& scene, const TexturedShader& shader,
   const Rigid3d board_from_cam = cam_from_board.Inverse();
   RadianceView v;
   v.camera = board_from_cam.t;
-  v.lamp =
-      scene.lamp.frame == "camera" ? board_from_cam * scene.lamp.position : scene.lamp.position;
+  v.lamp = scene.lamp.frame == LampFrame::kCamera ? board_from_cam * scene.lamp.position
+                                                  : scene.lamp.position;
   cv::Mat im(size, size, CV_64FC3);
   ParallelFor(size, threads, [&](size_t b, size_t e) {
     for (size_t r = b; r < e; ++r) {
@@ -82,7 +82,7 @@ double AutoExposure(const std::vector<RadianceView>& views, int size) {
 PhotometricSpec PhoneEncoding(const Scene& scene) {
   PhotometricSpec spec = scene.photometric;
   spec.bit_depth = 8;
-  spec.response = "gamma";
+  spec.response = ResponseCurve::kGamma;
   spec.gamma = 2.2;
   spec.black_level = 0;
   spec.vignetting = {0, 0, 0};
@@ -134,7 +134,9 @@ RectifiedRenderResult RenderRectifiedViews(const Scene& scene, int size, const f
   const auto start = std::chrono::steady_clock::now();
   scene.Check();
   if (!scene.texture.enabled()) throw InputError("--rectified: the scene has no texture");
-  if (scene.lamp.type != "point") throw InputError("--rectified: the scene needs a point lamp");
+  if (scene.lamp.type != LampType::kPoint) {
+    throw InputError("--rectified: the scene needs a point lamp");
+  }
   if (size < 16 || size > 4096) throw InputError("--rectified: size must be in [16, 4096] px");
   const TexturedShader shader(scene);
   const auto& region = scene.board.sample_region;

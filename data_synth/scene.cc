@@ -11,6 +11,7 @@
 
 #include "common/error.h"
 #include "common/math.h"
+#include "common/option_words.h"
 #include "common/vignetting.h"
 #include "reflectance/registry.h"
 
@@ -18,6 +19,22 @@ namespace gonio::synth {
 namespace {
 
 using json = nlohmann::json;
+
+// The words scene.json (and truth.json) spell the scene's enums with (docs/formats.md); the
+// lamp's frame is common/lamp_frame.h's kLampFrameWords.
+constexpr OptionWord<SceneType> kSceneTypeWords[] = {{SceneType::kBoard, "board"},
+                                                     {SceneType::kSfs, "sfs"}};
+constexpr OptionWord<LampType> kLampTypeWords[] = {{LampType::kPoint, "point"},
+                                                   {LampType::kDistant, "distant"}};
+constexpr OptionWord<ResponseCurve> kResponseWords[] = {{ResponseCurve::kLinear, "linear"},
+                                                        {ResponseCurve::kGamma, "gamma"},
+                                                        {ResponseCurve::kSrgb, "srgb"}};
+constexpr OptionWord<ViewsMode> kViewsModeWords[] = {{ViewsMode::kOrbit, "orbit"},
+                                                     {ViewsMode::kExplicit, "explicit"}};
+constexpr OptionWord<SfsShape> kSfsShapeWords[] = {
+    {SfsShape::kSphere, "sphere"}, {SfsShape::kVase, "vase"}, {SfsShape::kBumps, "bumps"}};
+constexpr OptionWord<TextureType> kTextureTypeWords[] = {{TextureType::kNone, "none"},
+                                                         {TextureType::kProcedural, "procedural"}};
 
 void Require(bool ok, const std::string& message) {
   if (!ok) throw InputError(message);
@@ -47,12 +64,12 @@ Rigid3d LookAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target, dou
 // not); null: always.
 using Applies = bool (*)(const Scene&);
 bool AnyScene(const Scene&) { return true; }
-bool BoardScene(const Scene& s) { return s.type == "board"; }
-bool SfsScene(const Scene& s) { return s.type == "sfs"; }
-bool PointLamp(const Scene& s) { return s.lamp.type == "point"; }
-bool DistantLamp(const Scene& s) { return s.lamp.type != "point"; }
-bool OrbitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "orbit"; }
-bool ExplicitViews(const Scene& s) { return BoardScene(s) && s.views.mode == "explicit"; }
+bool BoardScene(const Scene& s) { return s.type == SceneType::kBoard; }
+bool SfsScene(const Scene& s) { return s.type == SceneType::kSfs; }
+bool PointLamp(const Scene& s) { return s.lamp.type == LampType::kPoint; }
+bool DistantLamp(const Scene& s) { return s.lamp.type == LampType::kDistant; }
+bool OrbitViews(const Scene& s) { return BoardScene(s) && s.views.mode == ViewsMode::kOrbit; }
+bool ExplicitViews(const Scene& s) { return BoardScene(s) && s.views.mode == ViewsMode::kExplicit; }
 
 // A value the JSON cannot hold as the member (the message says what was expected).
 struct ValueError {
@@ -143,7 +160,9 @@ json WriteValue(const std::vector<Rigid3d>& poses) {
 struct Field {
   std::string part;  // "" at the top level, else the part's key ("board", "lamp", ...)
   std::string key;
-  std::function<void(const json&, Scene*)> read;   // json::exception or ValueError
+  // json::exception, ValueError, or InputError naming the field by its second argument (the
+  // field's name in the file).
+  std::function<void(const json&, const std::string&, Scene*)> read;
   std::function<json(const Scene&)> write;         // null: read only
   std::function<std::string(const Scene&)> check;  // "" when valid, else the problem
   Applies applies = nullptr;
@@ -186,16 +205,33 @@ class Section {
 
   template <typename T, typename Check = NoCheck>
   Section& Add(const char* key, T Part::*member, Check check = {}, Applies applies = nullptr) {
-    Field f;
-    f.part = name_;
-    f.key = key;
     const auto part = part_;
-    f.read = [part, member](const json& j, Scene* s) { ReadValue(j, &(Of(*s, part).*member)); };
-    f.write = [part, member](const Scene& s) { return WriteValue(Of(s, part).*member); };
-    f.check = [part, member, check](const Scene& s) { return check(Of(s, part).*member, s); };
-    f.applies = applies ? applies : applies_;
-    out_->push_back(std::move(f));
-    return *this;
+    return Push(
+        key,
+        [part, member](const json& j, const std::string&, Scene* s) {
+          ReadValue(j, &(Of(*s, part).*member));
+        },
+        [part, member](const Scene& s) { return WriteValue(Of(s, part).*member); },
+        [part, member, check](const Scene& s) { return check(Of(s, part).*member, s); }, applies);
+  }
+  // A closed set of words held as an enum, as the command line's option words are
+  // (common/option_words.h): `words` parses the word here, once, and writes it back unchanged,
+  // so the renderers compare enums. A word outside the table is refused as it is read, naming
+  // the file's field and the accepted words.
+  template <typename E, size_t N>
+  Section& AddWord(const char* key, E Part::*member, const OptionWord<E> (&words)[N],
+                   Applies applies = nullptr) {
+    const auto part = part_;
+    const auto* table = &words;  // static storage: the tables are constexpr globals
+    return Push(
+        key,
+        [part, member, table](const json& j, const std::string& name, Scene* s) {
+          Of(*s, part).*member = ParseOptionWord(*table, j.get<std::string>(), name);
+        },
+        [part, member, table](const Scene& s) {
+          return json(OptionWordOf(*table, Of(s, part).*member));
+        },
+        [](const Scene&) { return std::string(); }, applies);
   }
   // Replaces the last field's writer (null: not written).
   Section& WriteAs(std::function<json(const Scene&)> write) {
@@ -204,6 +240,18 @@ class Section {
   }
 
  private:
+  Section& Push(const char* key, decltype(Field::read) read, decltype(Field::write) write,
+                decltype(Field::check) check, Applies applies) {
+    Field f;
+    f.part = name_;
+    f.key = key;
+    f.read = std::move(read);
+    f.write = std::move(write);
+    f.check = std::move(check);
+    f.applies = applies ? applies : applies_;
+    out_->push_back(std::move(f));
+    return *this;
+  }
   template <typename S>
   static auto& Of(S& s, Part Scene::*part) {
     if constexpr (std::is_same_v<Part, Scene>) {
@@ -274,7 +322,7 @@ std::string VignettingCheck(const std::array<double, 3>& v, const Scene&) {
 
 void AddTopAndCameraFields(std::vector<Field>* f) {
   Section<Scene>("", nullptr, nullptr, f)
-      .Add("type", &Scene::type, OneOf({"board", "sfs"}))
+      .AddWord("type", &Scene::type, kSceneTypeWords)
       .Add("seed", &Scene::seed)
       .Add("supersampling", &Scene::supersampling,
            Must([](int v, const Scene&) { return v >= 1 && v <= 32; }, "must be in [1, 32]"));
@@ -300,7 +348,7 @@ void AddPhotometricAndLampFields(std::vector<Field>* f) {
       .Add("bit_depth", &P::bit_depth,
            Must([](int v, const Scene&) { return v == 8 || v == 12 || v == 16; },
                 "must be 8, 12 or 16"))
-      .Add("response", &P::response, OneOf({"linear", "gamma", "srgb"}))
+      .AddWord("response", &P::response, kResponseWords)
       .Add("gamma", &P::gamma,
            Must([](double v, const Scene&) { return v >= 0.2 && v <= 5; }, "must be in [0.2, 5]"))
       .Add("black_level", &P::black_level,
@@ -319,12 +367,12 @@ void AddPhotometricAndLampFields(std::vector<Field>* f) {
       .Add("noise", &P::noise);
   auto positive = Must([](double v, const Scene&) { return v > 0; }, "must be > 0");
   Section<LampSpec>("lamp", &Scene::lamp, nullptr, f)
-      .Add("type", &LampSpec::type, OneOf({"point", "distant"}))
-      .Add("frame", &LampSpec::frame, OneOf({"board", "camera"}))
+      .AddWord("type", &LampSpec::type, kLampTypeWords)
+      .AddWord("frame", &LampSpec::frame, kLampFrameWords)
       .Add("position", &LampSpec::position,
            Must(
                [](const Eigen::Vector3d& p, const Scene& s) {
-                 return !(BoardScene(s) && s.lamp.frame == "board") || p.z() < 0;
+                 return !(BoardScene(s) && s.lamp.frame == LampFrame::kBoard) || p.z() < 0;
                },
                "the lamp must be in front of the board (z < 0)"),
            PointLamp)
@@ -387,7 +435,7 @@ void AddBoardFields(std::vector<Field>* f) {
 void AddViewsAndSfsFields(std::vector<Field>* f) {
   using V = ViewsSpec;
   Section<V>("views", &Scene::views, BoardScene, f)
-      .Add("mode", &V::mode, OneOf({"orbit", "explicit"}))
+      .AddWord("mode", &V::mode, kViewsModeWords)
       .Add("target", &V::target, NoCheck(), OrbitViews)
       .Add("distance", &V::distance,
            Must([](double v, const Scene&) { return v > 0; }, "must be > 0"), OrbitViews)
@@ -419,7 +467,7 @@ void AddViewsAndSfsFields(std::vector<Field>* f) {
            Must([](int v, const Scene&) { return v >= 0 && v <= 100; }, "must be in [0, 100]"),
            BoardScene);
   Section<SfsSpec>("sfs", &Scene::sfs, SfsScene, f)
-      .Add("shape", &SfsSpec::shape, OneOf({"sphere", "vase", "bumps"}))
+      .AddWord("shape", &SfsSpec::shape, kSfsShapeWords)
       .Add("distance", &SfsSpec::distance,
            Must([](double v, const Scene& s) { return v > 2 * s.sfs.size; }, "must be > 2 size"))
       .Add("size", &SfsSpec::size,
@@ -449,7 +497,7 @@ void AddTextureFields(std::vector<Field>* f) {
   using T = TextureSpec;
   auto positive = Must([](double v, const Scene&) { return v > 0; }, "must be > 0");
   Section<T>("texture", &Scene::texture, BoardScene, f)
-      .Add("type", &T::type, OneOf({"none", "procedural"}))
+      .AddWord("type", &T::type, kTextureTypeWords)
       .Add("seed", &T::seed)
       .Add("materials", &T::materials,
            [](const std::vector<TextureMaterial>&, const Scene& s) {
@@ -500,7 +548,7 @@ bool IsKnownKey(const std::string& part, const std::string& key) {
 void ReadField(const Field& f, const json& value, const std::string& what, Scene* s) {
   const std::string name = what + "." + (f.part.empty() ? "" : f.part + ".") + f.key;
   try {
-    f.read(value, s);
+    f.read(value, name, s);
   } catch (const json::exception&) {
     throw InputError(name + ": wrong type (" + value.dump() + ")");
   } catch (const ValueError& e) {
@@ -511,7 +559,7 @@ void ReadField(const Field& f, const json& value, const std::string& what, Scene
 // Cross-part conditions no single field carries.
 void CheckSceneConsistency(const Scene& s) {
   if (SfsScene(s)) {
-    Require(s.lamp.type == "point" && s.lamp.frame == "camera",
+    Require(s.lamp.type == LampType::kPoint && s.lamp.frame == LampFrame::kCamera,
             "lamp: sfs scenes need a point lamp in the camera frame");
     return;
   }
@@ -538,6 +586,13 @@ void RequireKnownKeys(const json& j, const std::string& part, const std::string&
 }
 
 }  // namespace
+
+std::string ToString(SceneType type) { return OptionWordOf(kSceneTypeWords, type); }
+std::string ToString(LampType type) { return OptionWordOf(kLampTypeWords, type); }
+std::string ToString(ResponseCurve response) { return OptionWordOf(kResponseWords, response); }
+std::string ToString(ViewsMode mode) { return OptionWordOf(kViewsModeWords, mode); }
+std::string ToString(SfsShape shape) { return OptionWordOf(kSfsShapeWords, shape); }
+std::string ToString(TextureType type) { return OptionWordOf(kTextureTypeWords, type); }
 
 std::vector<int> BoardSpec::ResolvedIds() const {
   if (!ids.empty()) return ids;
@@ -589,7 +644,7 @@ void Scene::Check() const {
 }
 
 std::vector<Rigid3d> Scene::CamFromBoardPoses() const {
-  if (views.mode == "explicit") return views.cam_from_board;
+  if (views.mode == ViewsMode::kExplicit) return views.cam_from_board;
   std::vector<Rigid3d> poses;
   for (size_t ring = 0; ring < views.rings_deg.size(); ++ring) {
     const double theta = DegToRad(views.rings_deg[ring]);

@@ -19,9 +19,25 @@
 
 #include "common/camera_model.h"
 #include "common/geometry.h"
+#include "common/lamp_frame.h"
 #include "data_synth/texture.h"
 
 namespace gonio::synth {
+
+// The scene's closed sets of words are enums here; scene.json's words are parsed once where
+// the file is read and written back unchanged (SceneFromJson, SceneToJson; the word tables
+// are scene.cc's). ToString gives the word, e.g. for truth.json.
+enum class SceneType { kBoard, kSfs };                // "board", "sfs"
+enum class LampType { kPoint, kDistant };             // "point", "distant"
+enum class ResponseCurve { kLinear, kGamma, kSrgb };  // "linear", "gamma", "srgb"
+enum class ViewsMode { kOrbit, kExplicit };           // "orbit", "explicit"
+enum class SfsShape { kSphere, kVase, kBumps };       // "sphere", "vase", "bumps"
+std::string ToString(SceneType type);
+std::string ToString(LampType type);
+std::string ToString(ResponseCurve response);
+std::string ToString(ViewsMode mode);
+std::string ToString(SfsShape shape);
+std::string ToString(TextureType type);
 
 // AprilTag grid on white paper; tag k (row-major) has its top-left black-border corner at
 // (col * pitch, row * pitch) in the board frame (docs/conventions.md).
@@ -60,12 +76,12 @@ struct MaterialSpec {
 };
 
 struct LampSpec {
-  // "point": isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
-  // "distant": parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
-  std::string type = "point";
-  // Frame the position (or direction) is given in: "board" (lamp fixed while the camera
-  // moves) or "camera" (lamp fixed to the camera while the board turns).
-  std::string frame = "board";
+  // kPoint: isotropic point lamp, irradiance E = I cos(theta_i) / d^2.
+  // kDistant: parallel light, E = irradiance * cos(theta_i) everywhere (flat fields).
+  LampType type = LampType::kPoint;
+  // Frame the position (or direction) is given in: kBoard (lamp fixed while the camera
+  // moves) or kCamera (lamp fixed to the camera while the board turns).
+  LampFrame frame = LampFrame::kBoard;
   Eigen::Vector3d position = {0.0, 0.0, -0.5};   // metres, point lamp
   double intensity = 1.0;                        // W/sr (arbitrary but consistent units)
   Eigen::Vector3d direction = {0.0, 0.0, -1.0};  // towards the lamp, distant lamp
@@ -84,8 +100,9 @@ struct LampSpec {
 //   X' = clamp(e / full_well_e, 0, 1)                       saturation
 //   D = round(black_level + f(X') * (2^bit_depth - 1 - black_level))
 struct PhotometricSpec {
-  int bit_depth = 12;              // 8, 12 (stored in 16-bit PNG, values 0..4095) or 16
-  std::string response = "gamma";  // "linear", "gamma" (f = x^(1/gamma)) or "srgb"
+  int bit_depth = 12;  // 8, 12 (stored in 16-bit PNG, values 0..4095) or 16
+  // kLinear (f = x), kGamma (f = x^(1/gamma)) or kSrgb (IEC 61966-2-1).
+  ResponseCurve response = ResponseCurve::kGamma;
   double gamma = 2.2;
   double black_level = 64;  // digital numbers
   // V(r) = 1 + v1 r^2 + v2 r^4 + v3 r^6, r = distance to the principal point / half-diagonal.
@@ -97,10 +114,10 @@ struct PhotometricSpec {
 };
 
 struct ViewsSpec {
-  // "orbit": rings of cameras looking at `target` from `distance`; polar angles (from the
+  // kOrbit: rings of cameras looking at `target` from `distance`; polar angles (from the
   // board's outward normal) in rings_deg, per_ring azimuths each, roll alternating +-roll_deg.
-  // "explicit": the poses in cam_from_board.
-  std::string mode = "orbit";
+  // kExplicit: the poses in cam_from_board.
+  ViewsMode mode = ViewsMode::kOrbit;
   Eigen::Vector3d target = {0.135, 0.095, 0.0};
   double distance = 0.45;
   std::vector<double> rings_deg = {15, 32, 48, 62};
@@ -115,13 +132,13 @@ struct ViewsSpec {
 };
 
 struct SfsSpec {
-  std::string shape = "sphere";  // "sphere", "vase" or "bumps"
-  double distance = 0.5;         // object centre on the optical axis, metres
-  double size = 0.1;             // sphere radius, vase max radius, bumps patch half-width
+  SfsShape shape = SfsShape::kSphere;
+  double distance = 0.5;  // object centre on the optical axis, metres
+  double size = 0.1;      // sphere radius, vase max radius, bumps patch half-width
 };
 
 struct Scene {
-  std::string type = "board";  // "board" or "sfs"
+  SceneType type = SceneType::kBoard;
   uint64_t seed = 1;
   int supersampling = 8;  // per axis, for pixels whose footprint crosses an edge
   BoardSpec board;
@@ -138,7 +155,7 @@ struct Scene {
   int Channels() const { return texture.enabled() ? 3 : 1; }
   // InputError naming the scene part and the problem.
   void Check() const;
-  // The camera poses of a board scene (expands "orbit").
+  // The camera poses of a board scene (expands kOrbit).
   std::vector<Rigid3d> CamFromBoardPoses() const;
 };
 

@@ -28,18 +28,9 @@ using json = nlohmann::json;
 // rays are marched in depth z over [z_near, z_far].
 class Shape {
  public:
-  // The shape resolved once from its scene word: F, Normal and Trace run per ray step.
-  enum class Kind { kSphere, kVase, kBumps };
-  static Kind KindOf(const std::string& word) {
-    if (word == "sphere") return Kind::kSphere;
-    if (word == "vase") return Kind::kVase;
-    if (word == "bumps") return Kind::kBumps;
-    throw InputError("sfs.shape: '" + word + "' is not one of sphere, vase, bumps");
-  }
-
   Shape(const SfsSpec& spec)
-      : spec_(spec), kind_(KindOf(spec.shape)), centre_in_cam_(0, 0, spec.distance), s_(spec.size) {
-    if (kind_ == Kind::kBumps) {
+      : spec_(spec), kind_(spec.shape), centre_in_cam_(0, 0, spec.distance), s_(spec.size) {
+    if (kind_ == SfsShape::kBumps) {
       // Gaussian bumps (and one dent) on a square patch facing the camera; heights and widths
       // relative to the patch half-width.
       bumps_ = {{0.0, 0.0, 0.35, 0.30},
@@ -53,12 +44,12 @@ class Shape {
       z_near_ = centre_in_cam_.z() - 1.05 * s_;
       z_far_ = centre_in_cam_.z() + 1.05 * s_;
     }
-    half_height_ = kind_ == Kind::kVase ? 1.7 * s_ : s_;
+    half_height_ = kind_ == SfsShape::kVase ? 1.7 * s_ : s_;
   }
 
   double F(const Eigen::Vector3d& p) const {
-    if (kind_ == Kind::kSphere) return (p - centre_in_cam_).norm() - s_;
-    if (kind_ == Kind::kVase) {
+    if (kind_ == SfsShape::kSphere) return (p - centre_in_cam_).norm() - s_;
+    if (kind_ == SfsShape::kVase) {
       const double s = (p.y() - centre_in_cam_.y()) / half_height_;
       const double rho2 =
           p.x() * p.x() + (p.z() - centre_in_cam_.z()) * (p.z() - centre_in_cam_.z());
@@ -70,8 +61,8 @@ class Shape {
 
   // Outward unit normal at a surface point.
   Eigen::Vector3d Normal(const Eigen::Vector3d& p) const {
-    if (kind_ == Kind::kSphere) return (p - centre_in_cam_).normalized();
-    if (kind_ == Kind::kVase) {
+    if (kind_ == SfsShape::kSphere) return (p - centre_in_cam_).normalized();
+    if (kind_ == SfsShape::kVase) {
       const double s = (p.y() - centre_in_cam_.y()) / half_height_, h = 1e-6;
       const double dr2_ds = (VaseR2(s + h) - VaseR2(s - h)) / (2 * h);
       return Eigen::Vector3d(2 * p.x(), -dr2_ds / half_height_, 2 * (p.z() - centre_in_cam_.z()))
@@ -84,7 +75,7 @@ class Shape {
 
   // Depth z of the first surface point along the ray (x, y, 1) z, or a negative value.
   double Trace(const Eigen::Vector3d& ray) const {
-    if (kind_ == Kind::kBumps) {
+    if (kind_ == SfsShape::kBumps) {
       // The ray's x and y are linear in z: skip rays that pass beside the patch.
       const Eigen::Vector3d a = ray * z_near_, b = ray * z_far_;
       if (std::min(a.x(), b.x()) > s_ || std::max(a.x(), b.x()) < -s_ ||
@@ -94,7 +85,7 @@ class Shape {
     }
     // Steps of ~0.5 mm (sphere, vase) and ~0.6 mm (bumps, whose narrowest feature is a
     // 15 mm wide Gaussian): no surface crossing is skipped, bisection does the rest.
-    const int steps = kind_ == Kind::kBumps ? 100 : 400;
+    const int steps = kind_ == SfsShape::kBumps ? 100 : 400;
     const double dz = (z_far_ - z_near_) / steps;
     double z0 = z_near_, f0 = F(ray * z0);
     for (int k = 1; k <= steps; ++k) {
@@ -106,7 +97,7 @@ class Shape {
           (F(ray * m) > 0 ? a : b) = m;
         }
         const double z = 0.5 * (a + b);
-        if (kind_ == Kind::kBumps) {
+        if (kind_ == SfsShape::kBumps) {
           const Eigen::Vector3d p = ray * z;
           if (std::abs(p.x()) > s_ || std::abs(p.y()) > s_) return -1;
         }
@@ -119,12 +110,12 @@ class Shape {
   }
 
   json ToJson() const {
-    json j = {{"shape", spec_.shape},
+    json j = {{"shape", ToString(spec_.shape)},
               {"centre_in_camera", {centre_in_cam_.x(), centre_in_cam_.y(), centre_in_cam_.z()}}};
-    if (kind_ == Kind::kSphere) {
+    if (kind_ == SfsShape::kSphere) {
       j["radius"] = s_;
       j["definition"] = "|p - centre| = radius";
-    } else if (kind_ == Kind::kVase) {
+    } else if (kind_ == SfsShape::kVase) {
       j["max_radius"] = s_;
       j["half_height"] = half_height_;
       j["definition"] =
@@ -171,7 +162,7 @@ class Shape {
   }
 
   SfsSpec spec_;
-  Kind kind_;
+  SfsShape kind_;  // switched on per ray step
   Eigen::Vector3d centre_in_cam_;
   double s_;
   double half_height_ = 0;
@@ -301,13 +292,14 @@ SfsImages RenderImages(const Scene& scene, const Shape& shape, const Material& m
 // radiance of one digital number.
 json SfsLampJson(const Scene& scene, const PhotometricChain& chain) {
   const auto& p = scene.lamp.position;
-  json lamp = {{"frame", "camera"},
+  json lamp = {{"frame", ToString(scene.lamp.frame)},  // kCamera (Scene::Check)
                {"position", {p.x(), p.y(), p.z()}},
                {"collocated", p.norm() < 1e-9},
                {"intensity", scene.lamp.intensity},
                {"falloff", "inverse-square: E = intensity * cos(theta_i) / d^2"}};
   const auto& ph = scene.photometric;
-  const bool linear = ph.response == "linear" && ph.vignetting == std::array<double, 3>{0, 0, 0};
+  const bool linear =
+      ph.response == ResponseCurve::kLinear && ph.vignetting == std::array<double, 3>{0, 0, 0};
   if (linear) {
     // Radiance of one digital number above the black level (linear response, no vignetting).
     lamp["radiance_per_dn"] = 1.0 / ((chain.max_value() - ph.black_level) * ph.exposure_scale *
@@ -323,7 +315,7 @@ json SfsTruthJson(const Scene& scene, const Shape& shape, const json& material_j
   return {
       {"format", "gonio-synth-truth"},
       {"version", 1},
-      {"scene_type", "sfs"},
+      {"scene_type", ToString(scene.type)},
       {"object", shape.ToJson()},
       {"material", material_json},
       {"lamp", lamp},

@@ -51,8 +51,6 @@ Eigen::Vector3d TexturePoint::Normal() const {
 }
 
 void CheckTextureSpec(const TextureSpec& s, double roughness_lo, double roughness_hi) {
-  Require(s.type == "none" || s.type == "procedural",
-          "type: '" + s.type + "' is not none or procedural");
   if (!s.enabled()) return;
   Require(!s.materials.empty() && s.materials.size() <= 8, "materials: give 1 to 8 materials");
   for (const auto& m : s.materials) {

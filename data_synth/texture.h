@@ -28,9 +28,12 @@ struct TextureMaterial {
   double roughness = 0.5;  // the model's second parameter (oren-nayar: sigma, rad)
 };
 
+// scene.json's texture.type words "none" and "procedural" (read and written in scene.cc).
+enum class TextureType { kNone, kProcedural };
+
 struct TextureSpec {
-  std::string type = "none";  // "none" or "procedural"
-  uint64_t seed = 7;          // the pattern's own seed (the scene's seed drives the noise)
+  TextureType type = TextureType::kNone;
+  uint64_t seed = 7;  // the pattern's own seed (the scene's seed drives the noise)
   std::vector<TextureMaterial> materials = {TextureMaterial{}};
   double cell_size = 0.03;             // metres, material cells
   double albedo_variation = 0.1;       // RMS relative albedo modulation within a material
@@ -40,7 +43,7 @@ struct TextureSpec {
   double roughness_variation = 0.0;    // RMS of the roughness modulation (the parameter's unit)
   double roughness_wavelength = 0.02;  // metres
   double truth_texel = 0.00025;        // metres, texel of the truth maps beside truth.json
-  bool enabled() const { return type != "none"; }
+  bool enabled() const { return type != TextureType::kNone; }
 };
 
 // One point of the textured surface.

@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "common/lamp_frame.h"  // LampFrame, shared with data_synth
 #include "estimation/extract/observations.h"
 #include "estimation/fit/brdf_fit.h"
 #include "estimation/fit/model_selection.h"
@@ -23,14 +24,6 @@
 #include "reflectance/angles.h"
 
 namespace gonio {
-
-// The frame the lamp stays fixed in while the photographs are taken: the board's (the camera
-// moves around board and lamp) or the camera's (the board turns in front of a camera that
-// carries the lamp).
-enum class LampFrame { kBoard, kCamera };
-// "board" or "camera"; InputError naming `option_name` otherwise.
-LampFrame ParseLampFrame(const std::string& word, const std::string& option_name);
-std::string ToString(LampFrame frame);
 
 // A nuisance of the scene, something the material does not explain but the data may show
 // (docs/pipeline.md "Nuisances chosen by evidence"): left out (kNone), fitted (kFit), or chosen

@@ -16,8 +16,6 @@
 namespace gonio {
 namespace {
 
-constexpr OptionWord<LampFrame> kLampFrameWords[] = {{LampFrame::kBoard, "board"},
-                                                     {LampFrame::kCamera, "camera"}};
 constexpr OptionWord<NuisanceTerm> kNuisanceWords[] = {
     {NuisanceTerm::kNone, "none"}, {NuisanceTerm::kFit, "fit"}, {NuisanceTerm::kAuto, "auto"}};
 
@@ -66,12 +64,6 @@ double PredictedRadiance(const Observation& o, int channel, const JointFitResult
   });
   return f * fit.intensity * e + at(fit.ambient_sample);
 }
-
-LampFrame ParseLampFrame(const std::string& word, const std::string& option_name) {
-  return ParseOptionWord(kLampFrameWords, word, option_name);
-}
-
-std::string ToString(LampFrame frame) { return OptionWordOf(kLampFrameWords, frame); }
 
 void JointFitOptions::Check() const {
   if (white_albedo && !(*white_albedo > 0 && *white_albedo <= 1)) {

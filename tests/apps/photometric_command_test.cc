@@ -197,7 +197,7 @@ TEST(ResponseSynthCli, BitDepthFromSessionAndRefusals) {
 TEST(BlackLevelCli, RefusalsSourcesAndTheWarning) {
   testing::TempDir dir;
   const fs::path sweep = dir.path() / "sweep", out = dir.path() / "response.json";
-  RenderSweep({8, "srgb", 64}, 2, sweep);
+  RenderSweep({8, synth::ResponseCurve::kSrgb, 64}, 2, sweep);
   const std::string base =
       fmt::format("photometric response --sweep '{}' --out '{}'", sweep.string(), out.string());
 

@@ -93,9 +93,9 @@ TEST(Coverage, FullPlanCoversTheIssuesGrid) {
   for (const auto& k : p.kinds) {
     tson |= k.model == "tson";
     pitted |= k.model == "pitted-exact";
-    srgb8 |= k.bit_depth == 8 && k.response == "srgb";
-    gamma12 |= k.bit_depth == 12 && k.response == "gamma";
-    linear16 |= k.bit_depth == 16 && k.response == "linear";
+    srgb8 |= k.bit_depth == 8 && k.response == synth::ResponseCurve::kSrgb;
+    gamma12 |= k.bit_depth == 12 && k.response == synth::ResponseCurve::kGamma;
+    linear16 |= k.bit_depth == 16 && k.response == synth::ResponseCurve::kLinear;
     flash |= k.flash;
   }
   EXPECT_TRUE(tson && pitted && srgb8 && gamma12 && linear16 && flash);

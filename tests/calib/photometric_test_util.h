@@ -43,8 +43,9 @@ inline PhotometricCalibration TruthCalibration(const synth::Scene& s, int channe
   for (int ch = 0; ch < channels; ++ch) {
     for (size_t z = 0; z < c.response.inverse_response[ch].size(); ++z) {
       const double f = std::max(0.0, (z - p.black_level) / (maxv - p.black_level));
-      c.response.inverse_response[ch][z] =
-          p.response == "gamma" ? std::pow(f, p.gamma) : f;  // linear otherwise
+      c.response.inverse_response[ch][z] = p.response == synth::ResponseCurve::kGamma
+                                               ? std::pow(f, p.gamma)
+                                               : f;  // linear otherwise
     }
   }
   c.read_noise_dn = p.read_noise_e / p.full_well_e * (maxv - p.black_level);

@@ -63,7 +63,8 @@ TEST_P(DarkFrames, MeasureTheBlackLevelWithinHalfAValue) {
   const ResponseOptions o = Resolve(sweep, std::nullopt);
   ASSERT_EQ(o.channel_black_level.size(), 1u);
   std::cout << fmt::format("{}-bit {}: dark frames measure {:.1f} (truth {})\n", cam.bit_depth,
-                           cam.response, o.channel_black_level[0], cam.black_level);
+                           synth::ToString(cam.response), o.channel_black_level[0],
+                           cam.black_level);
   EXPECT_NEAR(o.channel_black_level[0], cam.black_level, 0.5);
   EXPECT_EQ(o.black_level_source, BlackLevelSource::kDarkFrames);
 
@@ -80,15 +81,17 @@ TEST_P(DarkFrames, MeasureTheBlackLevelWithinHalfAValue) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Cameras, DarkFrames,
-                         ::testing::Values(Camera{8, "srgb", 64}, Camera{12, "gamma", 64}),
+                         ::testing::Values(Camera{8, synth::ResponseCurve::kSrgb, 64},
+                                           Camera{12, synth::ResponseCurve::kGamma, 64}),
                          [](const auto& info) {
-                           return fmt::format("{}bit{}", info.param.bit_depth, info.param.response);
+                           return fmt::format("{}bit{}", info.param.bit_depth,
+                                              synth::ToString(info.param.response));
                          });
 
 // A "dark" frame that is one of the lit sweep frames is refused, naming it.
 TEST(DarkFrameRefusals, LitDarkFrameIsRefused) {
   testing::TempDir dir;
-  RenderSweep({8, "srgb", 64}, 1, dir.path());
+  RenderSweep({8, synth::ResponseCurve::kSrgb, 64}, 1, dir.path());
   fs::copy_file(dir.path() / "frame_0006.png", dir.path() / "dark_0000.png",
                 fs::copy_options::overwrite_existing);
   const ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
@@ -110,7 +113,7 @@ TEST(DarkFrameRefusals, LitDarkFrameIsRefused) {
 // agree with a stated level within 1 % of the range, which is then used as stated.
 TEST(BlackLevelSources, OptionSessionAndDarkFramesMustAgree) {
   testing::TempDir dir;
-  RenderSweep({8, "srgb", 64}, 1, dir.path());
+  RenderSweep({8, synth::ResponseCurve::kSrgb, 64}, 1, dir.path());
   EditSession(dir.path(), "black_level", 64);
   const ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
   ASSERT_TRUE(sweep.black_level.has_value());
@@ -147,7 +150,7 @@ TEST(BlackLevelSources, OptionSessionAndDarkFramesMustAgree) {
 // result says it is an estimate, gives a range that holds the truth and flags it as uncertain.
 TEST(EstimatedBlackLevel, PedestalTakenRangeCoversTheTruthAndIsFlagged) {
   testing::TempDir dir;
-  RenderSweep({8, "srgb", 64}, 0, dir.path());
+  RenderSweep({8, synth::ResponseCurve::kSrgb, 64}, 0, dir.path());
   const ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
   const ResponseOptions o = Resolve(sweep, std::nullopt);
   EXPECT_FALSE(o.black_level.has_value());
@@ -166,7 +169,7 @@ TEST(EstimatedBlackLevel, PedestalTakenRangeCoversTheTruthAndIsFlagged) {
 // shape's, below the truth, and the range still reaches the truth (the darkest value left).
 TEST(EstimatedBlackLevel, WithoutAPedestalInViewTheRangeStillCoversTheTruth) {
   testing::TempDir dir;
-  RenderSweep({8, "srgb", 64}, 0, dir.path());
+  RenderSweep({8, synth::ResponseCurve::kSrgb, 64}, 0, dir.path());
   ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
   for (auto& f : sweep.frames) cv::compare(f.image, 70, f.mask, cv::CMP_GE);
   const ResponseResult r = CalibrateResponse(sweep.frames, Resolve(sweep, std::nullopt));
@@ -180,7 +183,7 @@ TEST(EstimatedBlackLevel, WithoutAPedestalInViewTheRangeStillCoversTheTruth) {
 // session.json's black_level and dark_frames survive WriteSession / ReadSession.
 TEST(BlackLevelSession, RoundTrip) {
   testing::TempDir dir;
-  RenderSweep({8, "srgb", 64}, 1, dir.path());
+  RenderSweep({8, synth::ResponseCurve::kSrgb, 64}, 1, dir.path());
   Session s = ReadSession(dir.path());
   ASSERT_EQ(s.dark_frames, std::vector<std::string>{"dark_0000.png"});
   s.black_level = 64;

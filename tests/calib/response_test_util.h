@@ -60,12 +60,12 @@ inline std::vector<ExposureFrame> ToneSweep(int bit_depth,
 // The camera of a rendered sweep.
 struct SweepCamera {
   int bit_depth;
-  const char* response;
+  synth::ResponseCurve response;
   double black_level;
 };
 
 inline std::ostream& operator<<(std::ostream& os, const SweepCamera& c) {
-  return os << c.bit_depth << "-bit " << c.response << ", black " << c.black_level;
+  return os << c.bit_depth << "-bit " << synth::ToString(c.response) << ", black " << c.black_level;
 }
 
 // The exposure-sweep preset at a quarter of the resolution, with `dark` dark frames.

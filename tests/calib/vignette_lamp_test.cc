@@ -75,7 +75,7 @@ TEST(VignetteLamp, LampOnTheBoardAndFlatFieldAreAccepted) {
 TEST(VignetteLamp, PosesThatCannotTellAreReported) {
   testing::TempDir dir;
   synth::Scene s = testing::SmallPreset("flash", 2);
-  s.views.mode = "explicit";
+  s.views.mode = synth::ViewsMode::kExplicit;
   s.views.cam_from_board.clear();
   for (const double dx : {0.0, 0.02, -0.02}) {
     Rigid3d pose;  // camera axes along the board's, 0.35 m in front of the printed side

@@ -34,7 +34,7 @@ synth::Scene HalfSize(const std::string& preset) {
 TEST(FlashPreset, LampBesideTheLensSeesTheSampleNearRetroreflection) {
   for (const char* preset : {"flash", "flash-8bit"}) {
     const synth::Scene s = synth::PresetScene(preset);
-    ASSERT_EQ(s.lamp.frame, "camera") << preset;
+    ASSERT_EQ(s.lamp.frame, LampFrame::kCamera) << preset;
     EXPECT_GE(s.lamp.position.norm(), 0.02) << preset;
     EXPECT_LE(s.lamp.position.norm(), 0.06) << preset;
     EXPECT_EQ(s.material.model, "oren-nayar");

@@ -74,6 +74,53 @@ TEST(SceneTest, TheLampsOldKeyIsStillRead) {
   EXPECT_NE(msg.find("both.json: both lamp and light"), std::string::npos) << msg;
 }
 
+// The keys that take one of a few words are enums inside (scene.h, docs/formats.md "Scene
+// file"): every word reads as its own value and is written back unchanged; any other word is
+// refused as the file is read, naming the file's key and the words, also in a part the scene
+// does not use (texture in an sfs scene).
+TEST(SceneTest, EveryWordReadsAsItsEnumAndIsWrittenBack) {
+  const json board = synth::SceneToJson(synth::PresetScene("default"));
+  const json sfs = synth::SceneToJson(synth::PresetScene("sfs-sphere"));
+  struct Key {
+    const json* base;
+    std::string part, key;
+    std::vector<std::string> words;
+  };
+  const std::vector<Key> keys = {
+      {&board, "", "type", {"board", "sfs"}},
+      {&board, "lamp", "type", {"point", "distant"}},
+      {&board, "lamp", "frame", {"board", "camera"}},
+      {&board, "photometric", "response", {"linear", "gamma", "srgb"}},
+      {&board, "views", "mode", {"orbit", "explicit"}},
+      {&sfs, "sfs", "shape", {"sphere", "vase", "bumps"}},
+      {&board, "texture", "type", {"none", "procedural"}},
+      {&sfs, "texture", "type", {"none", "procedural"}},
+  };
+  for (const auto& k : keys) {
+    const std::string name = k.part.empty() ? k.key : k.part + "." + k.key;
+    auto with = [&](const std::string& word) {
+      json j = *k.base;
+      (k.part.empty() ? j : j[k.part])[k.key] = word;
+      return j;
+    };
+    std::string known;
+    for (const auto& word : k.words) {
+      const json back = synth::SceneToJson(synth::SceneFromJson(with(word), "scene.json"));
+      if (k.part.empty() || back.contains(k.part)) {  // an sfs scene writes no texture
+        EXPECT_EQ((k.part.empty() ? back : back[k.part]).at(k.key), word) << name;
+      }
+      known += (known.empty() ? "" : ", ") + word;
+    }
+    EXPECT_EQ(InputErrorOf([&] { synth::SceneFromJson(with("other"), "scene.json"); }),
+              "scene.json." + name + ": 'other' is not one of " + known);
+  }
+  // ToString gives the file's words (truth.json's lamp block, sfs shape, response).
+  EXPECT_EQ(ToString(synth::LampType::kDistant), "distant");
+  EXPECT_EQ(ToString(LampFrame::kCamera), "camera");
+  EXPECT_EQ(ToString(synth::ResponseCurve::kSrgb), "srgb");
+  EXPECT_EQ(ToString(synth::SfsShape::kBumps), "bumps");
+}
+
 TEST(SceneTest, UnregisteredModelIsAnInputError) {
   synth::Scene s = synth::PresetScene("default");
   s.material.model = "no-such-model";
@@ -105,7 +152,7 @@ struct BadScene {
 TEST(SceneTest, OutOfRangeFieldsAreNamedAndInapplicableOnesNotWritten) {
   const std::vector<std::pair<std::function<void(json&)>, std::string>> cases = {
       {[](json& j) { j["supersampling"] = 0; }, "scene.supersampling"},
-      {[](json& j) { j["type"] = "movie"; }, "scene.type"},
+      {[](json& j) { j["type"] = "movie"; }, "scene.json.type: 'movie' is not one of board, sfs"},
       {[](json& j) { j["camera"]["width"] = 8; }, "camera.width"},
       {[](json& j) {
          j["camera"]["intrinsics"] = {560, 555, 321.3};

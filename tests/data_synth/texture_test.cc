@@ -59,13 +59,13 @@ TEST(TextureTest, RenderedPixelIsTheModelAtTheTruthMaps) {
   synth::Scene s = synth::PresetScene("textured");
   s.photometric = {};
   s.photometric.bit_depth = 16;
-  s.photometric.response = "linear";
+  s.photometric.response = synth::ResponseCurve::kLinear;
   s.photometric.black_level = 0;
   s.photometric.vignetting = {0, 0, 0};
   s.photometric.noise = false;
   s.camera.lens_model = LensModel::kPinhole;
   s.camera.intrinsics = {1100, 1100, 639.5, 479.5};
-  s.views.mode = "explicit";
+  s.views.mode = synth::ViewsMode::kExplicit;
   Rigid3d pose;  // camera 0.45 m in front of the sample's centre, looking along +z
   pose.t = Eigen::Vector3d(-0.145, -0.095, 0.45);
   s.views.cam_from_board = {pose};

@@ -161,7 +161,7 @@ TEST(Pipeline, FarLampIsReportedUndetermined) {
 TEST(Pipeline, SingleViewpointLeavesRoughnessUndetermined) {
   synth::Scene scene = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(30)}});
   const auto poses = scene.CamFromBoardPoses();
-  scene.views.mode = "explicit";
+  scene.views.mode = synth::ViewsMode::kExplicit;
   scene.views.cam_from_board = {poses[0], poses[0], poses[0]};
   JointFitOptions o;
   o.candidates = {"oren-nayar"};
@@ -184,7 +184,7 @@ TEST(Pipeline, MovedLampIsNamedPerFrame) {
   synth::Scene b = a;
   b.lamp.position += Eigen::Vector3d(0.12, 0.0, 0.05);
   const auto poses = a.CamFromBoardPoses();
-  b.views.mode = "explicit";
+  b.views.mode = synth::ViewsMode::kExplicit;
   b.views.cam_from_board = {poses[poses.size() - 2], poses[poses.size() - 1]};
   testing::TempDir moved;
   synth::RenderBoardSession(b, moved.path(), 0);

@@ -186,7 +186,7 @@ TEST(PlanScatter, PredictionHoldsOnRenderedSessions) {
 // the nearest poses. Measured (6 seeds): 0.80 sigma, 0.94 albedo, 0.98 lamp.
 TEST(PlanScatter, FlashPredictionHolds) {
   synth::Scene scene = bench::PlanBenchScene("quick");
-  scene.lamp.frame = "camera";
+  scene.lamp.frame = LampFrame::kCamera;
   scene.lamp.position = Eigen::Vector3d(0, -0.015, 0);
   scene.lamp.intensity = 0.5;
   const Board board = bench::SceneBoard(scene);

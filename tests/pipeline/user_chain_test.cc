@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 struct CameraKind {
   const char* name;
   int bit_depth;
-  const char* response;
+  synth::ResponseCurve response;
   double black_level;  // digital numbers (an 8-bit sRGB JPEG camera has none)
   // Frames with the lens capped in the sweep (session.json dark_frames), which measure the black
   // level; without them it is estimated from the curve's shape.
@@ -206,18 +206,18 @@ TEST_P(UserChain, RecoversTheMaterialThroughTheUsersCalibrations) {
   if (GetParam().stage_table) PrintStageShares(d, oracle);
 }
 
-INSTANTIATE_TEST_SUITE_P(Cameras, UserChain,
-                         ::testing::Values(CameraKind{"gamma12in16", 12, "gamma", 64, 0, true},
-                                           CameraKind{"srgb8", 8, "srgb", 0},
-                                           CameraKind{"linear16", 16, "linear", 64},
-                                           // Black 64 at 8 bits: measured on the sweep's
-                                           // dark frames, or without them taken from the
-                                           // pedestal its shortest frames pile up on (the
-                                           // shape alone said 48 and the chain ended at sigma
-                                           // +0.97 deg, albedo +5.6 %, lamp 2.9 %).
-                                           CameraKind{"srgb8black64dark", 8, "srgb", 64, 4},
-                                           CameraKind{"srgb8black64", 8, "srgb", 64, 0}),
-                         [](const auto& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(
+    Cameras, UserChain,
+    ::testing::Values(CameraKind{"gamma12in16", 12, synth::ResponseCurve::kGamma, 64, 0, true},
+                      CameraKind{"srgb8", 8, synth::ResponseCurve::kSrgb, 0},
+                      CameraKind{"linear16", 16, synth::ResponseCurve::kLinear, 64},
+                      // Black 64 at 8 bits: measured on the sweep's dark frames, or
+                      // without them taken from the pedestal its shortest frames pile up
+                      // on (the shape alone said 48 and the chain ended at sigma +0.97
+                      // deg, albedo +5.6 %, lamp 2.9 %).
+                      CameraKind{"srgb8black64dark", 8, synth::ResponseCurve::kSrgb, 64, 4},
+                      CameraKind{"srgb8black64", 8, synth::ResponseCurve::kSrgb, 64, 0}),
+    [](const auto& info) { return std::string(info.param.name); });
 
 // Maps through the user's own calibrations (issue 27's second target: within twice the targets
 // met with the renderer's calibrations, MapsCli.TexturedSessionOneMaterial): the textured preset
@@ -236,8 +236,8 @@ TEST(UserChainMaps, TexturedSampleWithinTwiceTheRenderersCalibrationTargets) {
   scene.camera.intrinsics[2] = 319.5;
   scene.camera.intrinsics[3] = 239.5;
   scene.views.per_ring = 3;
-  const UserChainDirs d =
-      RenderAndCalibrate(dir.path(), CameraKind{"gamma12in16", 12, "gamma", 64}, &scene);
+  const UserChainDirs d = RenderAndCalibrate(
+      dir.path(), CameraKind{"gamma12in16", 12, synth::ResponseCurve::kGamma, 64}, &scene);
   const fs::path out = dir.path() / "maps";
   const testing::CommandResult r = testing::RunGonio(fmt::format(
       "maps --session {} --camera {} --photometric {} --white-albedo 0.8 --texel 1.2 --out {}",
