@@ -30,10 +30,9 @@ const json& SelectedBlock(const json& j, const std::string& where) {
 bool IsRelative(const json& j, const json& block) {
   if (block.contains("scale") && block["scale"].is_number()) return true;
   if (j.value("relative", false) == true) return true;
-  const char* lamp = j.contains("lamp") ? "lamp" : "light";  // "light" in older fit.json
-  if (j.contains(lamp) && j[lamp].is_object() && j[lamp].contains("absolute")) {
-    return !j[lamp]["absolute"].get<bool>();
-  }
+  if (!j.contains("lamp") && !j.contains("light")) return false;
+  const json& lamp = AtKeyOrOld(j, "lamp", "light");  // "light" in older fit.json
+  if (lamp.is_object() && lamp.contains("absolute")) return !lamp["absolute"].get<bool>();
   return false;
 }
 

@@ -14,7 +14,6 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "common/math.h"
-#include "common/option_words.h"
 #include "common/parallel.h"
 #include "common/stats.h"
 #include "estimation/joint/joint_fit_problem.h"
