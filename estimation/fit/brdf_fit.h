@@ -67,6 +67,9 @@ struct BrdfFitResult {
   double aic = 0, bic = 0;
   std::optional<double> cv_rms;  // K-fold cross-validation RMS on held-out samples
   bool converged = false;
+  // A search candidate stopped once it could not beat an earlier fit (estimation/joint/
+  // joint_selection.cc): its figures are where it stopped, not its minimum.
+  bool stopped_early = false;
   std::string message;         // why a fit failed, or solver notes
   Eigen::MatrixXd covariance;  // of the model parameters (and scale last, when relative)
 

@@ -166,7 +166,9 @@ std::string ModelSelectionResult::Report() const {
     s << fmt::format("{:<28} {:>3} {:>9.4f} {:>11.2f} {:>11.2f} {:>10}{}\n", c.model, c.n_params,
                      c.rel_rms, c.aic, c.bic,
                      c.cv_rms ? fmt::format("{:.4g}", *c.cv_rms) : std::string("-"),
-                     k == selected ? "  <- selected" : "");
+                     k == selected     ? "  <- selected"
+                     : c.stopped_early ? "  (stopped: cannot win)"
+                                       : "");
   }
   s << "selected: " << reason << "\n";
   if (selected >= 0) s << Selected().Report() << "\n";
@@ -200,6 +202,7 @@ nlohmann::json ToJson(const BrdfFitResult& fit) {
                       {"bic", FiniteOrNull(fit.bic)},
                       {"cv_rms", OptionalNumber(fit.cv_rms)},
                       {"converged", fit.converged}};
+  if (fit.stopped_early) j["stopped_early"] = true;
   if (fit.scale != 1.0 || fit.scale_stddev) {
     j["scale"] = FiniteOrNull(fit.scale);
     j["scale_stddev"] = OptionalNumber(fit.scale_stddev);

@@ -97,6 +97,7 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
     return r;
   }
   m.converged = true;
+  m.stopped_early = s.stopped_early;
   m.params = s.shared;
   for (int k = 0; k < info.num_params(); ++k) {
     if (info.params[k].per_channel) m.params[k] = s.chan[0][k];

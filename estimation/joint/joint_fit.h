@@ -83,6 +83,10 @@ struct JointFitOptions {
   // function tolerance). The model search's fits use a looser one derived from the criterion's
   // margin (joint_selection.cc SearchTolerance); the reported fit uses this one.
   double function_tolerance = 1e-10;
+  // Set by the model search only (joint_selection.cc "Stopping a candidate that cannot win"):
+  // the lowest weighted sum of squares of the search's earlier stages. A candidate's solve
+  // stops once it cannot get below it within its iterations; infinite (never) elsewhere.
+  double search_weighted_ssr_to_beat = INFINITY;
   int threads = 0;
   UncertaintyOptions uncertainty;
   void Check() const;

@@ -82,6 +82,9 @@ void JointFitOptions::Check() const {
     throw InputError("relative noise floor must be in [0, 1)");
   }
   if (cv_folds < 2) throw InputError("cv folds must be >= 2");
+  if (!(search_weighted_ssr_to_beat > 0)) {
+    throw InputError("joint fit: the search's cost to beat must be > 0 (or infinite)");
+  }
   if (!(function_tolerance > 0 && function_tolerance < 1)) {
     throw InputError("function tolerance must be in (0, 1)");
   }

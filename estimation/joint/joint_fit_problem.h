@@ -13,6 +13,7 @@
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
+#include <spdlog/spdlog.h>
 
 #include "common/math.h"
 #include "common/parallel.h"
@@ -157,6 +158,43 @@ struct State {
   double height_offset = 0;  // metres, added to board.json's sample height when fitted
   double cost = INFINITY;
   bool usable = false;
+  bool stopped_early = false;  // SearchStop ended the solve (a candidate that cannot win)
+};
+
+// Stopping a candidate that cannot win (docs/pipeline.md "Staged search"). A search candidate
+// is selected only if its criterion beats every earlier stage's fit; those have no more
+// parameters, so it needs a weighted sum of squares below the lowest of theirs (`to_beat`).
+// Its robust cost C is at most half its sum of squares (Huber, Cauchy and soft-L1 all have
+// rho(s) <= s), so a solve whose cost, shrinking at the fastest rate of its last kWindow
+// successful steps for every iteration it has left, stays above to_beat / 2 cannot reach it: it
+// is stopped there. A solve's rate of descent falls as it nears its minimum, so the projection
+// is generous (and the bound loose where residuals are large, C well below half the squares);
+// the iteration limit would end such a solve anyway.
+class SearchStop : public ceres::IterationCallback {
+ public:
+  SearchStop(double to_beat, int max_iterations) : to_beat_(to_beat), max_(max_iterations) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& it) override {
+    const double before = it.cost + it.cost_change;
+    if (it.iteration == 0 || !it.step_is_successful || !(before > 0)) {
+      return ceres::SOLVER_CONTINUE;
+    }
+    rates_[successful_++ % kWindow] = std::clamp(it.cost_change / before, 0.0, 1.0);
+    if (successful_ < kWindow) return ceres::SOLVER_CONTINUE;
+    const double rate = *std::max_element(rates_.begin(), rates_.end());
+    const double left = std::max(0, max_ - it.iteration);
+    if (2.0 * it.cost * std::pow(1.0 - rate, left) <= to_beat_) return ceres::SOLVER_CONTINUE;
+    stopped_ = true;
+    return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+  }
+  bool stopped() const { return stopped_; }
+
+ private:
+  static constexpr int kWindow = 5;
+  double to_beat_;
+  int max_;
+  std::array<double, kWindow> rates_{};
+  int successful_ = 0;
+  bool stopped_ = false;
 };
 
 template <typename M>
@@ -273,8 +311,14 @@ void Solve(const ObservationSet& data, const std::vector<size_t>& use, const Mod
   // Armijo test at full length, as almost every step does, is the same either way.
   so.line_search_interpolation_type = ceres::QUADRATIC;
   so.num_threads = ResolveThreads(o.threads);
+  SearchStop stop(o.search_weighted_ssr_to_beat, o.max_iterations);
+  if (std::isfinite(o.search_weighted_ssr_to_beat)) so.callbacks.push_back(&stop);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  s->stopped_early = stop.stopped();
+  spdlog::debug("{}: {} iterations, {} residual blocks, cost {:.6g} -> {:.6g}, {:.3f} s", info.name,
+                summary.iterations.size(), summary.num_residual_blocks, summary.initial_cost,
+                summary.final_cost, summary.total_time_in_seconds);
   s->cost = summary.final_cost;
   s->usable = summary.IsSolutionUsable() && std::isfinite(summary.final_cost) &&
               s->lamp.allFinite() && std::isfinite(s->intensity);

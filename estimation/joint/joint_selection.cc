@@ -117,6 +117,26 @@ size_t FreeParameters(const ModelInfo& info, int channels, const JointFitOptions
   return k;
 }
 
+// The weighted sum of squares a candidate of `stage` must get below to be selected over the
+// earlier stages' `fits` (joint_fit_problem.h SearchStop): the lowest of theirs, raised by the
+// most a lower numerical rank could gain it in the criterion (all its free parameters' penalty,
+// exp(k max(2, log n) / n)). Infinite, so that no solve stops, for `--models all` (a comparison
+// table) and cross-validation (held-out error, not the sum of squares, decides).
+double SsrToBeat(const std::vector<JointFitResult>& fits, const std::vector<std::string>& stage,
+                 int channels, const JointFitOptions& o) {
+  if (o.exhaustive || o.criterion == Criterion::kCv) return INFINITY;
+  double best = INFINITY, n = 0;
+  for (const auto& f : fits) {
+    if (!f.material.converged || !(f.material.weighted_ssr > 0)) continue;
+    best = std::min(best, f.material.weighted_ssr);
+    n = static_cast<double>(f.material.n_samples);
+  }
+  if (!std::isfinite(best) || !(n > 1)) return INFINITY;
+  size_t k = 0;
+  for (const auto& name : stage) k = std::max(k, FreeParameters(FindModel(name), channels, o));
+  return best * std::exp(static_cast<double>(k) * std::max(2.0, std::log(n)) / n);
+}
+
 // Fewer residuals than a model's free parameters leave some of them anywhere: such a fit
 // would report values with a meaningless (or zero) spread. Refused before any solve.
 void CheckEnoughResiduals(const ObservationSet& data, const std::vector<std::string>& names,
@@ -200,7 +220,9 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
   Progress progress("joint fit candidates", names.size());
   std::string stopped;
   for (const auto& stage : Stages(names)) {
-    const auto fits = FitStage(stage, data, use, light0, search, &progress);
+    JointFitOptions stage_options = search;
+    stage_options.search_weighted_ssr_to_beat = SsrToBeat(out->fits, stage, data.channels, search);
+    const auto fits = FitStage(stage, data, use, light0, stage_options, &progress);
     bool explained = false;
     for (const auto& f : fits) {
       explained = explained || ExplainsToTheNoise(f);

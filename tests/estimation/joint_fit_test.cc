@@ -10,6 +10,7 @@
 
 #include "common/error.h"
 #include "common/math.h"
+#include "estimation/joint/joint_fit_problem.h"
 #include "reflectance/oren_nayar.h"
 #include "tests/estimation/synthetic_observations.h"
 #include "tests/test_util.h"
@@ -84,6 +85,65 @@ TEST(JointFit, CrossValidationNeedsTwoFrames) {
   o.criterion = Criterion::kCv;
   o.candidates = {"lambert"};
   EXPECT_THROW(FitAndSelect(Synthesize(1, 1, true), o), InputError);
+}
+
+// SearchStop (joint_fit_problem.h) on iteration summaries: a solve far above the cost to beat
+// and descending slowly stops; one near it, or descending fast, or with only failed steps
+// since its start, goes on.
+ceres::CallbackReturnType Feed(joint_fit_internal::SearchStop* stop, double cost, double rate,
+                               int iterations, bool successful = true) {
+  ceres::CallbackReturnType last = ceres::SOLVER_CONTINUE;
+  for (int i = 0; i <= iterations && last == ceres::SOLVER_CONTINUE; ++i) {
+    ceres::IterationSummary it;
+    it.iteration = i;
+    it.step_is_successful = successful;
+    it.cost = cost;
+    it.cost_change = i == 0 ? 0.0 : cost * rate / (1 - rate);
+    last = (*stop)(it);
+    cost *= 1 - rate;
+  }
+  return last;
+}
+
+TEST(SearchStop, StopsOnlyASolveThatCannotReachTheCostToBeat) {
+  using joint_fit_internal::SearchStop;
+  // Cost 1000 falling 1% a step: 2 x 951 x 0.99^95 = 732 > 100 after the 5 steps of the window.
+  SearchStop slow(100, 100);
+  EXPECT_EQ(Feed(&slow, 1000, 0.01, 5), ceres::SOLVER_TERMINATE_SUCCESSFULLY);
+  EXPECT_TRUE(slow.stopped());
+  // The same start falling 10% a step reaches 1000 x 0.9^100 ~ 0.03: it goes on.
+  SearchStop fast(100, 100);
+  EXPECT_EQ(Feed(&fast, 1000, 0.10, 20), ceres::SOLVER_CONTINUE);
+  // Already within reach (2 x 45 < 100) however slowly it falls.
+  SearchStop near(100, 100);
+  EXPECT_EQ(Feed(&near, 45, 0.001, 50), ceres::SOLVER_CONTINUE);
+  // Failed steps are no evidence of the rate: never stopped on them alone.
+  SearchStop failed(100, 100);
+  EXPECT_EQ(Feed(&failed, 1000, 0.0, 30, false), ceres::SOLVER_CONTINUE);
+  EXPECT_FALSE(failed.stopped());
+}
+
+// The staged search stops a candidate that cannot beat an earlier stage (torrance-sparrow on an
+// Oren-Nayar sample: far above lambert and descending slowly, measured) and chooses what the
+// exhaustive table, which stops nothing, chooses.
+TEST(SearchStop, TheSearchChoosesWhatTheFullTableChooses) {
+  const ObservationSet data = Synthesize(12, 1, true, 0.01);
+  JointFitOptions o;
+  o.white_albedo = 0.8;
+  o.ambient = AmbientTerm::kNone;
+  o.sample_height = NuisanceTerm::kNone;
+  o.candidates = {"lambert", "minnaert", "torrance-sparrow", "tson"};
+  const JointSelectionResult search = FitAndSelect(data, o);
+  o.exhaustive = true;
+  const JointSelectionResult table = FitAndSelect(data, o);
+  ASSERT_EQ(search.fits.size(), 4u);
+  EXPECT_EQ(search.selection.Selected().model, table.selection.Selected().model);
+  const BrdfFitResult& stopped = search.fits[2].material;
+  ASSERT_EQ(stopped.model, "torrance-sparrow");
+  EXPECT_TRUE(stopped.stopped_early) << search.Report();
+  EXPECT_GT(stopped.weighted_ssr, search.fits[0].material.weighted_ssr);
+  EXPECT_TRUE(ToJson(search.selection)["candidates"][2].value("stopped_early", false));
+  for (const auto& f : table.fits) EXPECT_FALSE(f.material.stopped_early) << f.material.model;
 }
 
 using testing::InputErrorOf;
