@@ -91,6 +91,9 @@ struct MapsCandidate {
   double chi2 = 0, bic = 0;
   size_t parameters = 0, residuals = 0;
   std::vector<double> cluster_roughness, cluster_roughness_sd;
+  // Per shared value (roughness per cluster, lamp x y z, intensity, as fitted): how far the
+  // views' scatter widened its standard deviation (TexelFit::shared_sd_factor).
+  std::vector<double> shared_sd_factor;
   double seconds = 0;
 };
 

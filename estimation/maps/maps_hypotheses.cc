@@ -25,6 +25,7 @@ MapsCandidate CandidateOf(const TexelFit& f) {
   c.residuals = f.residuals;
   c.cluster_roughness = f.cluster_r;
   c.cluster_roughness_sd = f.cluster_r_sd;
+  c.shared_sd_factor = f.shared_sd_factor;
   c.seconds = f.seconds;
   return c;
 }

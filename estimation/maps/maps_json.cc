@@ -94,6 +94,7 @@ json CandidatesJson(const MapsResult& r) {
                    {"residuals", c.residuals},
                    {"cluster_roughness", c.cluster_roughness},
                    {"cluster_roughness_sd", c.cluster_roughness_sd},
+                   {"shared_sd_factor", c.shared_sd_factor},
                    {"seconds", c.seconds}});
   }
   return out;

@@ -180,7 +180,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   if (uniform) {
     lamp.position = uniform->lamp_position;
     lamp.intensity = uniform->intensity;
-    lamp.refine_position = true;
+    lamp.refine_position = lamp.position_fitted = true;
   }
   const double fit_s = SecondsSince(t_fit);
   const auto t_sample = std::chrono::steady_clock::now();

@@ -22,22 +22,35 @@ using namespace texel_internal;
 
 namespace {
 
+// Each view's part of a texel's gradient over its P + S local unknowns (TexelSystem's sink).
+struct ViewGradients {
+  std::vector<LocalVector>* per_view;
+  void operator()(size_t v, int, const int* idx, const double* row, int nz, double z, double weight,
+                  double) const {
+    for (int a = 0; a < nz; ++a) (*per_view)[v](idx[a]) += weight * row[a] * z;
+  }
+};
+
 // The shared system reduced by every fitted texel (Schur complement at the texels' current
 // values), plus the white reference. With `cov_shared` (the shared parameters' covariance)
-// also the texels' standard deviations into `fit`.
+// also the texels' standard deviations into `fit`. With `view_scores`, each view's part of the
+// reduced gradient (its texel residuals only): what SharedFit::ViewScatter sums.
 template <typename Basis, int D>
 void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& fit,
                    Eigen::MatrixXd* H, Eigen::VectorXd* g, const Eigen::MatrixXd* cov_shared,
-                   TexelFit* sd_out) {
+                   TexelFit* sd_out, std::vector<Eigen::VectorXd>* view_scores = nullptr) {
   const int G = s.GlobalShared();
   H->setZero(G, G);
   g->setZero(G);
   std::mutex mutex;
-  const size_t n = x.size();
+  const size_t n = x.size(), views = s.data->views.size();
   const int P = s.P(), S = s.S();
+  if (view_scores) view_scores->assign(views, Eigen::VectorXd::Zero(G));
   ParallelFor(n, s.options->threads, [&](size_t b, size_t e) {
     Eigen::MatrixXd Hl = Eigen::MatrixXd::Zero(G, G);
     Eigen::VectorXd gl = Eigen::VectorXd::Zero(G);
+    std::vector<Eigen::VectorXd> scores(view_scores ? views : 0, Eigen::VectorXd::Zero(G));
+    std::vector<LocalVector> per_view(view_scores ? views : 0);
     std::vector<int> map;
     LocalMatrix Ht;
     LocalVector gt;
@@ -56,6 +69,14 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
         for (int a = 0; a < S && s.Shares(t); ++a) {
           gl(map[a]) += gred(a);
           for (int c = 0; c < S; ++c) Hl(map[a], map[c]) += red(a, c);
+        }
+        if (view_scores && s.Shares(t)) {
+          for (auto& u : per_view) u.setZero(P + S);
+          TexelSystem<Basis, D>(s, t, x[t], true, &Ht, &gt, nullptr, ViewGradients{&per_view});
+          for (size_t v = 0; v < views; ++v) {
+            const LocalVector reduced = per_view[v].tail(S) - AiB.transpose() * per_view[v].head(P);
+            for (int a = 0; a < S; ++a) scores[v](map[a]) += reduced(a);
+          }
         }
       }
       if (!sd_out) continue;
@@ -90,6 +111,7 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
     std::lock_guard<std::mutex> lock(mutex);
     *H += Hl;
     *g += gl;
+    for (size_t v = 0; v < scores.size(); ++v) (*view_scores)[v] += scores[v];
   });
 }
 
@@ -176,8 +198,15 @@ class SharedFit {
     for (int it = 0; HasShared() && it < o_.outer_iterations; ++it) {
       Reduced(nullptr, nullptr);
       Eigen::MatrixXd A = H_;
+      Eigen::VectorXd g = g_;
       for (int k = 0; k < A.rows(); ++k) A(k, k) += 1e-9 * A(k, k) + 1e-12;
-      const Eigen::VectorXd delta = A.ldlt().solve(-g_);
+      if (s_.lamp_held) {  // a step of the others with the lamp where it is
+        A.middleRows(il_, 3).setZero();
+        A.middleCols(il_, 3).setZero();
+        A.block(il_, il_, 3, 3).setIdentity();
+        g.segment(il_, 3).setZero();
+      }
+      const Eigen::VectorXd delta = A.ldlt().solve(-g);
       if (!delta.allFinite() || delta.dot(H_ * delta) < 0.01) break;
       if (!TryStep(delta)) break;
     }
@@ -197,6 +226,7 @@ class SharedFit {
         inv(k) = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff() ? 1.0 / inv(k) : 0.0;
       }
       cov = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+      ViewScatter(&cov);
       fit_->cluster_r_sd.assign(K_, 0.0);
       for (int k = 0; k < K_; ++k) fit_->cluster_r_sd[k] = std::sqrt(std::max(0.0, cov(k, k)));
       if (il_ >= 0) {
@@ -263,6 +293,51 @@ class SharedFit {
     Eigen::MatrixXd Hw = Eigen::MatrixXd::Zero(s_.GlobalShared() + 4, s_.GlobalShared() + 4);
     Eigen::VectorXd gw = Eigen::VectorXd::Zero(s_.GlobalShared() + 4);
     return total + WhiteSystem(s_, lamp_, -1, -1, &Hw, &gw);
+  }
+
+  // The shared values' covariance `cov` (from the reduced system: every residual independent)
+  // widened where the views' scatter says more. A view's errors are not independent over its
+  // texels: its pose, its exposure and the calibration at its pixels move all of them together,
+  // and the shared values (one roughness from every texel) do not average those out. The
+  // cluster-robust covariance with the views as clusters, H^-1 (V / (V - 1) sum_v psi_v psi_v' +
+  // H_white) H^-1 (psi_v: view v's part of the reduced gradient, the white reference's residuals
+  // counted as independent), measures them; each shared value's variance becomes the larger of
+  // the two, its correlations kept (cov -> D cov D, D diagonal, >= 1). fit_->shared_sd_factor
+  // holds D. docs/maps.md "Standard deviations".
+  void ViewScatter(Eigen::MatrixXd* cov) {
+    const int G = static_cast<int>(cov->rows());
+    std::vector<Eigen::VectorXd> scores;
+    if (s_.lamp_cols) {
+      ReducedSystem<Basis, 6>(s_, x_, *fit_, &H_, &g_, nullptr, nullptr, &scores);
+    } else {
+      ReducedSystem<Basis, 3>(s_, x_, *fit_, &H_, &g_, nullptr, nullptr, &scores);
+    }
+    Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(G, G);
+    Eigen::VectorXd gw = Eigen::VectorXd::Zero(G);
+    WhiteSystem(s_, lamp_, il_, ii_, &meat, &gw);
+    int views = 0;
+    Eigen::MatrixXd outer = Eigen::MatrixXd::Zero(G, G);
+    for (const auto& psi : scores) {
+      if (psi.squaredNorm() == 0) continue;
+      outer += psi * psi.transpose();
+      ++views;
+    }
+    fit_->shared_sd_factor.assign(G, 1.0);
+    if (views < 2) return;
+    meat += outer * (static_cast<double>(views) / (views - 1));
+    const Eigen::MatrixXd robust = (*cov) * meat * (*cov);
+    for (int k = 0; k < G; ++k) {
+      spdlog::debug("maps: shared value {}: sd {:.4g}, from the views' scatter {:.4g} ({} views)",
+                    k, std::sqrt((*cov)(k, k)), std::sqrt(robust(k, k)), views);
+    }
+    for (int k = 0; k < G; ++k) {
+      if ((*cov)(k, k) > 0 && robust(k, k) > (*cov)(k, k)) {
+        fit_->shared_sd_factor[k] = std::sqrt(robust(k, k) / (*cov)(k, k));
+      }
+    }
+    const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(fit_->shared_sd_factor.data(), G);
+    *cov = d.asDiagonal() * (*cov) * d.asDiagonal();
+    Reduced(nullptr, nullptr);  // H_ and g_ as the caller left them
   }
 
   void Reduced(const Eigen::MatrixXd* cov, TexelFit* sd) {
@@ -385,7 +460,9 @@ TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<
       if (cnt[c] > 0) s.cluster_r[c] = sum[c] / cnt[c];
     }
   }
-  s.lamp_cols = lamp.refine_position && lamp.frame != MapsLamp::Frame::kPerView;
+  s.lamp_cols =
+      (lamp.refine_position || lamp.position_fitted) && lamp.frame != MapsLamp::Frame::kPerView;
+  s.lamp_held = s.lamp_cols && !lamp.refine_position;
   s.intensity_col = lamp.white_albedo.has_value() && !data.white.empty();
   SetLamp(data, lamp, &s);
   VisitMapsModel(o.model, [&](auto basis) {

@@ -39,6 +39,10 @@ struct MapsLamp {
   std::vector<Eigen::Vector3d> per_view;               // kPerView: board frame, per view
   double intensity = 1;
   bool refine_position = false;  // fitted with the maps (kBoard, kCamera)
+  // Placed by a fit (the uniform fit, refined with the maps): where a later fit holds it, its
+  // columns stay in that fit's shared system, so the shared values' standard deviations carry
+  // its uncertainty (texel_solver.cc UpdateShared; docs/maps.md "Standard deviations").
+  bool position_fitted = false;
   // A white reference of known albedo fixes the intensity (and the albedo's absolute scale);
   // without one the intensity stays as given and the albedo is relative.
   std::optional<double> white_albedo;
@@ -87,6 +91,9 @@ struct TexelFit {
   // its own chi2 per degree of freedom where that exceeds 1.
   std::vector<uint8_t> edge;
   std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters
+  // Per shared value (cluster roughness, lamp x y z, intensity, as fitted): the factor by which
+  // the views' scatter widened its standard deviation (texel_solver.cc ViewScatter; 1: not).
+  std::vector<double> shared_sd_factor;
   // Standard deviations: per channel parameter, of the normal's direction (RMS angle, deg),
   // of the roughness.
   std::vector<float> sd_w, sd_normal_deg, sd_r;

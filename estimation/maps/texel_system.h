@@ -45,6 +45,7 @@ struct Pass {
   const std::vector<uint8_t>* edge = nullptr;  // per texel, or empty: TexelFit::edge
   std::vector<double> cluster_r;
   bool lamp_cols = false, intensity_col = false;  // shared columns besides a shared roughness
+  bool lamp_held = false;  // lamp columns for the uncertainty only: the lamp does not move
   double inv_slope_var = 0, inv_r_var = 0;
 
   bool per_texel_r() const { return info.has_roughness && mode == RoughnessMode::kTexel; }

@@ -318,6 +318,68 @@ TEST(TexelSolver, EvidenceChoosesOneRoughnessPerMaterial) {
       e.normal_deg, e.normal_z);
 }
 
+// Each view's radiance scaled by its own error (an exposure off by 1.5%, the same for all its
+// texels): the shared roughness's error is then the views', not the pixels', and does not
+// average out over texels. The cluster-robust standard deviation (texel_solver.cc ViewScatter)
+// must cover it over seeds; with independent pixel noise only it must stay near the pixels'.
+TEST(TexelSolver, AViewsCommonErrorWidensTheSharedStandardDeviation) {
+  double z2_common = 0, z2_clean = 0, factor_clean = 0;
+  const int seeds = 6;
+  for (int seed = 0; seed < seeds; ++seed) {
+    for (bool common : {true, false}) {
+      Truth truth;
+      Eigen::Vector3d lamp_position;
+      TexelData data = Synthesize(16, DegToRad(30), DegToRad(30), &truth, &lamp_position, seed);
+      std::mt19937 rng(100 + seed);
+      std::normal_distribution<double> gauss(0, 1);
+      for (auto& view : data.samples) {
+        const double f = common ? 1 + 0.015 * gauss(rng) : 1.0;
+        for (float& L : view.radiance) L = static_cast<float>(L * f);
+      }
+      MapsLamp lamp;
+      lamp.position = lamp_position;
+      const TexelSolveOptions o = Options();
+      const TexelFit first =
+          FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, NoiseModel(), nullptr, o);
+      const TexelFit fit = FitTexels(data, RoughnessMode::kSample, {}, 0, lamp,
+                                     EstimateNoise(data, first, 0.0, o), &first, o);
+      ASSERT_EQ(fit.shared_sd_factor.size(), 1u);
+      const double z = (fit.cluster_r[0] - DegToRad(30)) / fit.cluster_r_sd[0];
+      std::printf("seed %d %s: sigma %.3f deg +- %.3f (z %.2f), view factor %.2f\n", seed,
+                  common ? "per-view error" : "pixel noise only", RadToDeg(fit.cluster_r[0]),
+                  RadToDeg(fit.cluster_r_sd[0]), z, fit.shared_sd_factor[0]);
+      (common ? z2_common : z2_clean) += z * z / seeds;
+      if (!common) factor_clean = std::max(factor_clean, fit.shared_sd_factor[0]);
+    }
+  }
+  EXPECT_LT(std::sqrt(z2_common), 1.6);
+  EXPECT_LT(std::sqrt(z2_clean), 1.6);
+  EXPECT_LT(factor_clean, 1.5);
+}
+
+// A lamp placed by an earlier fit and held (MapsLamp::position_fitted): it does not move, and
+// the roughness's standard deviation carries its uncertainty, wider than with a known lamp.
+TEST(TexelSolver, AHeldFittedLampKeepsItsUncertainty) {
+  Truth truth;
+  Eigen::Vector3d lamp_position;
+  const TexelData data = Synthesize(16, DegToRad(30), DegToRad(30), &truth, &lamp_position);
+  MapsLamp known;
+  known.position = lamp_position + Eigen::Vector3d(0.002, 0, 0);
+  MapsLamp fitted = known;
+  fitted.position_fitted = true;
+  const TexelSolveOptions o = Options();
+  const TexelFit a =
+      FitTexels(data, RoughnessMode::kSample, {}, 0, known, NoiseModel(), nullptr, o);
+  const TexelFit b =
+      FitTexels(data, RoughnessMode::kSample, {}, 0, fitted, NoiseModel(), nullptr, o);
+  EXPECT_EQ(b.lamp.position, fitted.position);
+  EXPECT_NEAR(b.cluster_r[0], a.cluster_r[0], 1e-3 * a.cluster_r[0]);
+  std::printf("roughness sd: known lamp %.4g, fitted lamp held %.4g\n", a.cluster_r_sd[0],
+              b.cluster_r_sd[0]);
+  EXPECT_GT(b.cluster_r_sd[0], 1.2 * a.cluster_r_sd[0]);
+  ASSERT_TRUE(b.lamp.position_sd.has_value());
+}
+
 TEST(TexelSolver, RefinesTheLampWithTheMaps) {
   Truth truth;
   Eigen::Vector3d lamp_position;
