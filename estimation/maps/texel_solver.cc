@@ -208,7 +208,11 @@ class SharedFit {
       }
       const Eigen::VectorXd delta = A.ldlt().solve(-g);
       if (!delta.allFinite() || delta.dot(H_ * delta) < 0.01) break;
-      if (!TryStep(delta)) break;
+      const bool moved = TryStep(delta);
+      spdlog::debug("maps: shared step {}: cost {:.6g}, lamp ({:.4f}, {:.4f}, {:.4f}), {}", it,
+                    cost_, lamp_.position.x(), lamp_.position.y(), lamp_.position.z(),
+                    moved ? "taken" : "no gain");
+      if (!moved) break;
     }
   }
 
