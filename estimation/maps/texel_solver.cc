@@ -196,7 +196,8 @@ class SharedFit {
   // step is below a tenth of the shared values' standard deviation (delta' H delta < 0.01).
   void UpdateShared() {
     for (int it = 0; HasShared() && it < o_.outer_iterations; ++it) {
-      Reduced(nullptr, nullptr);
+      // A held lamp's columns are left out of the step below: no need of their derivatives.
+      Reduced(nullptr, nullptr, nullptr, !s_.lamp_held);
       Eigen::MatrixXd A = H_;
       Eigen::VectorXd g = g_;
       for (int k = 0; k < A.rows(); ++k) A(k, k) += 1e-9 * A(k, k) + 1e-12;
@@ -223,14 +224,15 @@ class SharedFit {
     fit_->sd_r.assign(n_, 0.f);
     Eigen::MatrixXd cov;
     if (HasShared()) {
-      Reduced(nullptr, nullptr);
+      std::vector<Eigen::VectorXd> scores;
+      Reduced(nullptr, nullptr, &scores);
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H_);
       Eigen::VectorXd inv = eig.eigenvalues();
       for (int k = 0; k < inv.size(); ++k) {
         inv(k) = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff() ? 1.0 / inv(k) : 0.0;
       }
       cov = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
-      ViewScatter(&cov);
+      ViewScatter(scores, &cov);
       fit_->cluster_r_sd.assign(K_, 0.0);
       for (int k = 0; k < K_; ++k) fit_->cluster_r_sd[k] = std::sqrt(std::max(0.0, cov(k, k)));
       if (il_ >= 0) {
@@ -308,14 +310,8 @@ class SharedFit {
   // counted as independent), measures them; each shared value's variance becomes the larger of
   // the two, its correlations kept (cov -> D cov D, D diagonal, >= 1). fit_->shared_sd_factor
   // holds D. docs/maps.md "Standard deviations".
-  void ViewScatter(Eigen::MatrixXd* cov) {
+  void ViewScatter(const std::vector<Eigen::VectorXd>& scores, Eigen::MatrixXd* cov) {
     const int G = static_cast<int>(cov->rows());
-    std::vector<Eigen::VectorXd> scores;
-    if (s_.lamp_cols) {
-      ReducedSystem<Basis, 6>(s_, x_, *fit_, &H_, &g_, nullptr, nullptr, &scores);
-    } else {
-      ReducedSystem<Basis, 3>(s_, x_, *fit_, &H_, &g_, nullptr, nullptr, &scores);
-    }
     Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(G, G);
     Eigen::VectorXd gw = Eigen::VectorXd::Zero(G);
     WhiteSystem(s_, lamp_, il_, ii_, &meat, &gw);
@@ -341,14 +337,17 @@ class SharedFit {
     }
     const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(fit_->shared_sd_factor.data(), G);
     *cov = d.asDiagonal() * (*cov) * d.asDiagonal();
-    Reduced(nullptr, nullptr);  // H_ and g_ as the caller left them
   }
 
-  void Reduced(const Eigen::MatrixXd* cov, TexelFit* sd) {
-    if (s_.lamp_cols) {
-      ReducedSystem<Basis, 6>(s_, x_, *fit_, &H_, &g_, cov, sd);
+  // The reduced shared system into H_ and g_ (ReducedSystem), the texels' standard deviations
+  // with `cov`, each view's reduced gradient with `scores`; the lamp's columns are zero
+  // without `lamp_derivatives` (Jets of 3 dimensions instead of 6).
+  void Reduced(const Eigen::MatrixXd* cov, TexelFit* sd,
+               std::vector<Eigen::VectorXd>* scores = nullptr, bool lamp_derivatives = true) {
+    if (s_.lamp_cols && lamp_derivatives) {
+      ReducedSystem<Basis, 6>(s_, x_, *fit_, &H_, &g_, cov, sd, scores);
     } else {
-      ReducedSystem<Basis, 3>(s_, x_, *fit_, &H_, &g_, cov, sd);
+      ReducedSystem<Basis, 3>(s_, x_, *fit_, &H_, &g_, cov, sd, scores);
     }
     WhiteSystem(s_, lamp_, il_, ii_, &H_, &g_);
   }
