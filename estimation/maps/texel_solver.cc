@@ -56,7 +56,13 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
     LocalVector gt;
     for (size_t t = b; t < e; ++t) {
       if (!fit.fitted[t]) continue;
-      TexelSystem<Basis, D>(s, t, x[t], true, &Ht, &gt);
+      const bool scored = view_scores && S > 0 && s.Shares(t);
+      if (scored) {
+        for (auto& u : per_view) u.setZero(P + S);
+        TexelSystem<Basis, D>(s, t, x[t], true, &Ht, &gt, nullptr, ViewGradients{&per_view});
+      } else {
+        TexelSystem<Basis, D>(s, t, x[t], true, &Ht, &gt);
+      }
       const LocalMatrix A = Ht.topLeftCorner(P, P);
       const Eigen::LDLT<LocalMatrix> ldlt(A);
       LocalMatrix AiB;
@@ -70,9 +76,7 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
           gl(map[a]) += gred(a);
           for (int c = 0; c < S; ++c) Hl(map[a], map[c]) += red(a, c);
         }
-        if (view_scores && s.Shares(t)) {
-          for (auto& u : per_view) u.setZero(P + S);
-          TexelSystem<Basis, D>(s, t, x[t], true, &Ht, &gt, nullptr, ViewGradients{&per_view});
+        if (scored) {
           for (size_t v = 0; v < views; ++v) {
             const LocalVector reduced = per_view[v].tail(S) - AiB.transpose() * per_view[v].head(P);
             for (int a = 0; a < S; ++a) scores[v](map[a]) += reduced(a);
