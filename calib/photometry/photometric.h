@@ -67,9 +67,10 @@ struct PhotometricCalibration {
                                        BlackLevelSource source);
 
   // radiance: CV_32FC(channels), variance: same, valid: CV_8U (0 where a channel is saturated
-  // or at/below the black level, where no radiance can be read).
+  // or at/below the black level, where no radiance can be read). threads: rows converted in
+  // parallel (common/parallel.h; 0 = every core), for callers that convert one frame at a time.
   void ToRadiance(const cv::Mat& raw, double exposure_s, double gain, cv::Mat* radiance,
-                  cv::Mat* variance, cv::Mat* valid) const;
+                  cv::Mat* variance, cv::Mat* valid, int threads = 1) const;
 
   // photometric.json: {"response": {...response.json...}, "vignette": FILE or null,
   // "read_noise_dn", "electrons_per_dn"}; the vignette is a 32-bit float TIFF next to it.

@@ -312,7 +312,7 @@ void ObservationExtractor::AddFrame(size_t f, const cv::Mat& raw, const Rigid3d&
 
   FrameImages im;
   photometric_.ToRadiance(raw, frames_[f].exposure_s, frames_[f].gain, &im.radiance, &im.variance,
-                          &im.valid);
+                          &im.valid, options_.threads);
   // The values the radiances come from: the response's error is a function of the value (with
   // a lamp-off frame subtracted, the lamp-on frame's).
   raw.convertTo(im.values, CV_MAKETYPE(CV_32F, raw.channels()));

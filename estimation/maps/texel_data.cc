@@ -22,9 +22,9 @@ struct FrameImages {
 };
 
 FrameImages Radiometry(const PhotometricCalibration& photometric, const cv::Mat& raw,
-                       double exposure_s, double gain) {
+                       double exposure_s, double gain, int threads) {
   FrameImages im;
-  photometric.ToRadiance(raw, exposure_s, gain, &im.radiance, &im.variance, &im.valid);
+  photometric.ToRadiance(raw, exposure_s, gain, &im.radiance, &im.variance, &im.valid, threads);
   const int C = im.radiance.channels();
   im.shot = cv::Mat(im.radiance.size(), im.radiance.type());
   for (int y = 0; y < raw.rows; ++y) {
@@ -174,7 +174,8 @@ void TexelSampler::AddFrame(
     throw InputError(what + ": image size differs from the camera model's");
   }
   const Pose& pose = poses_.at(k);
-  const FrameImages im = Radiometry(photometric_, raw, pose.exposure_s, pose.gain);
+  const FrameImages im =
+      Radiometry(photometric_, raw, pose.exposure_s, pose.gain, options_.threads);
   TexelView& view = data_.views[k];
   view.name = pose.file;
   view.board_from_cam = pose.cam_from_board.Inverse();
