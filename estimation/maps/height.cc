@@ -48,8 +48,8 @@ std::vector<float> IntegrateSlopes(const std::vector<float>& p, const std::vecto
       cg;
   // The heights are written as 32-bit floats (7 digits). The Poisson system's condition number
   // grows as the grid's side squared (about 3e4 at 512 x 512), so a relative residual of 1e-9
-  // bounds the heights' relative error near 3e-5, below the slopes' own errors; 1e-10 took 30%
-  // more iterations for digits the file does not keep.
+  // bounds the heights' relative error near 3e-5, below the slopes' own errors; 1e-10 spent
+  // iterations on digits the file does not keep.
   cg.setTolerance(1e-9);
   cg.setMaxIterations(4 * static_cast<int>(std::sqrt(static_cast<double>(unknowns))) + 200);
   cg.compute(A);

@@ -31,6 +31,42 @@ struct ViewGradients {
   }
 };
 
+// Texel t's standard deviations into `sd_out` from `cov`, the inverse of its own Gauss-Newton
+// matrix, plus the shared values' covariance `cov_shared` (when given) carried through AiB (its
+// dependence on them; `map`: its shared columns' global indices): albedo per channel, the
+// normal's direction (RMS angle, degrees) and sigma (per texel, or its cluster's).
+void TexelStandardDeviations(const Pass& s, size_t t, const State& x, LocalMatrix cov,
+                             const LocalMatrix& AiB, const std::vector<int>& map,
+                             const Eigen::MatrixXd* cov_shared, TexelFit* sd_out) {
+  const int S = s.S();
+  if (S > 0 && cov_shared) {
+    LocalMatrix Cs(S, S);
+    for (int a = 0; a < S; ++a) {
+      for (int c = 0; c < S; ++c) Cs(a, c) = (*cov_shared)(map[a], map[c]);
+    }
+    cov += AiB * Cs * AiB.transpose();
+  }
+  const int cm = s.C * s.m;
+  for (int k = 0; k < cm; ++k) sd_out->sd_w[t * cm + k] = std::sqrt(std::max(0.0, cov(k, k)));
+  // Covariance of the unit normal n = u / |u|, u = (-p, -q, -1): dn/d(p, q).
+  const Eigen::Vector3d u(-x.p, -x.q, -1.0);
+  const double un = u.norm();
+  const Eigen::Vector3d nn = u / un;
+  const Eigen::Matrix3d dn = (Eigen::Matrix3d::Identity() - nn * nn.transpose()) / un;
+  Eigen::Matrix<double, 3, 2> Jn;
+  Jn.col(0) = -dn.col(0);
+  Jn.col(1) = -dn.col(1);
+  const Eigen::Matrix2d Cpq = cov.block(cm, cm, 2, 2);
+  sd_out->sd_normal_deg[t] =
+      static_cast<float>(RadToDeg(std::sqrt(std::max(0.0, (Jn * Cpq * Jn.transpose()).trace()))));
+  if (s.per_texel_r()) {
+    sd_out->sd_r[t] = std::sqrt(std::max(0.0, cov(cm + 2, cm + 2)));
+  } else if (s.shared_r() && cov_shared) {
+    const int k = (*s.cluster)[t];
+    sd_out->sd_r[t] = std::sqrt(std::max(0.0, (*cov_shared)(k, k)));
+  }
+}
+
 // The shared system reduced by every fitted texel (Schur complement at the texels' current
 // values), plus the white reference. With `cov_shared` (the shared parameters' covariance)
 // also the texels' standard deviations into `fit`. With `view_scores`, each view's part of the
@@ -83,33 +119,9 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
           }
         }
       }
-      if (!sd_out) continue;
-      LocalMatrix cov = ldlt.solve(LocalMatrix::Identity(P, P));
-      if (S > 0 && cov_shared) {
-        LocalMatrix Cs(S, S);
-        for (int a = 0; a < S; ++a) {
-          for (int c = 0; c < S; ++c) Cs(a, c) = (*cov_shared)(map[a], map[c]);
-        }
-        cov += AiB * Cs * AiB.transpose();
-      }
-      const int cm = s.C * s.m;
-      for (int k = 0; k < cm; ++k) sd_out->sd_w[t * cm + k] = std::sqrt(std::max(0.0, cov(k, k)));
-      // Covariance of the unit normal n = u / |u|, u = (-p, -q, -1): dn/d(p, q).
-      const Eigen::Vector3d u(-x[t].p, -x[t].q, -1.0);
-      const double un = u.norm();
-      const Eigen::Vector3d nn = u / un;
-      const Eigen::Matrix3d dn = (Eigen::Matrix3d::Identity() - nn * nn.transpose()) / un;
-      Eigen::Matrix<double, 3, 2> Jn;
-      Jn.col(0) = -dn.col(0);
-      Jn.col(1) = -dn.col(1);
-      const Eigen::Matrix2d Cpq = cov.block(cm, cm, 2, 2);
-      sd_out->sd_normal_deg[t] = static_cast<float>(
-          RadToDeg(std::sqrt(std::max(0.0, (Jn * Cpq * Jn.transpose()).trace()))));
-      if (s.per_texel_r()) {
-        sd_out->sd_r[t] = std::sqrt(std::max(0.0, cov(cm + 2, cm + 2)));
-      } else if (s.shared_r() && cov_shared) {
-        const int k = (*s.cluster)[t];
-        sd_out->sd_r[t] = std::sqrt(std::max(0.0, (*cov_shared)(k, k)));
+      if (sd_out) {
+        TexelStandardDeviations(s, t, x[t], ldlt.solve(LocalMatrix::Identity(P, P)), AiB, map,
+                                cov_shared, sd_out);
       }
     }
     std::lock_guard<std::mutex> lock(mutex);
@@ -333,8 +345,6 @@ class SharedFit {
     for (int k = 0; k < G; ++k) {
       spdlog::debug("maps: shared value {}: sd {:.4g}, from the views' scatter {:.4g} ({} views)",
                     k, std::sqrt((*cov)(k, k)), std::sqrt(robust(k, k)), views);
-    }
-    for (int k = 0; k < G; ++k) {
       if ((*cov)(k, k) > 0 && robust(k, k) > (*cov)(k, k)) {
         fit_->shared_sd_factor[k] = std::sqrt(robust(k, k) / (*cov)(k, k));
       }
