@@ -313,7 +313,7 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                      "(too few to keep it) and moves the lamp by {:.1f} mm, {:.0f} times the "
                      "lamp's standard deviation; {}",
                      ambient ? "room light" : "a sample height off board.json's", u->z,
-                     1e3 * u->lamp_shift_m, u->shift_in_sd,
+                     1e3 * u->lamp_shift.norm(), u->shift_in_sd,
                      ambient ? "lamp-off frames (session.json lamp_off) settle it"
                              : "measure the sample's thickness into board.json sample_height_m"),
          all});

@@ -102,14 +102,17 @@ struct FrameResidual {
 
 // A nuisance term --ambient auto / --sample-height auto left out although the data could not
 // exclude it (joint_selection.cc NoteUnresolved): its trial stood between 2 and nuisance_min_z
-// of its final standard deviations out and moved the lamp by more than 3 of the lamp's, so the
-// result depends on it (pipeline/checks.cc warns).
+// of its final standard deviations out and moved the lamp by more than kShiftInSd of the
+// lamp's, so the result depends on it (pipeline/checks.cc warns). The calibration's part of the
+// lamp's bar is known only after the final fit: AddCalibrationUncertainty (calibration_error.h)
+// judges the shift again against the widened bar and drops a shift the bar covers.
 struct UnresolvedNuisance {
+  static constexpr double kShiftInSd = 3.0;
   enum class Term { kAmbient, kHeight };
   Term term = Term::kAmbient;
-  double z = 0;             // the term's |value| / sd at the final size
-  double lamp_shift_m = 0;  // how far fitting it moved the lamp
-  double shift_in_sd = 0;   // the same in the lamp's standard deviations (worst axis)
+  double z = 0;  // the term's |value| / sd at the final size
+  Eigen::Vector3d lamp_shift = Eigen::Vector3d::Zero();  // how far fitting it moved the lamp
+  double shift_in_sd = 0;  // the same in the lamp's standard deviations (worst axis)
 };
 
 struct JointFitResult {

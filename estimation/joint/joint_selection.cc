@@ -302,10 +302,10 @@ std::optional<UnresolvedNuisance> NoteUnresolved(const std::vector<NuisanceTrial
     for (int k = 0; k < 3; ++k) {
       if (sd[k] > 0) in_sd = std::max(in_sd, std::abs(shift[k]) / sd[k]);
     }
-    if (in_sd > 3.0 && (!worst || in_sd > worst->shift_in_sd)) {
+    if (in_sd > UnresolvedNuisance::kShiftInSd && (!worst || in_sd > worst->shift_in_sd)) {
       worst = UnresolvedNuisance{
           t.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight, t.z,
-          shift.norm(), in_sd};
+          shift, in_sd};
     }
   }
   return worst;

@@ -186,5 +186,28 @@ TEST(CalibrationError, BadOptionsAreInputErrors) {
   EXPECT_THROW(po.Check(), InputError);
 }
 
+// A nuisance the selection could not resolve moved the lamp by more than 3 of its statistical
+// standard deviations (joint_selection.cc NoteUnresolved). The calibration's part widens the
+// lamp's bar; the shift is judged again against it: kept (warned) when it still exceeds 3 of
+// the widened bar, dropped when the bar covers it.
+TEST(CalibrationError, AnUnresolvedNuisanceIsJudgedAgainstTheWidenedLampBar) {
+  JointFitResult fit;
+  fit.lamp_stddev = Eigen::Vector3d(0.001, 0.001, 0.001);
+  UnresolvedNuisance u;
+  u.lamp_shift = Eigen::Vector3d(0.006, 0.0, -0.002);
+  u.shift_in_sd = 6.0;
+  fit.unresolved_nuisance = u;
+  CalibrationPropagation p;
+  p.lamp_stddev = Eigen::Vector3d(0.001, 0.0, 0.0);  // x: sqrt(2) mm, 4.2 bars: still out
+  JointFitResult narrow = fit;
+  AddCalibrationUncertainty(p, &narrow);
+  ASSERT_TRUE(narrow.unresolved_nuisance);
+  EXPECT_NEAR(narrow.unresolved_nuisance->shift_in_sd, 6.0 / std::sqrt(2.0), 1e-9);
+  p.lamp_stddev = Eigen::Vector3d(0.003, 0.0, 0.0);  // x: 3.2 mm, 1.9 bars; z: 2 bars
+  JointFitResult wide = fit;
+  AddCalibrationUncertainty(p, &wide);
+  EXPECT_FALSE(wide.unresolved_nuisance);
+}
+
 }  // namespace
 }  // namespace gonio
