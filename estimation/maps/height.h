@@ -6,7 +6,7 @@
 // s the slope along the pair's axis (dh/dx or dh/dy), h measured along the outward normal, its
 // mean 0 over each connected region. A sparse positive semi-definite system (the graph
 // Laplacian with the slopes' divergence on the right: a discrete Poisson equation with the
-// natural boundary condition), solved by conjugate gradients.
+// natural boundary condition), solved by a sparse Cholesky factorisation.
 #pragma once
 
 #include <cstdint>

@@ -60,6 +60,31 @@ struct RegistryBasis {
   }
 };
 
+// oren-nayar's two evaluations at one albedo and at a half share their angles' trigonometry:
+// the same read-off as above through OrenNayar::FromTrig, with alpha, beta and their sines and
+// tangents computed once (the same operations as OrenNayar::Evaluate, so the same values).
+template <>
+struct RegistryBasis<OrenNayar> {
+  static constexpr int kChannelParams = 1;
+  template <typename T>
+  static void Eval(const Angles<T>& a, const T& r, T* B, T* Q) {
+    using std::cos;
+    using std::sin;
+    using std::tan;
+    T alpha, beta;
+    oren_nayar_internal::AlphaBeta(a, &alpha, &beta);
+    const T cos_phi = cos(a.phi), sin_alpha = sin(alpha), tan_beta = tan(beta);
+    const T tan_half_sum = tan(T(0.5) * (alpha + beta));
+    const T one[2] = {T(1), r};
+    const T half[2] = {T(0.5), r};
+    const T f1 = OrenNayar::FromTrig(one, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
+    const T fh =
+        OrenNayar::FromTrig(half, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
+    Q[0] = T(2) * (f1 - T(2) * fh);
+    B[0] = f1 - Q[0];
+  }
+};
+
 // kd / pi + ks D(h) G(l, v) / (4 cos theta_i cos theta_r): the GGX (Trowbridge-Reitz)
 // distribution with alpha = r and the separable Smith masking of the same distribution; the
 // Fresnel factor is left in ks (one constant per channel), as a specular albedo.

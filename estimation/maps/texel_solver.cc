@@ -67,14 +67,25 @@ void TexelStandardDeviations(const Pass& s, size_t t, const State& x, LocalMatri
   }
 }
 
+// Per texel the inverse of its own Gauss-Newton block, A^-1, and its coupling to its S shared
+// values, A^-1 B (ReducedSystem), kept until the shared values' covariance is known: the
+// standard deviations then need no second pass with derivatives (docs/maps.md "Speed").
+struct TexelBlocks {
+  int P = 0, S = 0;
+  std::vector<double> values;  // per texel P P + P S, column-major
+  double* At(size_t t) { return values.data() + t * (P * P + P * S); }
+  const double* At(size_t t) const { return values.data() + t * (P * P + P * S); }
+};
+
 // The shared system reduced by every fitted texel (Schur complement at the texels' current
-// values), plus the white reference. With `cov_shared` (the shared parameters' covariance)
-// also the texels' standard deviations into `fit`. With `view_scores`, each view's part of the
-// reduced gradient (its texel residuals only): what SharedFit::ViewScatter sums.
+// values), plus the white reference. With `view_scores`, each view's part of the reduced
+// gradient (its texel residuals only): what SharedFit::ViewScatter sums. With `blocks`, every
+// fitted texel's A^-1 and A^-1 B.
 template <typename Basis, int D>
 void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& fit,
-                   Eigen::MatrixXd* H, Eigen::VectorXd* g, const Eigen::MatrixXd* cov_shared,
-                   TexelFit* sd_out, std::vector<Eigen::VectorXd>* view_scores = nullptr) {
+                   Eigen::MatrixXd* H, Eigen::VectorXd* g,
+                   std::vector<Eigen::VectorXd>* view_scores = nullptr,
+                   TexelBlocks* blocks = nullptr) {
   const int G = s.GlobalShared();
   H->setZero(G, G);
   g->setZero(G);
@@ -82,6 +93,10 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
   const size_t n = x.size(), views = s.data->views.size();
   const int P = s.P(), S = s.S();
   if (view_scores) view_scores->assign(views, Eigen::VectorXd::Zero(G));
+  if (blocks) {
+    blocks->P = P, blocks->S = S;
+    blocks->values.assign(n * (P * P + P * S), 0.0);
+  }
   ParallelFor(n, s.options->threads, [&](size_t b, size_t e) {
     Eigen::MatrixXd Hl = Eigen::MatrixXd::Zero(G, G);
     Eigen::VectorXd gl = Eigen::VectorXd::Zero(G);
@@ -119,9 +134,9 @@ void ReducedSystem(const Pass& s, const std::vector<State>& x, const TexelFit& f
           }
         }
       }
-      if (sd_out) {
-        TexelStandardDeviations(s, t, x[t], ldlt.solve(LocalMatrix::Identity(P, P)), AiB, map,
-                                cov_shared, sd_out);
+      if (blocks) {
+        Eigen::Map<Eigen::MatrixXd>(blocks->At(t), P, P) = ldlt.solve(LocalMatrix::Identity(P, P));
+        if (S > 0) Eigen::Map<Eigen::MatrixXd>(blocks->At(t) + P * P, P, S) = AiB;
       }
     }
     std::lock_guard<std::mutex> lock(mutex);
@@ -213,7 +228,7 @@ class SharedFit {
   void UpdateShared() {
     for (int it = 0; HasShared() && it < o_.outer_iterations; ++it) {
       // A held lamp's columns are left out of the step below: no need of their derivatives.
-      Reduced(nullptr, nullptr, nullptr, !s_.lamp_held);
+      Reduced(nullptr, nullptr, !s_.lamp_held);
       Eigen::MatrixXd A = H_;
       Eigen::VectorXd g = g_;
       for (int k = 0; k < A.rows(); ++k) A(k, k) += 1e-9 * A(k, k) + 1e-12;
@@ -239,9 +254,10 @@ class SharedFit {
     fit_->sd_normal_deg.assign(n_, 0.f);
     fit_->sd_r.assign(n_, 0.f);
     Eigen::MatrixXd cov;
+    std::vector<Eigen::VectorXd> scores;
+    TexelBlocks blocks;
+    Reduced(HasShared() ? &scores : nullptr, &blocks);
     if (HasShared()) {
-      std::vector<Eigen::VectorXd> scores;
-      Reduced(nullptr, nullptr, &scores);
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H_);
       Eigen::VectorXd inv = eig.eigenvalues();
       for (int k = 0; k < inv.size(); ++k) {
@@ -256,7 +272,19 @@ class SharedFit {
       }
       if (ii_ >= 0) lamp_.intensity_sd = std::sqrt(std::max(0.0, cov(ii_, ii_)));
     }
-    Reduced(HasShared() ? &cov : nullptr, fit_);
+    const int P = blocks.P, S = blocks.S;
+    ParallelFor(n_, o_.threads, [&](size_t b, size_t e) {
+      std::vector<int> map;
+      for (size_t t = b; t < e; ++t) {
+        if (!fit_->fitted[t]) continue;
+        if (S > 0) SharedIndex(s_, t, &map);
+        const LocalMatrix AiB =
+            S > 0 ? LocalMatrix(Eigen::Map<const Eigen::MatrixXd>(blocks.At(t) + P * P, P, S))
+                  : LocalMatrix();
+        TexelStandardDeviations(s_, t, x_[t], Eigen::Map<const Eigen::MatrixXd>(blocks.At(t), P, P),
+                                AiB, map, HasShared() ? &cov : nullptr, fit_);
+      }
+    });
   }
 
   // The maps, chi2 and BIC over the texels that share; the edge texels' standard deviations
@@ -353,15 +381,15 @@ class SharedFit {
     *cov = d.asDiagonal() * (*cov) * d.asDiagonal();
   }
 
-  // The reduced shared system into H_ and g_ (ReducedSystem), the texels' standard deviations
-  // with `cov`, each view's reduced gradient with `scores`; the lamp's columns are zero
-  // without `lamp_derivatives` (Jets of 3 dimensions instead of 6).
-  void Reduced(const Eigen::MatrixXd* cov, TexelFit* sd,
-               std::vector<Eigen::VectorXd>* scores = nullptr, bool lamp_derivatives = true) {
+  // The reduced shared system into H_ and g_ (ReducedSystem), each view's reduced gradient
+  // with `scores`, the texels' blocks with `blocks`; the lamp's columns are zero without
+  // `lamp_derivatives` (Jets of 3 dimensions instead of 6).
+  void Reduced(std::vector<Eigen::VectorXd>* scores, TexelBlocks* blocks,
+               bool lamp_derivatives = true) {
     if (s_.lamp_cols && lamp_derivatives) {
-      ReducedSystem<Basis, 6>(s_, x_, *fit_, &H_, &g_, cov, sd, scores);
+      ReducedSystem<Basis, 6>(s_, x_, *fit_, &H_, &g_, scores, blocks);
     } else {
-      ReducedSystem<Basis, 3>(s_, x_, *fit_, &H_, &g_, cov, sd, scores);
+      ReducedSystem<Basis, 3>(s_, x_, *fit_, &H_, &g_, scores, blocks);
     }
     WhiteSystem(s_, lamp_, il_, ii_, &H_, &g_);
   }
