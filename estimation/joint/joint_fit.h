@@ -166,7 +166,8 @@ struct JointSelectionResult {
 bool ObservationGeometry(const Observation& o, const JointFitResult& fit, Angles<double>* angles,
                          double* irradiance_factor);
 
-// One model, from a given lamp start (in options.lamp_frame).
+// One model, from a given lamp start (in options.lamp_frame). Its held-out frame RMS
+// (material.cv_rms, options.cv_folds refits) only under Criterion::kCv, which reads it.
 JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
                         const Eigen::Vector3d& lamp_start, const JointFitOptions& options);
 

@@ -103,7 +103,7 @@ JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
   const ModelInfo& info = FindModel(model);
   VisitModel(model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    r = FitModel<M>(info, data, all, lamp_start, options, true);
+    r = FitModel<M>(info, data, all, lamp_start, options, options.criterion == Criterion::kCv);
   });
   return r;
 }
