@@ -3,8 +3,8 @@
 #include <queue>
 #include <stdexcept>
 
-#include <Eigen/SparseCholesky>
 #include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
 
 namespace gonio {
 

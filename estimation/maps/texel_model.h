@@ -78,8 +78,7 @@ struct RegistryBasis<OrenNayar> {
     const T one[2] = {T(1), r};
     const T half[2] = {T(0.5), r};
     const T f1 = OrenNayar::FromTrig(one, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
-    const T fh =
-        OrenNayar::FromTrig(half, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
+    const T fh = OrenNayar::FromTrig(half, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
     Q[0] = T(2) * (f1 - T(2) * fh);
     B[0] = f1 - Q[0];
   }

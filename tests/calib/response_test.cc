@@ -322,9 +322,8 @@ TEST(PairConsistency, ACorrectCurveOnNoisyEightBitFramesReadsNoBias) {
   }
   std::vector<double> table(256);
   for (size_t z = 0; z < table.size(); ++z) table[z] = std::max<double>(z, 0.5);
-  const PairConsistency c = MeasurePairConsistency(frames, times,
-                                                   std::vector<bool>(frames.size(), true),
-                                                   {table}, {20.0}, {250.0});
+  const PairConsistency c = MeasurePairConsistency(
+      frames, times, std::vector<bool>(frames.size(), true), {table}, {20.0}, {250.0});
   int bands = 0;
   for (double b : c.band_bias) {
     if (!std::isfinite(b)) continue;
