@@ -39,6 +39,18 @@ struct MapsModelInfo {
 };
 MapsModelInfo InfoOf(MapsModel model);
 
+// The basis of a value quadratic in the albedo, f(rho) = B rho + Q rho^2, read off `f` (a
+// function of the parameters {rho, r}) at one albedo and at a half: Q = 2 (f(1) - 2 f(1/2)),
+// B = f(1) - Q.
+template <typename T, typename F>
+void QuadraticReadOff(const T& r, const F& f, T* B, T* Q) {
+  const T one[2] = {T(1), r};
+  const T half[2] = {T(0.5), r};
+  const T f1 = f(one);
+  Q[0] = T(2) * (f1 - T(2) * f(half));
+  B[0] = f1 - Q[0];
+}
+
 // A registry model whose value is a quadratic in its first (albedo) parameter.
 template <typename M>
 struct RegistryBasis {
@@ -50,19 +62,15 @@ struct RegistryBasis {
       B[0] = M::Evaluate(one, a);
       Q[0] = T(0);
     } else {
-      const T one[2] = {T(1), r};
-      const T half[2] = {T(0.5), r};
-      const T f1 = M::Evaluate(one, a);
-      const T fh = M::Evaluate(half, a);
-      Q[0] = T(2) * (f1 - T(2) * fh);
-      B[0] = f1 - Q[0];
+      QuadraticReadOff(
+          r, [&](const T* p) { return M::Evaluate(p, a); }, B, Q);
     }
   }
 };
 
-// oren-nayar's two evaluations at one albedo and at a half share their angles' trigonometry:
-// the same read-off as above through OrenNayar::FromTrig, with alpha, beta and their sines and
-// tangents computed once (the same operations as OrenNayar::Evaluate, so the same values).
+// oren-nayar's two evaluations share their angles' trigonometry: the same read-off through
+// OrenNayar::FromTrig, with alpha, beta and their sines and tangents computed once (the same
+// operations as OrenNayar::Evaluate, so the same values).
 template <>
 struct RegistryBasis<OrenNayar> {
   static constexpr int kChannelParams = 1;
@@ -75,12 +83,12 @@ struct RegistryBasis<OrenNayar> {
     oren_nayar_internal::AlphaBeta(a, &alpha, &beta);
     const T cos_phi = cos(a.phi), sin_alpha = sin(alpha), tan_beta = tan(beta);
     const T tan_half_sum = tan(T(0.5) * (alpha + beta));
-    const T one[2] = {T(1), r};
-    const T half[2] = {T(0.5), r};
-    const T f1 = OrenNayar::FromTrig(one, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
-    const T fh = OrenNayar::FromTrig(half, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
-    Q[0] = T(2) * (f1 - T(2) * fh);
-    B[0] = f1 - Q[0];
+    QuadraticReadOff(
+        r,
+        [&](const T* p) {
+          return OrenNayar::FromTrig(p, alpha, beta, cos_phi, sin_alpha, tan_beta, tan_half_sum);
+        },
+        B, Q);
   }
 };
 
