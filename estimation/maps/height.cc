@@ -47,7 +47,7 @@ std::vector<float> IntegrateSlopes(const std::vector<float>& p, const std::vecto
   // A direct sparse Cholesky (fill-reducing AMD ordering) rather than conjugate gradients: the
   // Poisson system's condition number grows as the grid's side squared, so incomplete-Cholesky
   // CG took about 1,150 iterations at 512 x 512 (9 s on one core) where the factorisation and
-  // solve take about 1.3 s and are exact to rounding (docs/maps.md "Speed").
+  // solve take about 1.3 s and are exact to rounding (docs/maps.md "Height").
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A);
   if (solver.info() != Eigen::Success) {  // not reached: the 1e-9 pull makes it definite
     throw std::runtime_error("height: the slopes' Poisson system could not be factorised");

@@ -69,7 +69,7 @@ void TexelStandardDeviations(const Pass& s, size_t t, const State& x, LocalMatri
 
 // Per texel the inverse of its own Gauss-Newton block, A^-1, and its coupling to its S shared
 // values, A^-1 B (ReducedSystem), kept until the shared values' covariance is known: the
-// standard deviations then need no second pass with derivatives (docs/maps.md "Speed").
+// standard deviations then need no second pass with derivatives (docs/maps.md "Full size").
 struct TexelBlocks {
   int P = 0, S = 0;
   std::vector<double> values;  // per texel P P + P S, column-major
