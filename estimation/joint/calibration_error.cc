@@ -286,13 +286,8 @@ void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* 
   // standard deviations out and moved the lamp by 4-11 mm, 8-14 statistical bars, and 5 of 7
   // stay within 3 of the reported bars (docs/pipeline.md "Coverage of the error bars").
   if (auto& u = fit->unresolved_nuisance; u && fit->lamp_stddev) {
-    double in_sd = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double sd = (*fit->lamp_stddev)[k];
-      if (sd > 0) in_sd = std::max(in_sd, std::abs(u->lamp_shift[k]) / sd);
-    }
-    u->shift_in_sd = in_sd;
-    if (!(in_sd > UnresolvedNuisance::kShiftInSd)) u.reset();
+    u->shift_in_sd = UnresolvedNuisance::ShiftInSd(u->lamp_shift, *fit->lamp_stddev);
+    if (!(u->shift_in_sd > UnresolvedNuisance::kShiftInSd)) u.reset();
   }
 }
 

@@ -9,6 +9,8 @@
 // as one quantity and the two are flagged as undetermined separately.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -113,6 +115,15 @@ struct UnresolvedNuisance {
   double z = 0;  // the term's |value| / sd at the final size
   Eigen::Vector3d lamp_shift = Eigen::Vector3d::Zero();  // how far fitting it moved the lamp
   double shift_in_sd = 0;  // the same in the lamp's standard deviations (worst axis)
+
+  // |shift| over `lamp_sd` on the worst axis (axes with sd 0 left out).
+  static double ShiftInSd(const Eigen::Vector3d& shift, const Eigen::Vector3d& lamp_sd) {
+    double in_sd = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (lamp_sd[k] > 0) in_sd = std::max(in_sd, std::abs(shift[k]) / lamp_sd[k]);
+    }
+    return in_sd;
+  }
 };
 
 struct JointFitResult {

@@ -297,11 +297,7 @@ std::optional<UnresolvedNuisance> NoteUnresolved(const std::vector<NuisanceTrial
       continue;
     }
     const Eigen::Vector3d shift = t.lamp - chosen.lamp_position;
-    const Eigen::Vector3d sd = *chosen.lamp_stddev / scale;
-    double in_sd = 0;
-    for (int k = 0; k < 3; ++k) {
-      if (sd[k] > 0) in_sd = std::max(in_sd, std::abs(shift[k]) / sd[k]);
-    }
+    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *chosen.lamp_stddev / scale);
     if (in_sd > UnresolvedNuisance::kShiftInSd && (!worst || in_sd > worst->shift_in_sd)) {
       worst = UnresolvedNuisance{
           t.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight, t.z,
