@@ -301,10 +301,13 @@ std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
   const int k = static_cast<int>(std::min(roughness.size(), sd.size()));
   for (int a = 0; a < k; ++a) {
     for (int b = a + 1; b < k; ++b) {
-      const double var = sd[a] * sd[a] + sd[b] * sd[b];
       const double d = roughness[a] - roughness[b];
-      if (!(var > 0) || !std::isfinite(d)) continue;
-      const double z2 = d * d / var;
+      if (!std::isfinite(d)) continue;
+      // Unreached: ranked by the distance alone, below every reached pair.
+      const bool unreached = std::isnan(sd[a]) || std::isnan(sd[b]);
+      const double var = sd[a] * sd[a] + sd[b] * sd[b];
+      if (!unreached && !(var > 0)) continue;
+      const double z2 = unreached ? -1.0 / (1.0 + d * d) : d * d / var;
       if (z2 < best_z2) {
         best_z2 = z2;
         best = {a, b};

@@ -64,7 +64,8 @@ void MergeContinuousClusters(const Eigen::MatrixXd& features,
 // The two clusters whose fitted roughness values (`roughness`, `sd` per cluster) the data
 // cannot tell apart, most alike first: z^2 = (r_a - r_b)^2 / (sd_a^2 + sd_b^2) below ln
 // `residuals`, BIC's price of the one roughness value that joining them saves (docs/maps.md
-// "Roughness by evidence"). {-1, -1} when every pair differs.
+// "Roughness by evidence"). A cluster whose roughness the data do not reach (sd NaN) is alike
+// with the cluster nearest in roughness. {-1, -1} when every pair differs.
 std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
                                  const std::vector<double>& sd, size_t residuals);
 

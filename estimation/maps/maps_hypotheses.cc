@@ -5,10 +5,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "estimation/joint/joint_fit.h"
 #include "estimation/maps/registration.h"
 
 namespace gonio {
@@ -161,6 +163,16 @@ bool JoinAlikePair(const TexelData& data, const TexelFit& fit, const TexelFit& f
   return true;
 }
 
+// The noise model measured on `features` without the texels on material edges: they fit no
+// one material.
+NoiseModel NoiseWithoutEdges(const TexelData& data, const TexelFit& features,
+                             const std::vector<uint8_t>& edge, const MapsOptions& o,
+                             const TexelSolveOptions& so) {
+  TexelFit inner = features;
+  inner.edge = edge;
+  return EstimateNoise(data, inner, o.relative_noise_floor, so);
+}
+
 // A start for FitTexels with only the shared roughness values set (no texel fitted).
 TexelFit RoughnessSeed(const TexelData& d, const std::vector<double>& roughness) {
   TexelFit seed;
@@ -169,71 +181,113 @@ TexelFit RoughnessSeed(const TexelData& d, const std::vector<double>& roughness)
   return seed;
 }
 
+// The per-texel maps and the materials in them, found under one lamp (held), with the noise
+// model the hypotheses are compared with.
+struct MaterialSearch {
+  TexelFit texel;  // the per-texel roughness maps (no texel fitted when not wanted)
+  std::vector<int> label;
+  std::vector<uint8_t> edge;
+  NoiseModel noise;
+};
+
+// The per-texel roughness maps under `lamp` from `start`, the noise model measured on them and
+// the material clusters of their features (with `features_fallback`'s when no per-texel maps
+// are wanted) into r->clusters.
+MaterialSearch SearchMaterials(const TexelData& data, const MapsLamp& lamp, bool want_texel,
+                               const TexelFit& start, const TexelFit& features_fallback,
+                               NoiseModel noise, const MapsOptions& o, const TexelSolveOptions& so,
+                               MapsResult* r) {
+  MaterialSearch m;
+  if (want_texel) {
+    spdlog::info("maps: one roughness per texel");
+    m.texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, lamp, noise, &start, so);
+    // The most flexible hypothesis leaves the least model error in its residuals: the noise
+    // model every hypothesis is compared with is measured on it.
+    noise = EstimateNoise(data, m.texel, o.relative_noise_floor, so);
+    m.texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, m.texel.lamp, noise, &m.texel, so);
+  }
+  const TexelFit& features = want_texel ? m.texel : features_fallback;
+  FindMaterials(data, features, o.clusters, r, &m.label, &m.edge);
+  m.noise = m.edge.empty() ? noise : NoiseWithoutEdges(data, features, m.edge, o, so);
+  return m;
+}
+
+// One roughness per material cluster from `start` with the lamp placed again (`lamp` refined),
+// clusters alike in roughness joined and the rest refitted (r->clusters, m's labels, edges and
+// noise updated); none when one cluster is left.
+std::optional<TexelFit> FitClusters(const TexelData& data, const TexelFit& features,
+                                    const TexelFit& start, MapsLamp lamp, const MapsOptions& o,
+                                    const TexelSolveOptions& so, MaterialSearch* m, MapsResult* r) {
+  spdlog::info("maps: one roughness per material cluster ({} clusters)", r->clusters.k);
+  auto fit = [&] {
+    return FitTexels(data, RoughnessMode::kClusters, m->label, r->clusters.k, lamp, m->noise,
+                     &start, so, m->edge);
+  };
+  std::optional<TexelFit> clusters = fit();
+  // Clusters alike in roughness are one material to the maps: joined, then refitted.
+  while (JoinAlikePair(data, *clusters, features, r, &m->label, &m->edge)) {
+    m->noise = NoiseWithoutEdges(data, features, m->edge, o, so);
+    if (r->clusters.k < 2) return std::nullopt;
+    clusters = fit();
+  }
+  return clusters;
+}
+
 }  // namespace
 
 // The hypotheses the roughness option asks for, fitted with one noise model, and the choice.
+// Several materials: the lamp placed with one roughness for all of them absorbs their
+// difference in roughness, so it is placed again (without the edge texels) by the first
+// hypothesis that can hold them, per cluster when fitted, and the others keep it. The per-texel
+// roughness the clusters were found in was fitted under the first lamp; when the per-cluster fit
+// moves the lamp beyond kShiftInSd of its standard deviation, the roughness maps absorbed that
+// error (textured-3mat at full size: 42 mm, one material split in two), so the materials are
+// searched again under the new lamp, once.
 void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& o,
                    const TexelSolveOptions& so, MapsResult* r) {
   const TexelData& data = *data_in;
   const MapsModelInfo info = InfoOf(so.model);
   const TexelFit first = FirstFit(data_in, lamp, o, so, r);
-  NoiseModel noise = EstimateNoise(data, first, o.relative_noise_floor, so);
-  MapsLamp fitted_lamp = first.lamp;
-  fitted_lamp.refine_position = false;
+  MapsLamp held = first.lamp;
+  held.refine_position = false;
   const bool want_texel = info.has_roughness && o.roughness != RoughnessChoice::kSample;
   const bool want_clusters = o.roughness == RoughnessChoice::kAuto ||
                              o.roughness == RoughnessChoice::kClusters || !info.has_roughness;
-  const TexelFit* features = &first;
-  TexelFit texel;
-  if (want_texel) {
-    spdlog::info("maps: one roughness per texel");
-    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, fitted_lamp, noise, &first, so);
-    // The most flexible hypothesis leaves the least model error in its residuals: the noise
-    // model every hypothesis is compared with is measured on it.
-    noise = EstimateNoise(data, texel, o.relative_noise_floor, so);
-    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, texel.lamp, noise, &texel, so);
-    features = &texel;
+  MaterialSearch m =
+      SearchMaterials(data, held, want_texel, first, first,
+                      EstimateNoise(data, first, o.relative_noise_floor, so), o, so, r);
+  MapsLamp hypothesis_lamp = held;
+  std::optional<TexelFit> clusters;
+  for (int round = 0; want_clusters && info.has_roughness && r->clusters.k > 1; ++round) {
+    MapsLamp placed = held;
+    placed.refine_position = lamp.refine_position;
+    const TexelFit& features = want_texel ? m.texel : first;
+    clusters = FitClusters(data, features, features, placed, o, so, &m, r);
+    if (!clusters) break;
+    hypothesis_lamp = clusters->lamp;
+    hypothesis_lamp.refine_position = false;
+    const double moved = hypothesis_lamp.position_sd ? UnresolvedNuisance::ShiftInSd(
+                                                           hypothesis_lamp.position - held.position,
+                                                           *hypothesis_lamp.position_sd)
+                                                     : 0.0;
+    if (round > 0 || !want_texel || !(moved > UnresolvedNuisance::kShiftInSd)) break;
+    spdlog::info(
+        "maps: the clusters' fit moved the lamp by {:.1f} standard deviations: the materials "
+        "searched again under it",
+        moved);
+    held = hypothesis_lamp;
+    m = SearchMaterials(data, held, want_texel, m.texel, first, m.noise, o, so, r);
+    clusters.reset();
   }
-  std::vector<int> label;
-  std::vector<uint8_t> edge;
-  FindMaterials(data, *features, o.clusters, r, &label, &edge);
-  // Texels on material edges fit no one material: the noise is measured without them.
-  const auto noise_without_edges = [&] {
-    TexelFit inner = *features;
-    inner.edge = edge;
-    return EstimateNoise(data, inner, o.relative_noise_floor, so);
-  };
-  if (!edge.empty()) noise = noise_without_edges();
-  // Several materials: the lamp placed with one roughness for all of them absorbs their
-  // difference in roughness, so it is placed again (without the edge texels) with the first
-  // hypothesis that can hold them, per cluster when fitted, and the others keep it.
-  MapsLamp hypothesis_lamp = fitted_lamp;
-  hypothesis_lamp.refine_position = lamp.refine_position && r->clusters.k > 1;
+  // Without a per-cluster fit of several clusters the sample's hypothesis places the lamp.
+  hypothesis_lamp.refine_position = !clusters && lamp.refine_position && r->clusters.k > 1;
   auto fit = [&](RoughnessMode mode, const TexelFit* start) {
-    const bool per_cluster = mode == RoughnessMode::kClusters;
-    TexelFit f =
-        FitTexels(data, mode, per_cluster ? label : std::vector<int>(),
-                  per_cluster ? r->clusters.k : 0, hypothesis_lamp, noise, start, so, edge);
+    TexelFit f = FitTexels(data, mode, {}, 0, hypothesis_lamp, m.noise, start, so, m.edge);
     hypothesis_lamp = f.lamp;
     hypothesis_lamp.refine_position = false;
     return f;
   };
-  const TexelFit* start = want_texel ? &texel : &first;
-  std::optional<TexelFit> clusters;
-  if (want_clusters && info.has_roughness && r->clusters.k > 1) {
-    spdlog::info("maps: one roughness per material cluster ({} clusters)", r->clusters.k);
-    clusters = fit(RoughnessMode::kClusters, start);
-    // Clusters alike in roughness are one material to the maps: joined, then refitted.
-    while (JoinAlikePair(data, *clusters, *features, r, &label, &edge)) {
-      noise = noise_without_edges();
-      hypothesis_lamp.refine_position = lamp.refine_position && r->clusters.k > 1;
-      if (r->clusters.k < 2) {
-        clusters.reset();
-        break;
-      }
-      clusters = fit(RoughnessMode::kClusters, start);
-    }
-  }
+  const TexelFit* start = want_texel ? &m.texel : &first;
   std::vector<TexelFit> fits;
   if (o.roughness == RoughnessChoice::kAuto || o.roughness == RoughnessChoice::kSample) {
     spdlog::info("maps: one roughness for the sample (final noise model)");
@@ -243,12 +297,12 @@ void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& 
   if (want_texel && (o.roughness != RoughnessChoice::kClusters || fits.empty())) {
     if (r->clusters.k > 1) {
       spdlog::info("maps: one roughness per texel (final noise model)");
-      texel = fit(RoughnessMode::kTexel, &texel);
+      m.texel = fit(RoughnessMode::kTexel, &m.texel);
     }
-    fits.push_back(texel);  // with clusters asked and one cluster found, the per-texel maps
+    fits.push_back(m.texel);  // with clusters asked and one cluster found, the per-texel maps
   }
   if (fits.empty()) fits.push_back(first);  // clusters asked of a model without roughness
-  ChooseHypothesis(fits, label, o, r);
+  ChooseHypothesis(fits, m.label, o, r);
 }
 
 // The texels the hypotheses are searched on (docs/maps.md "Speed"): square blocks of

@@ -213,6 +213,11 @@ std::string MapsResult::Report() const {
   if (info.has_roughness && fit.mode != RoughnessMode::kTexel) {
     for (size_t k = 0; k < fit.cluster_r.size(); ++k) {
       const double sd = k < fit.cluster_r_sd.size() ? fit.cluster_r_sd[k] : 0.0;
+      if (!std::isfinite(sd)) {  // no texel of the cluster shares it (texel_solver.h)
+        s += fmt::format("  {} {:.4f} {}, undetermined\n", info.roughness_name, fit.cluster_r[k],
+                         info.roughness_unit);
+        continue;
+      }
       s += fmt::format(
           "  {} {:.4f} +- {:.4f} {}{}\n", info.roughness_name, fit.cluster_r[k], sd,
           info.roughness_unit,

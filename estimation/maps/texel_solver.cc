@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 
 #include <ceres/jet.h>
@@ -260,13 +261,21 @@ class SharedFit {
     if (HasShared()) {
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H_);
       Eigen::VectorXd inv = eig.eigenvalues();
+      // A shared value in a direction the data do not reach (a cluster whose texels all lie
+      // on material edges) has no standard deviation: the pseudo-inverse would give it 0.
+      Eigen::VectorXd unreached = Eigen::VectorXd::Zero(inv.size());
       for (int k = 0; k < inv.size(); ++k) {
-        inv(k) = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff() ? 1.0 / inv(k) : 0.0;
+        const bool reached = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff();
+        inv(k) = reached ? 1.0 / inv(k) : 0.0;
+        if (!reached) unreached += eig.eigenvectors().col(k).cwiseAbs2();
       }
       cov = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
       ViewScatter(scores, &cov);
       fit_->cluster_r_sd.assign(K_, 0.0);
-      for (int k = 0; k < K_; ++k) fit_->cluster_r_sd[k] = std::sqrt(std::max(0.0, cov(k, k)));
+      for (int k = 0; k < K_; ++k) {
+        fit_->cluster_r_sd[k] = unreached(k) > 1e-3 ? std::numeric_limits<double>::quiet_NaN()
+                                                    : std::sqrt(std::max(0.0, cov(k, k)));
+      }
       if (il_ >= 0) {
         lamp_.position_sd = cov.block<3, 3>(il_, il_).diagonal().cwiseMax(0.0).cwiseSqrt();
       }

@@ -90,7 +90,7 @@ struct TexelFit {
   // noise model, chi2 nor the BIC; its standard deviations are scaled by the square root of
   // its own chi2 per degree of freedom where that exceeds 1.
   std::vector<uint8_t> edge;
-  std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters
+  std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters; sd NaN: data never reach it
   // Per shared value (cluster roughness, lamp x y z, intensity, as fitted): the factor by which
   // the views' scatter widened its standard deviation (texel_solver.cc ViewScatter; 1: not).
   std::vector<double> shared_sd_factor;
