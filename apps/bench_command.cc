@@ -23,20 +23,21 @@ struct BenchArgs {
   std::string out;
   bool quick = false, smoke = false, stability = false, sfs = false, pipeline = false;
   bool evaluation = false;
-  bool plan = false, tags = false, coverage = false, maps = false;
+  bool plan = false, tags = false, coverage = false, maps = false, keep_work = false;
   std::string apriltag_ref;
   int threads = 0;
 };
 
 // A bench that renders into OUT/work: run it there, write its outputs into OUT, remove the
-// work folder and print the report's JSON (without its per-run rows when `runs_in_file_only`).
+// work folder (unless `keep`) and print the report's JSON (without its per-run rows when
+// `runs_in_file_only`).
 template <typename RunFn, typename WriteFn>
-void RunInWorkFolder(const std::string& out, RunFn run, WriteFn write,
+void RunInWorkFolder(const std::string& out, bool keep, RunFn run, WriteFn write,
                      bool runs_in_file_only = false) {
   const std::filesystem::path work = std::filesystem::path(out) / "work";
   const auto rep = run(work);
   write(out, rep);
-  std::filesystem::remove_all(work);
+  if (!keep) std::filesystem::remove_all(work);
   nlohmann::json j = rep.ToJson();
   if (runs_in_file_only) {
     j.erase("runs");
@@ -103,34 +104,37 @@ void RunBench(const BenchArgs& args) {
   bench::BenchOptions opt;
   opt.size = args.smoke ? "smoke" : args.quick ? "quick" : "full";
   opt.threads = args.threads;
+  opt.keep_work = args.keep_work;
   opt.Check();
   // The user chain runs this very executable's commands as separate processes.
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
   if (args.coverage) {
     RunInWorkFolder(
-        args.out,
+        args.out, args.keep_work,
         [&](const auto& work) {
           return bench::RunCoverageBench(opt, bench::CoveragePlanFor(opt), self, work);
         },
         bench::WriteCoverageOutputs, /*runs_in_file_only=*/true);
   } else if (args.pipeline) {
     RunInWorkFolder(
-        args.out, [&](const auto& work) { return bench::RunPipelineBench(opt, work, self); },
+        args.out, args.keep_work,
+        [&](const auto& work) { return bench::RunPipelineBench(opt, work, self); },
         bench::WritePipelineBenchOutputs);
   } else if (args.tags) {
     const std::filesystem::path ref = args.apriltag_ref.empty()
                                           ? bench::DefaultAprilTagRefDir()
                                           : std::filesystem::path(args.apriltag_ref);
     RunInWorkFolder(
-        args.out, [&](const auto& work) { return bench::RunTagBench(opt, work, ref); },
+        args.out, args.keep_work,
+        [&](const auto& work) { return bench::RunTagBench(opt, work, ref); },
         bench::WriteTagBenchOutputs);
   } else if (args.maps) {
     RunInWorkFolder(
-        args.out, [&](const auto& work) { return bench::RunMapsBench(opt, work); },
+        args.out, args.keep_work, [&](const auto& work) { return bench::RunMapsBench(opt, work); },
         bench::WriteMapsBenchOutputs);
   } else if (args.plan) {
     RunInWorkFolder(
-        args.out, [&](const auto& work) { return bench::RunPlanBench(opt, work); },
+        args.out, args.keep_work, [&](const auto& work) { return bench::RunPlanBench(opt, work); },
         bench::WritePlanBenchOutputs);
   } else if (args.sfs) {
     RunSfs(args, opt);
@@ -192,6 +196,10 @@ void AddBenchCommand(CLI::App& app) {
                 "only the evaluation timings, errors and reference loops (bench.json without "
                 "fits)")
       ->excludes(stability);
+  cmd->add_flag(
+      "--keep-work", args->keep_work,
+      "keep OUT/work: the rendered sessions and every chain's outputs, to look into a run "
+      "(--coverage, --pipeline, --tags, --maps)");
   cmd->add_option("--threads", args->threads, "threads of the all-thread timings (0 = all)")
       ->check(CLI::NonNegativeNumber);
   cmd->callback([args] { RunBench(*args); });

@@ -403,7 +403,7 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
                      r.seconds,
                      r.warnings.empty() ? "" : fmt::format(", {} warning(s)", r.warnings.size()));
       }
-      fs::remove_all(dir);
+      if (!options.keep_work) fs::remove_all(dir);
     }
   }
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -30,8 +30,9 @@ namespace gonio::bench {
 // "smoke" (a few seconds, for CI).
 struct BenchOptions {
   std::string size = "full";
-  int threads = 0;     // threads of the "mt" timings and of the error grids (<= 0: all cores)
-  void Check() const;  // InputError on an unknown size or negative threads
+  int threads = 0;         // threads of the "mt" timings and of the error grids (<= 0: all cores)
+  bool keep_work = false;  // keep the rendered sessions and the chains' outputs in OUT/work
+  void Check() const;      // InputError on an unknown size or negative threads
 };
 
 // The concrete sizes a BenchOptions::size stands for.
