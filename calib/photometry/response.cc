@@ -405,6 +405,9 @@ void ResponseOptions::Check() const {
   }
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
   if (num_pixels < 50) throw InputError("at least 50 pixels are needed");
+  if (bootstrap_refits < 0 || bootstrap_refits > 1000) {
+    throw InputError("bootstrap refits must be in [0, 1000]");
+  }
   if (!(smoothness >= 0)) throw InputError("smoothness must be >= 0");
   if (!(exposure_tolerance > 0)) throw InputError("exposure tolerance must be > 0");
   if (!(saturation_margin >= 0 && saturation_margin < 0.5)) {
@@ -465,6 +468,10 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   result.knot_spacing = s.max_value / (s.num_knots - 1.0);
   result.smoothing_sensitivity = SmoothingSensitivity(planes, frames, free_time, setups, pixels,
                                                       fits, result, o, supported, &result.ends);
+  if (o.bootstrap_refits > 0) {
+    result.bootstrap_ln_change =
+        BootstrapResponse(planes, frames, free_time, setups, pixels, fits, result, o);
+  }
   return result;
 }
 

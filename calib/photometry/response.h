@@ -15,6 +15,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -60,8 +61,13 @@ struct ResponseOptions {
   std::optional<double> black_level;
   std::vector<double> channel_black_level;  // per channel (dark frames); overrides black_level
   BlackLevelSource black_level_source = BlackLevelSource::kOption;
-  int num_knots = 128;               // knots of h over [0, 2^bit_depth)
-  int num_pixels = 1500;             // sampled pixels per channel
+  int num_knots = 128;    // knots of h over [0, 2^bit_depth)
+  int num_pixels = 1500;  // sampled pixels per channel
+  // Refits on the pixels drawn again with replacement: the table's statistical error
+  // (ResponseResult::bootstrap_ln_change; 0: not measured). Ten: one per draw of the
+  // calibration's propagation (estimation/joint/calibration_error.h).
+  int bootstrap_refits = 10;
+  std::uint64_t bootstrap_seed = 1;
   double smoothness = 1.0;           // weight of h's curvature (the same at any num_knots)
   double exposure_tolerance = 0.05;  // relative mismatch that marks a frame inconsistent
   bool drop_inconsistent = false;    // leave inconsistent frames out instead of re-timing
@@ -160,6 +166,10 @@ struct ResponseResult {
   // Values between the fit's knots (its curve's own scale): the scale of the wiggles the
   // smoothing sensitivity measures. NaN in older files.
   double knot_spacing = NAN;
+  // The table's statistical error (BootstrapResponse, docs/photometric.md): per pixel-bootstrap
+  // refit and channel, the change of ln X at every knot (knot k at value k * knot_spacing), the
+  // common offset removed. Empty in older files and with ResponseOptions::bootstrap_refits 0.
+  std::vector<std::vector<std::vector<double>>> bootstrap_ln_change;
 
   // Relative exposure of a (possibly fractional) pixel value, linear between table entries.
   double Linearize(int channel, double value) const;

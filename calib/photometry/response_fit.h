@@ -124,6 +124,16 @@ BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
 double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
                     bool* piled = nullptr);
 
+// The table's statistical error (response_bootstrap.cc): o.bootstrap_refits refits on the
+// sampled pixels drawn again with replacement, frames, times and prior as in `fits`; per refit
+// and channel the change of h at every knot, the common offset over the self-checked range
+// removed and 0 outside it.
+std::vector<std::vector<std::vector<double>>> BootstrapResponse(
+    const std::vector<std::vector<cv::Mat>>& planes, const std::vector<ExposureFrame>& frames,
+    const std::vector<bool>& free_time, const std::vector<Setup>& setups,
+    const std::vector<std::vector<cv::Point>>& pixels, const std::vector<ChannelFit>& fits,
+    const ResponseResult& result, const ResponseOptions& o);
+
 // Relative change of the inverse response when every channel is refitted with the smoothness
 // times kSmoothingSensitivityFactor, frames and times as in `fits`: per band of the self-checked
 // range (black + 2 % of the range to saturation, PairConsistency::kBands equal parts) the median

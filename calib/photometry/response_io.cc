@@ -253,6 +253,33 @@ double ResponseEnd::WeightAt(double z) const {
 
 namespace {
 
+// Per refit, per channel, one finite ln change per knot (at least two knots, the same count
+// throughout); InputError naming `source` otherwise.
+std::vector<std::vector<std::vector<double>>> BootstrapFromJson(const nlohmann::json& j,
+                                                                int channels,
+                                                                const std::string& source) {
+  const std::string bad = source +
+                          ": 'bootstrap_ln_change' must hold, per refit, one array of finite "
+                          "numbers per channel, every one of the same length (at least 2)";
+  std::vector<std::vector<std::vector<double>>> out;
+  try {
+    out = j.get<std::vector<std::vector<std::vector<double>>>>();
+  } catch (const nlohmann::json::exception&) {
+    throw InputError(bad);
+  }
+  const size_t knots = out.empty() || out[0].empty() ? 0 : out[0][0].size();
+  for (const auto& refit : out) {
+    if (static_cast<int>(refit.size()) != channels) throw InputError(bad);
+    for (const auto& d : refit) {
+      if (d.size() != knots || knots < 2) throw InputError(bad);
+      for (double v : d) {
+        if (!std::isfinite(v)) throw InputError(bad);
+      }
+    }
+  }
+  return out;
+}
+
 nlohmann::json EndsToJson(const std::vector<ResponseEnd>& ends) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& e : ends) {
@@ -315,6 +342,7 @@ nlohmann::json ResponseResult::ToJson() const {
           {"ends", EndsToJson(ends)},
           {"knot_spacing",
            std::isfinite(knot_spacing) ? nlohmann::json(knot_spacing) : nlohmann::json()},
+          {"bootstrap_ln_change", bootstrap_ln_change},
           {"rms_log_residual", rms_log_residual}};
 }
 
@@ -365,6 +393,12 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
       throw InputError(source + ": 'knot_spacing' must be a positive number or null");
     }
     r.knot_spacing = v.get<double>();
+  }
+  if (j.contains("bootstrap_ln_change")) {
+    r.bootstrap_ln_change = BootstrapFromJson(j["bootstrap_ln_change"], r.channels, source);
+    if (!r.bootstrap_ln_change.empty() && !std::isfinite(r.knot_spacing)) {
+      throw InputError(source + ": 'bootstrap_ln_change' needs 'knot_spacing'");
+    }
   }
   if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
       static_cast<int>(r.black_level.size()) != r.channels ||

@@ -127,10 +127,37 @@ void AddWiggles(const ObservationSet& data, const std::vector<size_t>& use,
   }
 }
 
-// The observations in `use`, every radiance (and its variance) multiplied by one draw of the
+// Draw `draw` of the response's statistical error (calibration_error.h): its bootstrap refit
+// `draw` (cycled), a random sign, linear between knots at the observations' raw values in `use`,
+// mean over channels, added to `log_field`.
+void AddReplicate(const ObservationSet& data, const std::vector<size_t>& use,
+                  const CalibrationErrorModel& e, int draw, std::mt19937_64* rng,
+                  std::vector<double>* log_field) {
+  if (e.response_replicates.empty() || !(e.response_knot_spacing > 0)) return;
+  const auto& refit = e.response_replicates[draw % e.response_replicates.size()];
+  const double sign = std::bernoulli_distribution(0.5)(*rng) ? 1.0 : -1.0;
+  for (size_t k = 0; k < use.size(); ++k) {
+    const auto& value = data.observations[use[k]].value;
+    double sum = 0;
+    int n = 0;
+    for (size_t c = 0; c < std::min(value.size(), refit.size()); ++c) {
+      if (!std::isfinite(value[c])) continue;
+      const auto& d = refit[c];
+      const double pos =
+          std::clamp(value[c] / e.response_knot_spacing, 0.0, static_cast<double>(d.size() - 1));
+      const size_t j = std::min(static_cast<size_t>(pos), d.size() - 2);
+      const double a = pos - j;
+      sum += (1 - a) * d[j] + a * d[j + 1];
+      ++n;
+    }
+    if (n > 0) (*log_field)[k] += sign * sum / n;
+  }
+}
+
+// The observations in `use`, every radiance (and its variance) multiplied by draw `draw` of the
 // calibration error field.
 ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_t>& use,
-                             const ErrorModes& modes, const CalibrationErrorModel& e,
+                             const ErrorModes& modes, const CalibrationErrorModel& e, int draw,
                              std::mt19937_64* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<double> log_field(use.size(), 0.0);
@@ -145,6 +172,7 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   add(modes.response, e.response_ratio_error);
   add(modes.ends, 1.0);
   AddWiggles(data, use, e, rng, &log_field);
+  AddReplicate(data, use, e, draw, rng, &log_field);
   add(modes.vignette, e.vignette_rms / std::sqrt(std::max<size_t>(modes.vignette.size(), 1)));
   ObservationSet out;
   out.channels = data.channels;
@@ -174,6 +202,14 @@ void CalibrationErrorModel::Check() const {
   }
   if (!(response_wiggle >= 0 && response_wiggle < 1) || !(response_knot_spacing >= 0)) {
     throw InputError("calibration error: response_wiggle must be in [0, 1), its spacing >= 0");
+  }
+  for (const auto& refit : response_replicates) {
+    for (const auto& d : refit) {
+      if (d.size() < 2 ||
+          !std::all_of(d.begin(), d.end(), [](double v) { return std::isfinite(v); })) {
+        throw InputError("calibration error: a response replicate needs finite values at 2+ knots");
+      }
+    }
   }
   for (const auto& end : response_ends) {
     if (!(end.error >= 0 && end.error < 1) || !std::isfinite(end.end) ||
@@ -207,7 +243,7 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   std::vector<std::vector<double>> params(np);
   std::vector<double> lx, ly, lz, intensity;
   for (int d = 0; d < options.draws; ++d) {
-    const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, &rng);
+    const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, d, &rng);
     const JointFitResult r = joint_fit_internal::FitCandidate(
         fit.material.model, perturbed, all, fit.lamp_position, fit_options, false);
     if (!r.material.converged || r.material.params.size() != np) continue;
@@ -249,10 +285,15 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
   // Its wiggles between knots: the smoothing sensitivity is the change under a prior
   // kSmoothingSensitivityFactor times stiffer, (factor - 1) times the prior's bias where the
   // data hold the curve (the bias grows in proportion to the prior's weight there).
+  // With the table's bootstrap refits, their draws instead: they measure its error between the
+  // sweep's values, where the smoothing sensitivity's worst band only bounds it.
   if (std::isfinite(response.knot_spacing)) {
-    e.response_wiggle =
-        PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
     e.response_knot_spacing = response.knot_spacing;
+    e.response_replicates = response.bootstrap_ln_change;
+    if (e.response_replicates.empty()) {
+      e.response_wiggle =
+          PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
+    }
   }
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
   // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which
@@ -264,6 +305,35 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
   e.principal_point = {camera.intrinsics[2], camera.intrinsics[3]};
   e.radius_px = 0.5 * std::hypot(camera.width, camera.height);
   return e;
+}
+
+double RescaleForPropagatedFloor(const ObservationSet& data, double floor, JointFitResult* fit) {
+  double share = 0;
+  size_t n = 0;
+  for (const auto& o : data.observations) {
+    for (size_t c = 0; c < o.radiance.size() && c < o.variance.size(); ++c) {
+      const double total = o.variance[c] + floor * floor * o.radiance[c] * o.radiance[c];
+      if (!(total > 0) || !std::isfinite(total)) continue;
+      share += o.variance[c] / total;
+      ++n;
+    }
+  }
+  const BrdfFitResult& m = fit->material;
+  const double dof = static_cast<double>(m.n_samples) - m.n_effective;
+  if (n == 0 || !(dof > 0) || !std::isfinite(m.weighted_ssr)) return 1.0;
+  share /= n;
+  const double v = m.weighted_ssr / dof;
+  const double factor = std::sqrt(std::max(v, share) / std::max(v, 1.0));
+  for (auto& sd : fit->material.stddev) {
+    if (sd) *sd *= factor;
+  }
+  if (fit->lamp_stddev) *fit->lamp_stddev *= factor;
+  if (fit->intensity_stddev) *fit->intensity_stddev *= factor;
+  spdlog::debug(
+      "statistical part x{:.3f}: residual variance {:.3f} per degree of freedom, pixel noise "
+      "{:.3f} of the modelled variance",
+      factor, v, share);
+  return factor;
 }
 
 void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* fit) {

@@ -27,11 +27,18 @@
 //             common gain that no ratio check sees. One mode per end that observations reach,
 //             not normalised: each observation's weight is the end's error times its weight at
 //             the observation's raw value in the end's channel, centred; drawn with sd 1.
-//   the response's wiggles (response_wiggle): between the sweep's values the curve is the
-//             smoothing prior's interpolation, off by a fraction of a percent that changes sign
-//             from knot to knot. To a sample whose radiances span an octave or two these are
-//             no noise: every observation at the same raw value shares its error, and the
-//             pattern bends the radiance against angle. Drawn per knot, interpolated by value.
+//   the response's statistical error (response_replicates): the sweep's own noise moved the
+//             table by a fraction of a percent that wanders with the value over a few knots. To
+//             a sample whose radiances span an octave or two it is no noise: every observation
+//             at the same raw value shares its error, and the pattern bends the radiance
+//             against angle. Draw d takes the pixel-bootstrap refit d of the response
+//             (calib/photometry/response_bootstrap.cc) with a random sign, interpolated at each
+//             observation's raw value: its size and its correlation between values are the
+//             fit's own.
+//   the response's wiggles (response_wiggle), for a response without bootstrap refits (older
+//             files): between the sweep's values the curve is the smoothing prior's
+//             interpolation, off by a fraction of a percent that changes sign from knot to
+//             knot. Drawn per knot, interpolated by value.
 // Response amplitudes are drawn with standard deviation response_ratio_error per octave,
 // vignetting amplitudes with vignette_rms / sqrt(4), so the expected RMS of the vignetting
 // field is vignette_rms.
@@ -61,6 +68,9 @@ struct CalibrationErrorModel {
   // linearly at each observation's raw value. 0: none.
   double response_wiggle = 0;
   double response_knot_spacing = 0;
+  // The response's pixel-bootstrap refits (ResponseResult::bootstrap_ln_change): per refit and
+  // channel the change of ln X at every knot, `response_knot_spacing` raw values apart.
+  std::vector<std::vector<std::vector<double>>> response_replicates;
   double vignette_rms = 0;  // 1-sigma relative error of V(x), RMS over the image
   Eigen::Vector2d principal_point = Eigen::Vector2d::Zero();  // pixels
   double radius_px = 1;                                       // half the image diagonal
@@ -101,6 +111,17 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
                                                  const JointFitOptions& fit_options,
                                                  const CalibrationErrorModel& error,
                                                  const CalibrationPropagationOptions& options);
+
+// The fit's statistical standard deviations (material, lamp, intensity) when its noise model's
+// relative floor `floor` is the calibration's stated accuracy, as `gonio run` sets it, and that
+// accuracy is propagated by refits (PropagateCalibrationError): the joint fit scales its
+// covariance by the residuals' variance per degree of freedom v, at least 1 (uncertainty.h),
+// but the floor then counts the calibration's error twice, once as independent noise in the
+// weights and once in the refits. Here the scale becomes max(v, the pixel noise's share of the
+// modelled variance over `data`), so the statistical part follows the residuals' own scatter and
+// never claims more than the pixel noise allows: the standard deviations are multiplied by
+// sqrt(max(v, share) / max(v, 1)). Returns that factor.
+double RescaleForPropagatedFloor(const ObservationSet& data, double floor, JointFitResult* fit);
 
 // Adds the calibration part in quadrature to the fit's standard deviations (material, lamp,
 // intensity); undetermined quantities stay undetermined.

@@ -108,43 +108,29 @@ TEST(CalibrationError, BarsCoverTheTruthOnlyWithTheCalibrationPart) {
   EXPECT_GT(std::max({after.sigma_z, after.albedo_z, after.lamp_z}), 0.3);
 }
 
-// The response's wiggles between its knots (calibration_error.h): a camera whose raw value is
-// 3000 at the median radiance, and a curve off by an independent 0.3 % at every knot 32 values
-// apart (drawn with a seed the propagation does not use). The propagated spread with the wiggle
-// mode at the same 0.3 % must match the shift the wiggles cause (the fit on the same
-// observations without them): the shift of sigma, albedo and each lamp axis over the propagated
-// standard deviation, all below 3 and not all below 0.2 (bars 5 times too wide).
-TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
-  const ObservationSet clean = Synthesize(16, 1, true, kPixelNoise);
-  ObservationSet data = clean;
+// A camera whose raw value is 3000 at the median radiance: each observation's raw value set,
+// and its radiance bent by the curve error `knot` (ln, one value per knot 32 raw values
+// apart, linear between).
+constexpr double kKnotSpacing = 32;
+void SetValuesAndBend(const std::vector<double>& knot, ObservationSet* data) {
   std::vector<double> radiance;
-  for (const auto& o : data.observations) radiance.push_back(o.radiance[0]);
+  for (const auto& o : data->observations) radiance.push_back(o.radiance[0]);
   std::nth_element(radiance.begin(), radiance.begin() + radiance.size() / 2, radiance.end());
   const double l_median = radiance[radiance.size() / 2];
-  constexpr double kWiggle = 0.003, kSpacing = 32;
-  std::mt19937_64 rng(12345);
-  std::normal_distribution<double> normal(0, kWiggle);
-  std::vector<double> knot(400);
-  for (double& k : knot) k = normal(rng);
-  for (auto& o : data.observations) {
+  for (auto& o : data->observations) {
     const double value = 3000 * o.radiance[0] / l_median;
     o.value = {value};
-    const double pos = value / kSpacing;
+    const double pos = value / kKnotSpacing;
     const size_t j = std::min(static_cast<size_t>(pos), knot.size() - 2);
     const double f = std::exp((1 - (pos - j)) * knot[j] + (pos - j) * knot[j + 1]);
     for (double& l : o.radiance) l *= f;
   }
-  JointFitOptions o;
-  o.candidates = {"oren-nayar"};
-  o.white_albedo = 0.8;
-  o.relative_noise_floor = 0.002;
-  const JointFitResult base = FitJoint("oren-nayar", clean, kLamp, o);
-  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
-  ASSERT_TRUE(base.material.converged && fit.material.converged);
-  CalibrationErrorModel e = ModelForTheImage();
-  e.response_wiggle = kWiggle;
-  e.response_knot_spacing = kSpacing;
-  const CalibrationPropagation p = PropagateTen(data, fit, o, e);
+}
+
+// The shift of sigma, albedo and each lamp axis between `fit` and `base` over the propagated
+// standard deviations; the largest |z|.
+double LargestShiftInSd(const JointFitResult& base, const JointFitResult& fit,
+                        const CalibrationPropagation& p) {
   std::vector<double> z = {(fit.material.params[1] - base.material.params[1]) / p.param_stddev[1],
                            (fit.material.params[0] - base.material.params[0]) / p.param_stddev[0]};
   for (int k = 0; k < 3; ++k) {
@@ -155,8 +141,115 @@ TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
     std::cout << "shift / propagated sd: " << v << "\n";
     largest = std::max(largest, std::abs(v));
   }
+  return largest;
+}
+
+JointFitOptions OrenNayarOptions() {
+  JointFitOptions o;
+  o.candidates = {"oren-nayar"};
+  o.white_albedo = 0.8;
+  o.relative_noise_floor = 0.002;
+  return o;
+}
+
+// The response's wiggles between its knots (calibration_error.h): a curve off by an
+// independent 0.3 % at every knot (drawn with a seed the propagation does not use). The
+// propagated spread with the wiggle mode at the same 0.3 % must match the shift the wiggles
+// cause (the fit on the same observations without them): every shift below 3 propagated
+// standard deviations and not all below 0.2 (bars 5 times too wide).
+TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
+  const ObservationSet clean = Synthesize(16, 1, true, kPixelNoise);
+  ObservationSet data = clean;
+  constexpr double kWiggle = 0.003;
+  std::mt19937_64 rng(12345);
+  std::normal_distribution<double> normal(0, kWiggle);
+  std::vector<double> knot(400);
+  for (double& k : knot) k = normal(rng);
+  SetValuesAndBend(knot, &data);
+  const JointFitOptions o = OrenNayarOptions();
+  const JointFitResult base = FitJoint("oren-nayar", clean, kLamp, o);
+  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
+  ASSERT_TRUE(base.material.converged && fit.material.converged);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_wiggle = kWiggle;
+  e.response_knot_spacing = kKnotSpacing;
+  const double largest = LargestShiftInSd(base, fit, PropagateTen(data, fit, o, e));
   EXPECT_LT(largest, 3.0);
   EXPECT_GT(largest, 0.2);
+}
+
+// The response's bootstrap refits as its error (calibration_error.h): ten replicates and the
+// true error drawn from one law, a curve error that wanders over a few knots (a smoothed walk of
+// 0.2 % RMS, as the pixel bootstrap of a third-stop sweep shows, docs/photometric.md). The
+// propagated spread must match the shift the true error causes, as for the wiggles; the same
+// data with replicates ten times smaller must not (their bars too narrow: some |z| above 3).
+TEST(CalibrationError, ResponseReplicatesSpreadAsTheTableErrorShifts) {
+  std::mt19937_64 rng(777);
+  std::normal_distribution<double> normal(0, 1);
+  const auto draw = [&] {  // a walk smoothed over 4 knots, scaled to 0.2 % RMS
+    std::vector<double> walk(400), knot(400, 0.0);
+    for (double& w : walk) w = normal(rng);
+    double ss = 0;
+    for (size_t k = 0; k < knot.size(); ++k) {
+      for (size_t j = k >= 2 ? k - 2 : 0; j < std::min(knot.size(), k + 3); ++j) {
+        knot[k] += walk[j];
+      }
+      ss += knot[k] * knot[k];
+    }
+    for (double& k : knot) k *= 0.002 / std::sqrt(ss / knot.size());
+    return knot;
+  };
+  const ObservationSet clean = Synthesize(16, 1, true, kPixelNoise);
+  ObservationSet data = clean;
+  SetValuesAndBend(draw(), &data);
+  const JointFitOptions o = OrenNayarOptions();
+  const JointFitResult base = FitJoint("oren-nayar", clean, kLamp, o);
+  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
+  ASSERT_TRUE(base.material.converged && fit.material.converged);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_knot_spacing = kKnotSpacing;
+  for (int r = 0; r < 10; ++r) e.response_replicates.push_back({draw()});
+  const double largest = LargestShiftInSd(base, fit, PropagateTen(data, fit, o, e));
+  EXPECT_LT(largest, 3.0);
+  EXPECT_GT(largest, 0.2);
+  for (auto& refit : e.response_replicates) {
+    for (double& v : refit[0]) v *= 0.1;
+  }
+  EXPECT_GT(LargestShiftInSd(base, fit, PropagateTen(data, fit, o, e)), 3.0);
+}
+
+// The statistical part when the fit's floor is the propagated calibration accuracy
+// (calibration_error.h RescaleForPropagatedFloor): observations whose pixel variance is a tenth
+// of the modelled one (pixel sd 0.1 %, floor 0.3 %). Residuals at 0.3 of the model's variance:
+// the bars shrink by sqrt(0.3); residuals at 0.05 (below the pixel noise's share): by
+// sqrt(0.1), never further; residuals above the model (1.5): unchanged.
+TEST(CalibrationError, APropagatedFloorLeavesTheStatisticalPartToTheResiduals) {
+  ObservationSet data;
+  data.channels = 1;
+  for (int k = 0; k < 100; ++k) {
+    Observation o;
+    o.p_in_board.setZero();
+    o.camera_in_board.setZero();
+    o.board_from_cam_aa.setZero();
+    o.radiance = {1.0};
+    o.variance = {1e-6};  // (0.1 %)^2: a tenth of 1e-6 + (0.003)^2
+    data.observations.push_back(o);
+  }
+  const double floor = 0.003;
+  for (const auto& [v, expected] : std::vector<std::pair<double, double>>{
+           {0.3, std::sqrt(0.3)}, {0.05, std::sqrt(0.1)}, {1.5, 1.0}}) {
+    JointFitResult fit;
+    fit.material.n_samples = 1002;
+    fit.material.n_effective = 2;
+    fit.material.weighted_ssr = v * 1000;
+    fit.material.stddev = {0.01, std::nullopt};
+    fit.lamp_stddev = Eigen::Vector3d(1, 2, 3);
+    const double factor = RescaleForPropagatedFloor(data, floor, &fit);
+    EXPECT_NEAR(factor, expected, 1e-9) << v;
+    EXPECT_NEAR(*fit.material.stddev[0], 0.01 * expected, 1e-12);
+    EXPECT_FALSE(fit.material.stddev[1].has_value());  // undetermined stays undetermined
+    EXPECT_NEAR(fit.lamp_stddev->z(), 3 * expected, 1e-9);
+  }
 }
 
 TEST(CalibrationError, NoCalibrationErrorAddsNothing) {
