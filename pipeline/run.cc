@@ -102,6 +102,10 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);
   r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
                                                    *e, o.calibration_error);
+  if (r->noise_floor_source == in.photometric_source) {  // the floor is the stated accuracy
+    r->statistical_rescale =
+        RescaleForPropagatedFloor(r->observations, r->noise_floor, &r->fit.final_fit);
+  }
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
 }
 
@@ -266,6 +270,12 @@ std::string RunResult::Report() const {
   if (!checks.Measured()) s += "NOT A MEASUREMENT (see the warnings above)\n";
   s += fit.Report();
   s += fmt::format("relative noise floor: {:.2f}% ({})\n", 100 * noise_floor, noise_floor_source);
+  if (statistical_rescale != 1) {
+    s += fmt::format(
+        "statistical standard deviations x{:.2f}: the floor is the calibration's accuracy, "
+        "propagated by refits, so they follow the residuals' own scatter\n",
+        statistical_rescale);
+  }
   if (calibration_error) {
     s += calibration_error->Report();
   } else {
@@ -285,7 +295,9 @@ std::string RunResult::Report() const {
 nlohmann::json RunResult::ToJson() const {
   nlohmann::json j = fit.ToJson();
   j["assumptions"] = assumptions;
-  j["noise_floor"] = {{"relative", noise_floor}, {"source", noise_floor_source}};
+  j["noise_floor"] = {{"relative", noise_floor},
+                      {"source", noise_floor_source},
+                      {"statistical_rescale", statistical_rescale}};
   j["calibration_error"] = calibration_error ? calibration_error->ToJson() : nlohmann::json();
   j["checks"] = checks.ToJson();
   nlohmann::json warnings_json = nlohmann::json::array();

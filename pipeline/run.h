@@ -97,6 +97,10 @@ struct RunResult {
   FitChecks checks;                      // goodness of fit, bounds, per-frame consistency
   std::vector<std::string> assumptions;  // from RunInputs
   double noise_floor = 0;                // the relative floor the fit used
+  // The factor on the fit's statistical standard deviations when that floor is the propagated
+  // calibration's accuracy (estimation/joint/calibration_error.h RescaleForPropagatedFloor);
+  // 1 otherwise.
+  double statistical_rescale = 1;
   // The calibration part of the uncertainty (already added to fit.final_fit's), when measured.
   std::optional<CalibrationPropagation> calibration_error;
   std::string noise_floor_source;  // "photometric.json", "--noise-floor" or "default"
