@@ -247,7 +247,8 @@ void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setu
       first = false;
     }
   } else {
-    for (int j : s.usable) spec->frame_fixed[j] = !free_time[j];
+    // A frame no pixel is well exposed in says nothing about its time: held.
+    for (int j : s.usable) spec->frame_fixed[j] = !free_time[j] || !observed[j];
   }
   fit->h[k_a] = 0.0;
   spec->knot_fixed[k_a] = true;

@@ -202,6 +202,15 @@ void SolveResponseFit(const std::vector<KnotObservation>& obs, const LinearFitSp
     Eigen::VectorXd rhs = prior_rhs;
     std::vector<double> d(by_pixel.size(), 0.0);
     AddObservationsReduced(terms, by_pixel, omega, &normal, &rhs, &d);
+    // An unknown the data do not reach keeps its value (a ridge towards it on its empty row):
+    // a free frame whose well-exposed pixels are well exposed in no other frame, so that each
+    // one's ln E absorbs it (a sweep's longest exposures, where only the darkest ink is left).
+    const double ridge = 1e-9 * (n > 0 ? normal.diagonal().cwiseAbs().maxCoeff() : 0.0) + 1e-12;
+    for (int k = 0; k < n; ++k) {
+      if (normal(k, k) > ridge) continue;
+      normal(k, k) += ridge;
+      rhs(k) += ridge * y(k);
+    }
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
     const Eigen::VectorXd y_new = ldlt.solve(rhs);
     if (ldlt.info() != Eigen::Success || !y_new.allFinite()) {
