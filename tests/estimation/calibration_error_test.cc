@@ -144,12 +144,24 @@ double LargestShiftInSd(const JointFitResult& base, const JointFitResult& fit,
   return largest;
 }
 
-JointFitOptions OrenNayarOptions() {
-  JointFitOptions o;
-  o.candidates = {"oren-nayar"};
-  o.white_albedo = 0.8;
-  o.relative_noise_floor = 0.002;
-  return o;
+// Oren-Nayar fitted to the same synthesized observations without (`base`) and with (`fit`,
+// on `data`) the curve error `knot` (SetValuesAndBend).
+struct BentFits {
+  ObservationSet data;
+  JointFitOptions options;
+  JointFitResult base, fit;
+};
+BentFits FitWithoutAndWith(const std::vector<double>& knot) {
+  BentFits b;
+  const ObservationSet clean = Synthesize(16, 1, true, kPixelNoise);
+  b.data = clean;
+  SetValuesAndBend(knot, &b.data);
+  b.options.candidates = {"oren-nayar"};
+  b.options.white_albedo = 0.8;
+  b.options.relative_noise_floor = 0.002;
+  b.base = FitJoint("oren-nayar", clean, kLamp, b.options);
+  b.fit = FitJoint("oren-nayar", b.data, kLamp, b.options);
+  return b;
 }
 
 // The response's wiggles between its knots (calibration_error.h): a curve off by an
@@ -158,22 +170,17 @@ JointFitOptions OrenNayarOptions() {
 // cause (the fit on the same observations without them): every shift below 3 propagated
 // standard deviations and not all below 0.2 (bars 5 times too wide).
 TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
-  const ObservationSet clean = Synthesize(16, 1, true, kPixelNoise);
-  ObservationSet data = clean;
   constexpr double kWiggle = 0.003;
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> normal(0, kWiggle);
   std::vector<double> knot(400);
   for (double& k : knot) k = normal(rng);
-  SetValuesAndBend(knot, &data);
-  const JointFitOptions o = OrenNayarOptions();
-  const JointFitResult base = FitJoint("oren-nayar", clean, kLamp, o);
-  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
-  ASSERT_TRUE(base.material.converged && fit.material.converged);
+  const BentFits b = FitWithoutAndWith(knot);
+  ASSERT_TRUE(b.base.material.converged && b.fit.material.converged);
   CalibrationErrorModel e = ModelForTheImage();
   e.response_wiggle = kWiggle;
   e.response_knot_spacing = kKnotSpacing;
-  const double largest = LargestShiftInSd(base, fit, PropagateTen(data, fit, o, e));
+  const double largest = LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e));
   EXPECT_LT(largest, 3.0);
   EXPECT_GT(largest, 0.2);
 }
@@ -199,23 +206,18 @@ TEST(CalibrationError, ResponseReplicatesSpreadAsTheTableErrorShifts) {
     for (double& k : knot) k *= 0.002 / std::sqrt(ss / knot.size());
     return knot;
   };
-  const ObservationSet clean = Synthesize(16, 1, true, kPixelNoise);
-  ObservationSet data = clean;
-  SetValuesAndBend(draw(), &data);
-  const JointFitOptions o = OrenNayarOptions();
-  const JointFitResult base = FitJoint("oren-nayar", clean, kLamp, o);
-  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
-  ASSERT_TRUE(base.material.converged && fit.material.converged);
+  const BentFits b = FitWithoutAndWith(draw());
+  ASSERT_TRUE(b.base.material.converged && b.fit.material.converged);
   CalibrationErrorModel e = ModelForTheImage();
   e.response_knot_spacing = kKnotSpacing;
   for (int r = 0; r < 10; ++r) e.response_replicates.push_back({draw()});
-  const double largest = LargestShiftInSd(base, fit, PropagateTen(data, fit, o, e));
+  const double largest = LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e));
   EXPECT_LT(largest, 3.0);
   EXPECT_GT(largest, 0.2);
   for (auto& refit : e.response_replicates) {
     for (double& v : refit[0]) v *= 0.1;
   }
-  EXPECT_GT(LargestShiftInSd(base, fit, PropagateTen(data, fit, o, e)), 3.0);
+  EXPECT_GT(LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e)), 3.0);
 }
 
 // The statistical part when the fit's floor is the propagated calibration accuracy
