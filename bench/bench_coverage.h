@@ -94,7 +94,8 @@ struct CoverageReport {
   std::vector<CoverageStat> stats;           // per parameter and "all", without and with warnings
   std::vector<std::string> unwarned_misses;  // runs that missed without a warning
   double seconds = 0;
-  // The "all" statistic without warnings within the targets, and no unwarned miss.
+  // Every parameter's statistic without warnings, and "all", within the targets, and no
+  // unwarned miss.
   bool TargetsMet(const CoverageTargets& t = {}) const;
   const CoverageStat* Find(const std::string& parameter, bool warned) const;
   nlohmann::json ToJson() const;

@@ -50,6 +50,8 @@ TEST(Coverage, StatisticsSplitWarnedFromUnwarned) {
   EXPECT_FALSE(rep.TargetsMet());
   CoverageTargets loose;
   loose.min_share_below_2 = 0.8;
+  EXPECT_FALSE(rep.TargetsMet(loose));  // sigma alone: 2 of 3 below 2
+  loose.min_share_below_2 = 0.6;
   EXPECT_TRUE(rep.TargetsMet(loose));
 
   rep.runs.push_back(MadeUpRun("b", {{-3.5, false}, {0.2, true}}));
@@ -58,6 +60,20 @@ TEST(Coverage, StatisticsSplitWarnedFromUnwarned) {
   EXPECT_NE(rep.unwarned_misses[0].find("albedo off by -3.5"), std::string::npos)
       << rep.unwarned_misses[0];
   EXPECT_FALSE(rep.TargetsMet(loose));
+}
+
+// The targets hold per parameter: "all" inside them does not hide a parameter whose bars are
+// three times its errors.
+TEST(Coverage, EveryParameterMustMeetTheTargets) {
+  CoverageReport rep;
+  for (int k = 0; k < 4; ++k) rep.runs.push_back(MadeUpRun("a", {{0.2, false}, {1.4, false}}));
+  SummarizeCoverage(&rep);
+  EXPECT_NEAR(rep.Find("all", false)->rms_z, 1.0, 1e-12);
+  EXPECT_NEAR(rep.Find("albedo", false)->rms_z, 0.2, 1e-12);
+  EXPECT_FALSE(rep.TargetsMet());
+  CoverageTargets loose;
+  loose.min_rms_z = 0.1;
+  EXPECT_TRUE(rep.TargetsMet(loose));
 }
 
 // A wrong model is a miss unless a warning touches some result; a failed step always is.
