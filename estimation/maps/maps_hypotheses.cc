@@ -214,16 +214,16 @@ MaterialSearch SearchMaterials(const TexelData& data, const MapsLamp& lamp, bool
   return m;
 }
 
-// One roughness per material cluster from `start` with the lamp placed again (`lamp` refined),
-// clusters alike in roughness joined and the rest refitted (r->clusters, m's labels, edges and
-// noise updated); none when one cluster is left.
+// One roughness per material cluster from the per-texel `features` with the lamp placed again
+// (`lamp` refined), clusters alike in roughness joined and the rest refitted (r->clusters, m's
+// labels, edges and noise updated); none when one cluster is left.
 std::optional<TexelFit> FitClusters(const TexelData& data, const TexelFit& features,
-                                    const TexelFit& start, MapsLamp lamp, const MapsOptions& o,
+                                    const MapsLamp& lamp, const MapsOptions& o,
                                     const TexelSolveOptions& so, MaterialSearch* m, MapsResult* r) {
   spdlog::info("maps: one roughness per material cluster ({} clusters)", r->clusters.k);
   auto fit = [&] {
     return FitTexels(data, RoughnessMode::kClusters, m->label, r->clusters.k, lamp, m->noise,
-                     &start, so, m->edge);
+                     &features, so, m->edge);
   };
   std::optional<TexelFit> clusters = fit();
   // Clusters alike in roughness are one material to the maps: joined, then refitted.
@@ -264,7 +264,7 @@ void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& 
     MapsLamp placed = held;
     placed.refine_position = lamp.refine_position;
     const TexelFit& features = want_texel ? m.texel : first;
-    clusters = FitClusters(data, features, features, placed, o, so, &m, r);
+    clusters = FitClusters(data, features, placed, o, so, &m, r);
     if (!clusters) break;
     hypothesis_lamp = clusters->lamp;
     hypothesis_lamp.refine_position = false;
