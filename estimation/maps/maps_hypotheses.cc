@@ -351,13 +351,11 @@ void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptio
   std::vector<int> label(data.grid.size(), 0);
   if (info.has_roughness && (search.mode != RoughnessMode::kSample || r->clusters.k > 1)) {
     const TexelFit seed = RoughnessSeed(data, {mean_r});
-    // Per-texel roughness for the clusters' features and the final fit's start: the lamp is
-    // held unless these are the final maps. With a roughness per texel the lamp is weakly
-    // held (textured-3mat at full size: 12 steps, 54 s, the cost down by 1e-3 and the lamp
-    // 6 mm away, moved back by the per-cluster fit).
-    MapsLamp lamp = search.lamp;
-    if (search.mode != RoughnessMode::kTexel) lamp.refine_position = false;
-    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, lamp, search.noise, &seed, so);
+    // Per-texel roughness for the clusters' features and the final fit's start, the lamp
+    // refined on every texel. Held at the search's lamp it took 105 s instead of 134 s on
+    // full-size textured-3mat but doubled the texels marked as edges (51,320 for 27,752:
+    // scattered mislabelled texels, albedo z 3.2 on them; docs/maps.md "Full size").
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp, search.noise, &seed, so);
     std::vector<size_t> texels;
     const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(texel, &texels));
     for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
