@@ -102,7 +102,7 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);
   r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
                                                    *e, o.calibration_error);
-  if (r->noise_floor_source == in.photometric_source) {  // the floor is the stated accuracy
+  if (o.noise_floor_from_calibration) {  // the floor is the stated accuracy (FitOptionsFor)
     r->statistical_rescale =
         RescaleForPropagatedFloor(r->observations, r->noise_floor, &r->fit.final_fit);
   }

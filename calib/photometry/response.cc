@@ -247,8 +247,7 @@ void FixGauge(const std::vector<bool>& free_time, bool times_unknown, const Setu
       first = false;
     }
   } else {
-    // A frame no pixel is well exposed in says nothing about its time: held.
-    for (int j : s.usable) spec->frame_fixed[j] = !free_time[j] || !observed[j];
+    for (int j : s.usable) spec->frame_fixed[j] = !free_time[j];
   }
   fit->h[k_a] = 0.0;
   spec->knot_fixed[k_a] = true;
@@ -379,8 +378,9 @@ std::vector<std::array<double, 2>> FinishResponse(const std::vector<ExposureFram
                                                   &supported[c]));
     result->saturation_level[c] = std::floor(supported[c][1]) + 1;
     rms += fits[c].rms * fits[c].rms;
-    lo[c] = result->black_level[c] + 0.02 * setups[c].max_value;
-    hi[c] = result->saturation_level[c] - 1;
+    const auto range = CheckedRange(*result, setups[c], c);
+    lo[c] = range[0];
+    hi[c] = range[1];
   }
   result->rms_log_residual = std::sqrt(rms / result->channels);
   std::vector<double> used_t(frames.size());

@@ -54,22 +54,12 @@ std::vector<std::vector<std::vector<double>>> BootstrapResponse(
         spdlog::debug("response bootstrap refit {} channel {}: {}", r, c, e.what());
         continue;
       }
-      // The common offset (an exposure scale no radiance ratio sees) removed over the range the
-      // self-check covers, as SmoothingSensitivity does; 0 outside it, where the ends' error
-      // (ResponseEnd) holds the table.
-      const double lo = result.black_level[c] + 0.02 * s.max_value;
-      const double hi = result.saturation_level[c] - 1;
-      std::vector<double> d(s.num_knots, 0.0), inside;
-      for (int k = 0; k < s.num_knots; ++k) {
-        const double z = k * s.max_value / (s.num_knots - 1.0);
-        d[k] = refit.h[k] - fits[c].h[k];
-        if (z >= lo && z <= hi && std::isfinite(d[k])) inside.push_back(d[k]);
-      }
-      const double mid = inside.empty() ? 0.0 : Median(inside);
-      for (int k = 0; k < s.num_knots; ++k) {
-        const double z = k * s.max_value / (s.num_knots - 1.0);
-        d[k] = z >= lo && z <= hi && std::isfinite(d[k]) ? d[k] - mid : 0.0;
-      }
+      // The common offset removed over the range the self-check covers; 0 outside it, where
+      // the ends' error (ResponseEnd) holds the table.
+      const KnotChange k =
+          ChangeOverCheckedRange(result, s, static_cast<int>(c), refit.h, fits[c].h);
+      std::vector<double> d(s.num_knots, 0.0);
+      for (size_t i = 0; i < k.knot.size(); ++i) d[k.knot[i]] = k.d[i] - k.median;
       change[r][c] = std::move(d);
     }
   });

@@ -2,6 +2,7 @@
 // table) and response_times.cc (screening of the listed exposure times); not a public API.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -123,6 +124,22 @@ BlackLevelEstimate EstimateBlackLevel(const std::vector<double>& h,
 // a frame whose quantile it is holds 1 % of its values on it, and twice as many as on the next.
 double DarkestValue(const std::vector<ExposureFrame>& frames, int channel, int bit_depth,
                     bool* piled = nullptr);
+
+// The values channel c's self-check covers (MeasurePairConsistency): from its black level plus
+// 2 % of the range to one below its saturation level.
+std::array<double, 2> CheckedRange(const ResponseResult& result, const Setup& s, int c);
+
+// A refit's change of h against the fit's at the knots of channel c's checked range, with the
+// knots' values and the change's median there (a common offset: an exposure scale no ratio
+// sees). Used by the smoothing sensitivity and the bootstrap (response_smoothing.cc).
+struct KnotChange {
+  std::vector<int> knot;
+  std::vector<double> z, d;
+  double median = 0;
+};
+KnotChange ChangeOverCheckedRange(const ResponseResult& result, const Setup& s, int c,
+                                  const std::vector<double>& refit_h,
+                                  const std::vector<double>& fit_h);
 
 // The table's statistical error (response_bootstrap.cc): o.bootstrap_refits refits on the
 // sampled pixels drawn again with replacement, frames, times and prior as in `fits`; per refit

@@ -40,6 +40,26 @@ void AddEnds(int channel, const Setup& s, const std::vector<double>& h,
 
 }  // namespace
 
+std::array<double, 2> CheckedRange(const ResponseResult& result, const Setup& s, int c) {
+  return {result.black_level[c] + 0.02 * s.max_value, result.saturation_level[c] - 1};
+}
+
+KnotChange ChangeOverCheckedRange(const ResponseResult& result, const Setup& s, int c,
+                                  const std::vector<double>& refit_h,
+                                  const std::vector<double>& fit_h) {
+  const auto [lo, hi] = CheckedRange(result, s, c);
+  KnotChange out;
+  for (int k = 0; k < s.num_knots; ++k) {
+    const double z = k * s.max_value / (s.num_knots - 1.0);
+    if (z < lo || z > hi) continue;
+    out.knot.push_back(k);
+    out.z.push_back(z);
+    out.d.push_back(refit_h[k] - fit_h[k]);
+  }
+  out.median = out.d.empty() ? 0.0 : Median(out.d);
+  return out;
+}
+
 double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
                             const std::vector<ExposureFrame>& frames,
                             const std::vector<bool>& free_time, const std::vector<Setup>& setups,
@@ -61,18 +81,13 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
     // bands: per band the median change, so a band's figure is what its values typically
     // suffer (the last values above black, where ln X falls without bound, do not decide it);
     // the common offset (an exposure scale, which no radiance ratio sees) removed.
-    const double lo = result.black_level[c] + 0.02 * s.max_value;
-    const double hi = result.saturation_level[c] - 1;
-    std::vector<double> z_of, d;
-    for (int k = 0; k < s.num_knots; ++k) {
-      const double z = k * s.max_value / (s.num_knots - 1.0);
-      if (z >= lo && z <= hi) {
-        z_of.push_back(z);
-        d.push_back(refit.h[k] - fits[c].h[k]);
-      }
-    }
+    const KnotChange change =
+        ChangeOverCheckedRange(result, s, static_cast<int>(c), refit.h, fits[c].h);
+    const std::vector<double>& z_of = change.z;
+    const std::vector<double>& d = change.d;
     if (d.size() < 2) continue;
-    const double mid = Median(d);
+    const double mid = change.median;
+    const auto [lo, hi] = CheckedRange(result, s, static_cast<int>(c));
     const int bands = PairConsistency::kBands;
     std::vector<std::vector<double>> in_band(bands);
     for (size_t q = 0; q < d.size(); ++q) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <random>
 
@@ -98,8 +99,31 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
   return m;
 }
 
+// A field over the response's knots at the observations in `use`, `scale` times it added to
+// `log_field`: per channel (the first `channels`) linear between the knots (`knot_at(channel,
+// k)`, k = 0, 1, ... every `spacing` raw values) at the observation's raw value, the mean over
+// channels.
+template <typename KnotAt>
+void AddKnotField(const ObservationSet& data, const std::vector<size_t>& use, double spacing,
+                  size_t channels, double scale, KnotAt knot_at, std::vector<double>* log_field) {
+  for (size_t k = 0; k < use.size(); ++k) {
+    const auto& value = data.observations[use[k]].value;
+    double sum = 0;
+    int n = 0;
+    for (size_t c = 0; c < std::min(value.size(), channels); ++c) {
+      if (!std::isfinite(value[c])) continue;
+      const double pos = std::max(value[c], 0.0) / spacing;
+      const long j = static_cast<long>(pos);
+      const double a = pos - j;
+      sum += (1 - a) * knot_at(c, j) + a * knot_at(c, j + 1);
+      ++n;
+    }
+    if (n > 0) (*log_field)[k] += scale * sum / n;
+  }
+}
+
 // One draw of the response's wiggles (calibration_error.h) at the observations in `use`, added
-// to `log_field`: a normal draw per channel and knot, linear between knots, mean over channels.
+// to `log_field`: a normal draw per channel and knot.
 void AddWiggles(const ObservationSet& data, const std::vector<size_t>& use,
                 const CalibrationErrorModel& e, std::mt19937_64* rng,
                 std::vector<double>* log_field) {
@@ -111,47 +135,23 @@ void AddWiggles(const ObservationSet& data, const std::vector<size_t>& use,
     if (it == knot.end()) it = knot.emplace(std::make_pair(c, k), normal(*rng)).first;
     return it->second;
   };
-  for (size_t k = 0; k < use.size(); ++k) {
-    const auto& value = data.observations[use[k]].value;
-    double sum = 0;
-    int n = 0;
-    for (size_t c = 0; c < value.size(); ++c) {
-      if (!std::isfinite(value[c])) continue;
-      const double pos = std::max(value[c], 0.0) / e.response_knot_spacing;
-      const long j = static_cast<long>(pos);
-      const double a = pos - j;
-      sum += (1 - a) * at(c, j) + a * at(c, j + 1);
-      ++n;
-    }
-    if (n > 0) (*log_field)[k] += e.response_wiggle * sum / n;
-  }
+  AddKnotField(data, use, e.response_knot_spacing, SIZE_MAX, e.response_wiggle, at, log_field);
 }
 
 // Draw `draw` of the response's statistical error (calibration_error.h): its bootstrap refit
-// `draw` (cycled), a random sign, linear between knots at the observations' raw values in `use`,
-// mean over channels, added to `log_field`.
+// `draw` (cycled) with a random sign, at the observations in `use`, added to `log_field`;
+// beyond the last knot its value there.
 void AddReplicate(const ObservationSet& data, const std::vector<size_t>& use,
                   const CalibrationErrorModel& e, int draw, std::mt19937_64* rng,
                   std::vector<double>* log_field) {
   if (e.response_replicates.empty() || !(e.response_knot_spacing > 0)) return;
   const auto& refit = e.response_replicates[draw % e.response_replicates.size()];
   const double sign = std::bernoulli_distribution(0.5)(*rng) ? 1.0 : -1.0;
-  for (size_t k = 0; k < use.size(); ++k) {
-    const auto& value = data.observations[use[k]].value;
-    double sum = 0;
-    int n = 0;
-    for (size_t c = 0; c < std::min(value.size(), refit.size()); ++c) {
-      if (!std::isfinite(value[c])) continue;
-      const auto& d = refit[c];
-      const double pos =
-          std::clamp(value[c] / e.response_knot_spacing, 0.0, static_cast<double>(d.size() - 1));
-      const size_t j = std::min(static_cast<size_t>(pos), d.size() - 2);
-      const double a = pos - j;
-      sum += (1 - a) * d[j] + a * d[j + 1];
-      ++n;
-    }
-    if (n > 0) (*log_field)[k] += sign * sum / n;
-  }
+  const auto at = [&](size_t c, long k) {
+    const auto& d = refit[c];
+    return d[std::min(static_cast<size_t>(k), d.size() - 1)];
+  };
+  AddKnotField(data, use, e.response_knot_spacing, refit.size(), sign, at, log_field);
 }
 
 // The observations in `use`, every radiance (and its variance) multiplied by draw `draw` of the
@@ -312,9 +312,10 @@ double RescaleForPropagatedFloor(const ObservationSet& data, double floor, Joint
   size_t n = 0;
   for (const auto& o : data.observations) {
     for (size_t c = 0; c < o.radiance.size() && c < o.variance.size(); ++c) {
-      const double total = o.variance[c] + floor * floor * o.radiance[c] * o.radiance[c];
-      if (!(total > 0) || !std::isfinite(total)) continue;
-      share += o.variance[c] / total;
+      const double sigma =
+          joint_fit_internal::Sigma(o, static_cast<int>(c), floor);  // the fit's noise model
+      if (!std::isfinite(sigma)) continue;
+      share += o.variance[c] / (sigma * sigma);
       ++n;
     }
   }
