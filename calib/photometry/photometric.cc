@@ -142,6 +142,47 @@ double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) 
   return 0;
 }
 
+namespace {
+
+// photometric.json's "vignette_input" (docs/formats.md): the raw values V was measured from,
+// on a grid of cell_px cells covering the vignetting map; NaN where V had no sample.
+void ReadVignetteInput(const std::filesystem::path& path, const nlohmann::json& j,
+                       PhotometricCalibration* p) {
+  const std::string where = path.string() + ": 'vignette_input'";
+  if (!j.is_object() || !j.contains("raw_values") || !j["raw_values"].is_string() ||
+      !j.contains("cell_px") || !j["cell_px"].is_number_integer() || j["cell_px"].get<int>() < 1) {
+    throw InputError(where + " must be {\"raw_values\": file, \"cell_px\": integer >= 1}");
+  }
+  if (p->vignette.empty()) throw InputError(where + " needs a 'vignette' map");
+  const auto file = path.parent_path() / j["raw_values"].get<std::string>();
+  ImageExpectation expect;
+  expect.pixels = ImageExpectation::Pixels::kFloat;
+  expect.channels = 1;
+  expect.channels_of = "the vignetting's input raw values";
+  const cv::Mat raw = ReadImage(file, expect);
+  const int cell = j["cell_px"].get<int>();
+  const auto covers = [&](int cells, int pixels) {
+    return cells * cell >= pixels && (cells - 1) * cell < pixels;
+  };
+  if (!covers(raw.cols, p->vignette.cols) || !covers(raw.rows, p->vignette.rows)) {
+    throw InputError(fmt::format("{}: {}x{} cells of {} px do not cover the {}x{} vignetting map",
+                                 file.string(), raw.cols, raw.rows, cell, p->vignette.cols,
+                                 p->vignette.rows));
+  }
+  for (int y = 0; y < raw.rows; ++y) {
+    for (int x = 0; x < raw.cols; ++x) {
+      const float v = raw.at<float>(y, x);
+      if (std::isinf(v) || v < 0) {
+        throw InputError(file.string() + ": raw values must be >= 0 (NaN: no sample)");
+      }
+    }
+  }
+  p->vignette_input_raw = raw;
+  p->vignette_input_cell_px = cell;
+}
+
+}  // namespace
+
 PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path& path) {
   const nlohmann::json j = ReadJsonFile(path);
   PhotometricCalibration p;
@@ -192,6 +233,9 @@ PhotometricCalibration PhotometricCalibration::Read(const std::filesystem::path&
                        std::to_string(lo) + "); V(x) must be positive everywhere");
     }
   }
+  if (j.contains("vignette_input") && !j["vignette_input"].is_null()) {
+    ReadVignetteInput(path, j["vignette_input"], &p);
+  }
   if (!(p.read_noise_dn >= 0) || !std::isfinite(p.read_noise_dn)) {
     throw InputError(path.string() + ": read_noise_dn must be a finite number >= 0");
   }
@@ -212,6 +256,11 @@ void PhotometricCalibration::Write(const std::filesystem::path& path) const {
     const std::string name = path.stem().string() + "_vignette.tiff";
     WriteImage(path.parent_path() / name, vignette);
     j["vignette"] = name;
+    if (!vignette_input_raw.empty()) {
+      const std::string input = path.stem().string() + "_vignette_input.tiff";
+      WriteImage(path.parent_path() / input, vignette_input_raw);
+      j["vignette_input"] = {{"raw_values", input}, {"cell_px", vignette_input_cell_px}};
+    }
   } else {
     j["vignette"] = nullptr;
   }

@@ -21,6 +21,11 @@ struct PhotometricCalibration {
   ResponseResult response;
   cv::Mat vignette;  // CV_32F, image size, V(pixel) (1 = no fall-off); empty: none
   std::filesystem::path vignette_file;  // where Read found the map, for messages
+  // The raw values V was measured from, per cell of vignette_input_cell_px pixels (CV_32F, NaN
+  // where none; VignetteResult::input_raw). Empty: not known (a map written by hand or by the
+  // renderer), and V's share of the response's error is not propagated.
+  cv::Mat vignette_input_raw;
+  int vignette_input_cell_px = 0;
   double read_noise_dn = 0.5;
   std::optional<double> electrons_per_dn;  // shot noise when known
   // The calibration's own 1-sigma relative radiance error (response and vignetting combined,

@@ -44,7 +44,7 @@ Eigen::Vector4d FitRadial(const std::vector<Sample>& samples,
 // A paper pixel of one frame: the board point it sees and its exposure-normalized value.
 struct PaperPixel {
   int32_t ray;
-  float bx, by, value, ln_falloff;
+  float bx, by, value, ln_falloff, raw;
 };
 
 // The paper pixels of one frame (ray / board-plane intersection, channels averaged).
@@ -77,7 +77,7 @@ std::vector<PaperPixel> FramePaperPixels(const VignetteFrame& f,
     const double ln_falloff = std::log(std::abs(nd) / ray_norm) - 2 * std::log(s * ray_norm);
     out.push_back({static_cast<int32_t>(i), static_cast<float>(p_in_board.x()),
                    static_cast<float>(p_in_board.y()), static_cast<float>(sum / ch),
-                   static_cast<float>(ln_falloff)});
+                   static_cast<float>(ln_falloff), MeanRawAt(f.image, xy)});
   }
   return out;
 }
@@ -132,7 +132,7 @@ SampleSet BinOnTextureGrid(const std::vector<std::vector<PaperPixel>>& per_frame
     for (const auto& s : v) {
       const int ix = std::min(nx - 1, static_cast<int>((s.bx - bx0) / cell));
       const int iy = std::min(ny - 1, static_cast<int>((s.by - by0) / cell));
-      set.samples.push_back({s.ray, iy * nx + ix, s.value, s.ln_falloff});
+      set.samples.push_back({s.ray, iy * nx + ix, s.value, s.ln_falloff, s.raw});
       ++set.cell_count[grid.pixels[s.ray].vcell];
     }
   }
@@ -494,6 +494,8 @@ PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& opti
 void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
                    const VignetteOptions& options, bool test_lamp, VignetteResult* result) {
   ChooseModel(set.cell_count, options, result);
+  result->input_raw = InputRawPerCell(grid, set.samples);
+  result->input_cell_px = options.cell_px;
   result->covered_radius = CoveredRadius(set.samples, grid.pixels);
   std::vector<double> C(set.texture_cells, 0.0);
   const std::array<double, 3> v =

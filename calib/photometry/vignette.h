@@ -87,6 +87,12 @@ struct VignetteResult {
   // 99th percentile of the samples' r (distance to the principal point / half-diagonal): the
   // radial fit is extrapolated beyond it.
   double covered_radius = 0;
+  // The raw values V was measured from: per vignette cell of input_cell_px pixels (CV_32F), the
+  // median raw value of its samples, channels averaged; NaN where it had none. V is a ratio of
+  // radiances read through the response, so a response error at these values is in V too, and
+  // gonio run propagates it there (estimation/joint/calibration_error.h).
+  cv::Mat input_raw;
+  int input_cell_px = 0;
   // Whether the paper's brightness follows a lamp on the camera (vignette_lamp.h); a session
   // where it does is refused.
   CameraLampTest lamp_test;

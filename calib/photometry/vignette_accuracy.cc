@@ -10,6 +10,7 @@
 // the two halves has four times it: the whole fit's relative error is RMS(V_a / V_b - 1) / 2.
 // What both halves share (a paper that is not white, a model that cannot follow the optics)
 // does not show; the radial-vs-map spread is the report's figure for that.
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -45,6 +46,38 @@ double RmsRelativeDifference(const cv::Mat& a, const cv::Mat& b, const CameraMod
 }
 
 }  // namespace
+
+float MeanRawAt(const cv::Mat& image, const cv::Point& xy) {
+  const int ch = image.channels();
+  double sum = 0;
+  for (int c = 0; c < ch; ++c) {
+    switch (image.depth()) {
+      case CV_8U:
+        sum += image.ptr<uint8_t>(xy.y)[xy.x * ch + c];
+        break;
+      case CV_16U:
+        sum += image.ptr<uint16_t>(xy.y)[xy.x * ch + c];
+        break;
+      default:
+        sum += image.ptr<float>(xy.y)[xy.x * ch + c];
+        break;
+    }
+  }
+  return static_cast<float>(sum / ch);
+}
+
+cv::Mat InputRawPerCell(const PixelGrid& grid, const std::vector<Sample>& samples) {
+  std::vector<std::vector<float>> per_cell(static_cast<size_t>(grid.gw) * grid.gh);
+  for (const Sample& s : samples) per_cell[grid.pixels[s.ray].vcell].push_back(s.raw);
+  cv::Mat out(grid.gh, grid.gw, CV_32F, cv::Scalar(std::nanf("")));
+  for (size_t c = 0; c < per_cell.size(); ++c) {
+    auto& v = per_cell[c];
+    if (v.empty()) continue;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    out.at<float>(static_cast<int>(c / grid.gw), static_cast<int>(c % grid.gw)) = v[v.size() / 2];
+  }
+  return out;
+}
 
 void MeasureMapError(const CameraModel& camera, const PixelGrid& grid,
                      std::array<SampleSet, 2> halves, const VignetteOptions& options,

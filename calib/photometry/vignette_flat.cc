@@ -31,7 +31,8 @@ std::vector<Sample> FlatFieldSamples(const VignetteFrame& f, int frame,
     const float* v = radiance.ptr<float>(xy.y) + xy.x * ch;
     double sum = 0;
     for (int c = 0; c < ch; ++c) sum += v[c];
-    out.push_back({static_cast<int32_t>(i), frame, static_cast<float>(sum / ch), 0.0f});
+    out.push_back({static_cast<int32_t>(i), frame, static_cast<float>(sum / ch), 0.0f,
+                   MeanRawAt(f.image, xy)});
   }
   return out;
 }

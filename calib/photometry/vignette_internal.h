@@ -20,6 +20,7 @@ struct Sample {
   int32_t acell;     // texture cell: of the board (with poses), or the frame (a flat field)
   float value;       // linearized value / (exposure * gain), channels averaged
   float ln_falloff;  // ln(cos(theta) / d^2) of a lamp at the camera centre (vignette_lamp.h)
+  float raw;         // the raw value it was read from, channels averaged (InputRawPerCell)
 };
 
 struct SampledPixel {
@@ -57,6 +58,13 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
 // variance of the whole fit's, the whole fit's relative error is RMS(V_a / V_b - 1) / 2 over
 // the image within result->covered_radius. Sets result->map_error_rms, or leaves it NaN with
 // result->map_error_note when a half cannot be solved.
+// The raw value V was measured from in each vignette cell (VignetteResult::input_raw): the
+// median of its samples' raw values, NaN where it has none.
+cv::Mat InputRawPerCell(const PixelGrid& grid, const std::vector<Sample>& samples);
+
+// The raw value at `xy` of a frame, channels averaged.
+float MeanRawAt(const cv::Mat& image, const cv::Point& xy);
+
 void MeasureMapError(const CameraModel& camera, const PixelGrid& grid,
                      std::array<SampleSet, 2> halves, const VignetteOptions& options,
                      VignetteResult* result);

@@ -26,106 +26,180 @@ std::vector<double> Centred(std::vector<double> v, double scale = 1.0) {
   return v;
 }
 
-// v centred and scaled to an RMS of 1; empty when v does not vary (the mode is a pure scale,
-// which the lamp intensity absorbs).
-std::vector<double> Normalised(std::vector<double> v) {
-  v = Centred(std::move(v));
+// The vignetting's error modes (calibration_error.h): r^2, r^4, x and y in half-diagonals
+// about the principal point.
+constexpr int kVignetteModes = 4;
+double VignetteMode(const CalibrationErrorModel& e, int mode, const Eigen::Vector2d& pixel) {
+  const Eigen::Vector2d d = (pixel - e.principal_point) / e.radius_px;
+  switch (mode) {
+    case 0:
+      return d.squaredNorm();
+    case 1:
+      return d.squaredNorm() * d.squaredNorm();
+    case 2:
+      return d.x();
+    default:
+      return d.y();
+  }
+}
+
+// Vignetting mode `mode` at the pixels `at`, centred over them (a common scale is the lamp's
+// intensity) and scaled so that the mode, centred over the image, has an RMS of 1 there: V's
+// accuracy is an RMS over the image (calib/photometry/vignette_accuracy.cc), and a sample seen
+// in part of it meets only that part's share of a smooth error field. Scaled over the
+// observations instead, a tilt across a sample that spans a third of the image would be drawn
+// three times as steep as V's error allows. Empty when the mode does not vary at `at`.
+std::vector<double> VignetteModeAt(const CalibrationErrorModel& e, int mode,
+                                   const std::vector<Eigen::Vector2d>& at) {
+  constexpr int kGrid = 64;  // image samples per axis for the image's RMS
+  std::vector<double> image;
+  for (int j = 0; j < kGrid; ++j) {
+    for (int i = 0; i < kGrid; ++i) {
+      const Eigen::Vector2d p((i + 0.5) / kGrid * e.image_size.x(),
+                              (j + 0.5) / kGrid * e.image_size.y());
+      image.push_back(VignetteMode(e, mode, p));
+    }
+  }
   double ss = 0;
-  for (double x : v) ss += x * x;
-  const double rms = std::sqrt(ss / std::max<size_t>(v.size(), 1));
-  if (!(rms > 1e-12)) return {};
-  for (double& x : v) x /= rms;
-  return v;
+  for (double x : Centred(std::move(image))) ss += x * x;
+  const double image_rms = std::sqrt(ss / (kGrid * kGrid));
+  std::vector<double> v;
+  for (const auto& p : at) v.push_back(VignetteMode(e, mode, p));
+  v = Centred(std::move(v), 1.0 / image_rms);
+  double varies = 0;
+  for (double x : v) varies = std::max(varies, std::abs(x));
+  return image_rms > 1e-12 && varies > 1e-12 ? v : std::vector<double>{};
+}
+
+// Where the observations in `use` are read on the response: their raw values per channel, and
+// those the vignetting was measured from at their pixels (calibration_error.h), channels
+// averaged, with log2 of the inverse response there; NaN where V's input is not known.
+struct RawValues {
+  std::vector<std::vector<double>> observed;
+  std::vector<double> vignette, vignette_log2x;
+};
+
+RawValues RawValuesAt(const ObservationSet& data, const std::vector<size_t>& use,
+                      const CalibrationErrorModel& e) {
+  RawValues r;
+  for (size_t i : use) {
+    const Observation& o = data.observations[i];
+    r.observed.push_back(o.value);
+    double z = NAN, log2x = NAN;
+    if (!e.vignette_input_raw.empty() && e.vignette_input_cell_px > 0) {
+      const int cx = static_cast<int>(std::floor(o.px / e.vignette_input_cell_px));
+      const int cy = static_cast<int>(std::floor(o.py / e.vignette_input_cell_px));
+      if (cx >= 0 && cy >= 0 && cx < e.vignette_input_raw.cols && cy < e.vignette_input_raw.rows) {
+        z = e.vignette_input_raw.at<float>(cy, cx);
+        log2x = e.vignette_input_log2x.at<float>(cy, cx);
+      }
+    }
+    r.vignette.push_back(z);
+    r.vignette_log2x.push_back(log2x);
+  }
+  return r;
 }
 
 struct ErrorModes {
+  RawValues raw;
   std::vector<std::vector<double>> response, vignette;  // [mode][observation in `use`]
   std::vector<std::vector<double>> ends;                // in relative error per unit normal draw
 };
 
 // One response end's mode (calibration_error.h): the end's error times its weight at each
-// observation's raw value in its channel, centred (a common scale is the lamp's intensity);
-// empty when no observation reaches the end.
-std::vector<double> EndMode(const ObservationSet& data, const std::vector<size_t>& use,
-                            const ResponseEnd& end) {
+// observation's raw value in its channel, less its weight at V's input there, centred (a common
+// scale is the lamp's intensity); empty when no observation reaches the end.
+std::vector<double> EndMode(const RawValues& raw, const ResponseEnd& end) {
   std::vector<double> m;
   bool reached = false;
-  for (size_t i : use) {
-    const auto& value = data.observations[i].value;
-    const double z = end.channel < static_cast<int>(value.size()) ? value[end.channel] : NAN;
-    const double w = std::isfinite(z) ? end.WeightAt(z) : 0.0;
-    reached = reached || w > 0;
-    m.push_back(end.error * w);
+  const auto weight = [&](double z) { return std::isfinite(z) ? end.WeightAt(z) : 0.0; };
+  for (size_t k = 0; k < raw.observed.size(); ++k) {
+    const auto& value = raw.observed[k];
+    const double w =
+        weight(end.channel < static_cast<int>(value.size()) ? value[end.channel] : NAN);
+    const double w_vignette = weight(raw.vignette[k]);
+    reached = reached || w > 0 || w_vignette > 0;
+    m.push_back(end.error * (w - w_vignette));
   }
   return reached ? Centred(std::move(m)) : std::vector<double>{};
 }
 
-// The modes of calibration_error.h at the observations in `use`.
-ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
-                   const CalibrationErrorModel& e) {
-  std::vector<double> log_l;
+// The response's slope and its change per octave (calibration_error.h) at the observations: in
+// octaves u of the observed radiance about its median, less the same at V's input (in octaves
+// of its linear value about their median), where known.
+void AddSlopeModes(const ObservationSet& data, const std::vector<size_t>& use, ErrorModes* m) {
+  std::vector<double> log_l, log_v;
   for (size_t i : use) {
     const auto& r = data.observations[i].radiance;
     double sum = 0;
     for (double x : r) sum += x;
     log_l.push_back(std::log2(std::max(sum / std::max<size_t>(r.size(), 1), 1e-300)));
   }
-  const double median = Median(log_l);
-  std::vector<double> u, u2, r2, r4, tx, ty;
-  for (size_t k = 0; k < use.size(); ++k) {
-    const Observation& o = data.observations[use[k]];
-    u.push_back(log_l[k] - median);
-    u2.push_back(u.back() * u.back());
-    const double dx = (o.px - e.principal_point.x()) / e.radius_px;
-    const double dy = (o.py - e.principal_point.y()) / e.radius_px;
-    const double rr = dx * dx + dy * dy;
-    r2.push_back(rr);
-    r4.push_back(rr * rr);
-    tx.push_back(dx);
-    ty.push_back(dy);
+  for (double x : m->raw.vignette_log2x) {
+    if (std::isfinite(x)) log_v.push_back(x);
   }
-  ErrorModes m;
+  const double median = Median(log_l), median_v = log_v.empty() ? 0.0 : Median(log_v);
+  std::vector<double> u, u2;
+  for (size_t k = 0; k < use.size(); ++k) {
+    const double x = m->raw.vignette_log2x[k];
+    const double uv = std::isfinite(x) ? x - median_v : 0.0;
+    u.push_back(log_l[k] - median - uv);
+    u2.push_back((log_l[k] - median) * (log_l[k] - median) - uv * uv);
+  }
   // In octaves, not normalised: the slope error is drawn per octave (calibration_error.h).
-  m.response.push_back(Centred(u));
-  m.response.push_back(Centred(u2, 0.5));
-  for (auto* v : {&r2, &r4, &tx, &ty}) {
-    auto n = Normalised(*v);
+  m->response.push_back(Centred(u));
+  m->response.push_back(Centred(u2, 0.5));
+}
+
+// The modes of calibration_error.h at the observations in `use`.
+ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
+                   const CalibrationErrorModel& e) {
+  ErrorModes m;
+  m.raw = RawValuesAt(data, use, e);
+  AddSlopeModes(data, use, &m);
+  std::vector<Eigen::Vector2d> at;
+  for (size_t i : use) at.emplace_back(data.observations[i].px, data.observations[i].py);
+  for (int mode = 0; mode < kVignetteModes; ++mode) {
+    auto n = VignetteModeAt(e, mode, at);
     if (!n.empty()) m.vignette.push_back(std::move(n));
   }
   for (const ResponseEnd& end : e.response_ends) {
-    auto n = EndMode(data, use, end);
+    auto n = EndMode(m.raw, end);
     if (!n.empty()) m.ends.push_back(std::move(n));
   }
   return m;
 }
 
-// A field over the response's knots at the observations in `use`, `scale` times it added to
-// `log_field`: per channel (the first `channels`) linear between the knots (`knot_at(channel,
-// k)`, k = 0, 1, ... every `spacing` raw values) at the observation's raw value, the mean over
-// channels.
+// A field over the response's knots, `scale` times it added to `log_field`: per channel (the
+// first `channels`) linear between the knots (`knot_at(channel, k)`, k = 0, 1, ... every
+// `spacing` raw values) at each observation's raw value, the mean over channels; less the same
+// at the raw value V was measured from there (in every channel), where known.
 template <typename KnotAt>
-void AddKnotField(const ObservationSet& data, const std::vector<size_t>& use, double spacing,
-                  size_t channels, double scale, KnotAt knot_at, std::vector<double>* log_field) {
-  for (size_t k = 0; k < use.size(); ++k) {
-    const auto& value = data.observations[use[k]].value;
+void AddKnotField(const RawValues& raw, double spacing, size_t channels, double scale,
+                  KnotAt knot_at, std::vector<double>* log_field) {
+  const auto at = [&](size_t c, double z) {
+    const double pos = std::max(z, 0.0) / spacing;
+    const long j = static_cast<long>(pos);
+    const double a = pos - j;
+    return (1 - a) * knot_at(c, j) + a * knot_at(c, j + 1);
+  };
+  for (size_t k = 0; k < raw.observed.size(); ++k) {
+    const auto& value = raw.observed[k];
+    const double z_vignette = raw.vignette[k];
     double sum = 0;
     int n = 0;
     for (size_t c = 0; c < std::min(value.size(), channels); ++c) {
       if (!std::isfinite(value[c])) continue;
-      const double pos = std::max(value[c], 0.0) / spacing;
-      const long j = static_cast<long>(pos);
-      const double a = pos - j;
-      sum += (1 - a) * knot_at(c, j) + a * knot_at(c, j + 1);
+      sum += at(c, value[c]) - (std::isfinite(z_vignette) ? at(c, z_vignette) : 0.0);
       ++n;
     }
     if (n > 0) (*log_field)[k] += scale * sum / n;
   }
 }
 
-// One draw of the response's wiggles (calibration_error.h) at the observations in `use`, added
-// to `log_field`: a normal draw per channel and knot.
-void AddWiggles(const ObservationSet& data, const std::vector<size_t>& use,
-                const CalibrationErrorModel& e, std::mt19937_64* rng,
+// One draw of the response's wiggles (calibration_error.h) at the observations in `modes`,
+// added to `log_field`: a normal draw per channel and knot.
+void AddWiggles(const ErrorModes& modes, const CalibrationErrorModel& e, std::mt19937_64* rng,
                 std::vector<double>* log_field) {
   if (!(e.response_wiggle > 0) || !(e.response_knot_spacing > 0)) return;
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -135,15 +209,14 @@ void AddWiggles(const ObservationSet& data, const std::vector<size_t>& use,
     if (it == knot.end()) it = knot.emplace(std::make_pair(c, k), normal(*rng)).first;
     return it->second;
   };
-  AddKnotField(data, use, e.response_knot_spacing, SIZE_MAX, e.response_wiggle, at, log_field);
+  AddKnotField(modes.raw, e.response_knot_spacing, SIZE_MAX, e.response_wiggle, at, log_field);
 }
 
 // Draw `draw` of the response's statistical error (calibration_error.h): its bootstrap refit
-// `draw` (cycled) with a random sign, at the observations in `use`, added to `log_field`;
+// `draw` (cycled) with a random sign, at the observations in `modes`, added to `log_field`;
 // beyond the last knot its value there.
-void AddReplicate(const ObservationSet& data, const std::vector<size_t>& use,
-                  const CalibrationErrorModel& e, int draw, std::mt19937_64* rng,
-                  std::vector<double>* log_field) {
+void AddReplicate(const ErrorModes& modes, const CalibrationErrorModel& e, int draw,
+                  std::mt19937_64* rng, std::vector<double>* log_field) {
   if (e.response_replicates.empty() || !(e.response_knot_spacing > 0)) return;
   const auto& refit = e.response_replicates[draw % e.response_replicates.size()];
   const double sign = std::bernoulli_distribution(0.5)(*rng) ? 1.0 : -1.0;
@@ -151,7 +224,7 @@ void AddReplicate(const ObservationSet& data, const std::vector<size_t>& use,
     const auto& d = refit[c];
     return d[std::min(static_cast<size_t>(k), d.size() - 1)];
   };
-  AddKnotField(data, use, e.response_knot_spacing, refit.size(), sign, at, log_field);
+  AddKnotField(modes.raw, e.response_knot_spacing, refit.size(), sign, at, log_field);
 }
 
 // The observations in `use`, every radiance (and its variance) multiplied by draw `draw` of the
@@ -171,8 +244,8 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   };
   add(modes.response, e.response_ratio_error);
   add(modes.ends, 1.0);
-  AddWiggles(data, use, e, rng, &log_field);
-  AddReplicate(data, use, e, draw, rng, &log_field);
+  AddWiggles(modes, e, rng, &log_field);
+  AddReplicate(modes, e, draw, rng, &log_field);
   add(modes.vignette, e.vignette_rms / std::sqrt(std::max<size_t>(modes.vignette.size(), 1)));
   ObservationSet out;
   out.channels = data.channels;
@@ -219,6 +292,9 @@ void CalibrationErrorModel::Check() const {
   }
   if (!(radius_px > 0) || !principal_point.allFinite()) {
     throw InputError("calibration error: the principal point and radius must be finite, > 0");
+  }
+  if (!(image_size.minCoeff() > 0) || !image_size.allFinite()) {
+    throw InputError("calibration error: the image size must be finite, > 0");
   }
 }
 
@@ -267,6 +343,31 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   return p;
 }
 
+namespace {
+
+// V's input raw values (PhotometricCalibration::vignette_input_raw) and log2 of the inverse
+// response there, channels averaged, into `e`.
+void SetVignetteInput(const PhotometricCalibration& photometric, CalibrationErrorModel* e) {
+  const cv::Mat& raw = photometric.vignette_input_raw;
+  if (raw.empty() || photometric.vignette_input_cell_px < 1) return;
+  const ResponseResult& response = photometric.response;
+  const int channels = std::max<int>(1, response.inverse_response.size());
+  e->vignette_input_raw = raw.clone();
+  e->vignette_input_log2x = cv::Mat(raw.size(), CV_32F, cv::Scalar(std::nanf("")));
+  e->vignette_input_cell_px = photometric.vignette_input_cell_px;
+  for (int y = 0; y < raw.rows; ++y) {
+    for (int x = 0; x < raw.cols; ++x) {
+      const float z = raw.at<float>(y, x);
+      if (!std::isfinite(z)) continue;
+      double sum = 0;
+      for (int c = 0; c < channels; ++c) sum += response.Linearize(c, z);
+      if (sum > 0) e->vignette_input_log2x.at<float>(y, x) = std::log2(sum / channels);
+    }
+  }
+}
+
+}  // namespace
+
 std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     const PhotometricCalibration& photometric, const ObservationSet& data,
     const CameraModel& camera) {
@@ -304,6 +405,8 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
       std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
   e.principal_point = {camera.intrinsics[2], camera.intrinsics[3]};
   e.radius_px = 0.5 * std::hypot(camera.width, camera.height);
+  e.image_size = {static_cast<double>(camera.width), static_cast<double>(camera.height)};
+  SetVignetteInput(photometric, &e);
   return e;
 }
 

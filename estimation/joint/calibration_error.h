@@ -18,10 +18,11 @@
 //             deviation response_ratio_error. The self-check's band biases are ratio errors of
 //             neighbouring exposures: per octave they are the bias over log2 of the exposure
 //             ratio (PhotometricCalibration::ResponseSlopeErrorAt);
-//   vignetting (each normalised to an RMS of 1 over the observations used): r^2 and r^4 about
-//             the principal point (r in half-diagonals, as the radial
-//             model of docs/formats.md), and the two linear tilts in x and y (a flat field lit
-//             unevenly).
+//   vignetting (each with an RMS of 1 over the image, where V's accuracy is measured, and
+//             centred over the observations used): r^2 and r^4 about the principal point (r in
+//             half-diagonals, as the radial model of docs/formats.md), and the two linear tilts in
+//             x and y (a flat field lit unevenly). A sample seen in part of the image meets only
+//             that part's share of the field.
 //   the response's ends (calib/photometry/response.h, ResponseEnd): where the sweep's data thin
 //             out the table rests on its smoothing prior, and a whole segment can be off by a
 //             common gain that no ratio check sees. One mode per end that observations reach,
@@ -39,6 +40,12 @@
 //             files): between the sweep's values the curve is the smoothing prior's
 //             interpolation, off by a fraction of a percent that changes sign from knot to
 //             knot. Drawn per knot, interpolated by value.
+// V was measured through the same response (a flat field or the board's paper at its own raw
+// values), so every response mode also moves V: by its value at the raw value V was measured
+// from at the observation's pixel (vignette_input_raw), which divides the observation. Where the
+// sample and V's input were read at the same values, the response's error cancels; where V's
+// input spans values the sample does not, V carries an error of its own that the split halves
+// share and cannot show.
 // Response amplitudes are drawn with standard deviation response_ratio_error per octave,
 // vignetting amplitudes with vignette_rms / sqrt(4), so the expected RMS of the vignetting
 // field is vignette_rms.
@@ -74,7 +81,13 @@ struct CalibrationErrorModel {
   double vignette_rms = 0;  // 1-sigma relative error of V(x), RMS over the image
   Eigen::Vector2d principal_point = Eigen::Vector2d::Zero();  // pixels
   double radius_px = 1;                                       // half the image diagonal
-  void Check() const;                                         // InputError naming the field
+  Eigen::Vector2d image_size = Eigen::Vector2d::Zero();       // pixels; V's RMS is over the image
+  // The raw values V was measured from, per cell of vignette_input_cell_px pixels, and log2 of
+  // the inverse response there (CV_32F, NaN where unknown; PhotometricCalibration::
+  // vignette_input_raw). Empty: V's share of the response's error is not propagated.
+  cv::Mat vignette_input_raw, vignette_input_log2x;
+  int vignette_input_cell_px = 0;
+  void Check() const;  // InputError naming the field
 };
 
 struct CalibrationPropagationOptions {

@@ -202,6 +202,10 @@ TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {
       {{{"relative_accuracy", "x"}}, "'relative_accuracy' must be a number in [0, 1) or null"},
       {{{"relative_accuracy", -0.1}}, "'relative_accuracy' must be a number in [0, 1) or null"},
       {{{"relative_accuracy", 1.5}}, "'relative_accuracy' must be a number in [0, 1) or null"},
+      {{{"vignette_input", 5}},
+       "'vignette_input' must be {\"raw_values\": file, \"cell_px\": integer >= 1}"},
+      {{{"vignette_input", {{"raw_values", "x.tiff"}, {"cell_px", 16}}}},
+       "'vignette_input' needs a 'vignette' map"},
   };
   for (const auto& [edit, message] : cases) {
     nlohmann::json j = good;

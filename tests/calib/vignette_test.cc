@@ -136,6 +136,20 @@ TEST_F(VignetteSynthetic, FlatFieldWithoutPosesWithinOnePercentRms) {
               RadialVignetting(flat_.camera, {-0.3, 0.05, -0.02}, 0, 0), 0.01);
   std::cout << r.Report() << "RMS vs truth " << 100 * rms << "% (no poses)\n";
   ExpectHonestMapError(r, rms);
+  // The raw values V was read from (VignetteResult::input_raw), one per cell: through the
+  // response they fall off from the centre as V does (the target's radiance is one per frame).
+  ASSERT_EQ(r.input_cell_px, o.cell_px);
+  ASSERT_EQ(r.input_raw.size(),
+            cv::Size((flat_.camera.width + 7) / 8, (flat_.camera.height + 7) / 8));
+  EXPECT_TRUE(cv::checkRange(r.input_raw));  // a flat field covers every cell
+  const ResponseResult& response = testing::TruthCalibration(flat_).response;
+  const cv::Mat truth_v = testing::TruthVignette(flat_);
+  const auto x_at = [&](int cx, int cy) {
+    return response.Linearize(0, r.input_raw.at<float>(cy, cx));
+  };
+  const int mx = r.input_raw.cols / 2, my = r.input_raw.rows / 2;
+  EXPECT_NEAR(x_at(0, 0) / x_at(mx, my),
+              truth_v.at<float>(4, 4) / truth_v.at<float>(8 * my + 4, 8 * mx + 4), 0.02);
   // One frame is enough for a uniform target.
   frames.resize(1);
   const VignetteResult one =
@@ -207,6 +221,9 @@ TEST_F(VignetteSynthetic, CliWritesMapAndPhotometricJson) {
   const PhotometricCalibration p = PhotometricCalibration::Read(out / "photometric.json");
   ASSERT_EQ(p.vignette.size(), cv::Size(flat_.camera.width, flat_.camera.height));
   EXPECT_LT(testing::RmsRelative(p.vignette, testing::TruthVignette(flat_)), 0.01);
+  EXPECT_EQ(p.vignette_input_cell_px, 8);  // the raw values V was read from, kept beside it
+  EXPECT_EQ(p.vignette_input_raw.size(),
+            cv::Size((flat_.camera.width + 7) / 8, (flat_.camera.height + 7) / 8));
 
   // Bad input: one line on stderr, exit 2.
   r = RunGonio(common + " --poses " + (out / "missing.json").string() + " --out " +

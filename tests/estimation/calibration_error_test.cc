@@ -23,6 +23,7 @@ using testing_obs::Synthesize;
 
 constexpr double kPixelNoise = 0.001;
 const Eigen::Vector2d kPrincipalPoint(640, 480);
+const Eigen::Vector2d kImageSize(1280, 960);
 constexpr double kRadiusPx = 800;
 
 // A calibration error as a user's response and vignetting could leave it: the inverse
@@ -46,6 +47,7 @@ CalibrationErrorModel ModelForTheImage() {
   CalibrationErrorModel e;
   e.principal_point = kPrincipalPoint;
   e.radius_px = kRadiusPx;
+  e.image_size = kImageSize;
   return e;
 }
 
@@ -185,6 +187,21 @@ TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
   EXPECT_GT(largest, 0.2);
 }
 
+// A response error as the pixel bootstrap of a third-stop sweep shows it (docs/photometric.md):
+// ln X off by a walk smoothed over 4 knots, 0.2 % RMS, at 400 knots.
+std::vector<double> SmoothedWalk(std::mt19937_64* rng) {
+  std::normal_distribution<double> normal(0, 1);
+  std::vector<double> walk(400), knot(400, 0.0);
+  for (double& w : walk) w = normal(*rng);
+  double ss = 0;
+  for (size_t k = 0; k < knot.size(); ++k) {
+    for (size_t j = k >= 2 ? k - 2 : 0; j < std::min(knot.size(), k + 3); ++j) knot[k] += walk[j];
+    ss += knot[k] * knot[k];
+  }
+  for (double& k : knot) k *= 0.002 / std::sqrt(ss / knot.size());
+  return knot;
+}
+
 // The response's bootstrap refits as its error (calibration_error.h): ten replicates and the
 // true error drawn from one law, a curve error that wanders over a few knots (a smoothed walk of
 // 0.2 % RMS, as the pixel bootstrap of a third-stop sweep shows, docs/photometric.md). The
@@ -192,20 +209,7 @@ TEST(CalibrationError, WigglesBetweenKnotsSpreadAsTheyShift) {
 // data with replicates ten times smaller must not (their bars too narrow: some |z| above 3).
 TEST(CalibrationError, ResponseReplicatesSpreadAsTheTableErrorShifts) {
   std::mt19937_64 rng(777);
-  std::normal_distribution<double> normal(0, 1);
-  const auto draw = [&] {  // a walk smoothed over 4 knots, scaled to 0.2 % RMS
-    std::vector<double> walk(400), knot(400, 0.0);
-    for (double& w : walk) w = normal(rng);
-    double ss = 0;
-    for (size_t k = 0; k < knot.size(); ++k) {
-      for (size_t j = k >= 2 ? k - 2 : 0; j < std::min(knot.size(), k + 3); ++j) {
-        knot[k] += walk[j];
-      }
-      ss += knot[k] * knot[k];
-    }
-    for (double& k : knot) k *= 0.002 / std::sqrt(ss / knot.size());
-    return knot;
-  };
+  const auto draw = [&] { return SmoothedWalk(&rng); };
   const BentFits b = FitWithoutAndWith(draw());
   ASSERT_TRUE(b.base.material.converged && b.fit.material.converged);
   CalibrationErrorModel e = ModelForTheImage();
@@ -218,6 +222,58 @@ TEST(CalibrationError, ResponseReplicatesSpreadAsTheTableErrorShifts) {
     for (double& v : refit[0]) v *= 0.1;
   }
   EXPECT_GT(LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e)), 3.0);
+}
+
+// The vignetting measured through the same response (calibration_error.h): V's input read at
+// raw values that rise across the image (cells of 32 px, 1000 to 3700), the observations all at
+// raw value 2000. The true response error (a smoothed walk) then reaches the fit only through V:
+// each observation divided by V's error at its pixel. The propagation must draw it there, with
+// the same agreement as above; without V's input it sees only the constant error at 2000, which
+// the lamp's intensity absorbs, and its bars must not cover the shift. Where the observations
+// were read at V's own input values, the error cancels and nothing is added.
+TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
+  constexpr int kCell = 32;
+  cv::Mat input(30, 40, CV_32F), log2x(30, 40, CV_32F);
+  for (int y = 0; y < input.rows; ++y) {
+    for (int x = 0; x < input.cols; ++x) {
+      input.at<float>(y, x) = 1000 + 45 * x + 35 * y;
+      log2x.at<float>(y, x) = std::log2(input.at<float>(y, x));
+    }
+  }
+  const auto input_at = [&](const Observation& o) {
+    return input.at<float>(static_cast<int>(o.py) / kCell, static_cast<int>(o.px) / kCell);
+  };
+  std::mt19937_64 rng(4242);
+  const std::vector<double> truth = SmoothedWalk(&rng);
+  const auto ln_error = [&](double z) {
+    const double pos = z / kKnotSpacing;
+    const size_t j = static_cast<size_t>(pos);
+    return (1 - (pos - j)) * truth[j] + (pos - j) * truth[j + 1];
+  };
+  BentFits b = FitWithoutAndWith(std::vector<double>(400, 0.0));
+  for (auto& o : b.data.observations) {
+    o.value = {2000.0};
+    for (double& l : o.radiance) l *= std::exp(-ln_error(input_at(o)));
+  }
+  b.fit = FitJoint("oren-nayar", b.data, kLamp, b.options);
+  ASSERT_TRUE(b.base.material.converged && b.fit.material.converged);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_knot_spacing = kKnotSpacing;
+  for (int r = 0; r < 10; ++r) e.response_replicates.push_back({SmoothedWalk(&rng)});
+  CalibrationErrorModel with_input = e;
+  with_input.vignette_input_raw = input;
+  with_input.vignette_input_log2x = log2x;
+  with_input.vignette_input_cell_px = kCell;
+  const double largest =
+      LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, with_input));
+  EXPECT_LT(largest, 3.0);
+  EXPECT_GT(largest, 0.2);
+  EXPECT_GT(LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e)), 100.0);
+
+  for (auto& o : b.data.observations) o.value = {input_at(o)};
+  const CalibrationPropagation same = PropagateTen(b.data, b.fit, b.options, with_input);
+  for (double sd : same.param_stddev) EXPECT_LT(sd, 1e-7);
+  EXPECT_LT(same.lamp_stddev.norm(), 1e-7);
 }
 
 // The statistical part when the fit's floor is the propagated calibration accuracy
@@ -262,6 +318,7 @@ TEST(CalibrationError, NoCalibrationErrorAddsNothing) {
   CalibrationErrorModel e;
   e.principal_point = kPrincipalPoint;
   e.radius_px = kRadiusPx;
+  e.image_size = kImageSize;
   CalibrationPropagationOptions po;
   po.draws = 3;
   const CalibrationPropagation p = PropagateCalibrationError(data, fit, o, e, po);
@@ -276,6 +333,11 @@ TEST(CalibrationError, BadOptionsAreInputErrors) {
   e.vignette_rms = 0.01;
   e.radius_px = 0;
   EXPECT_THROW(e.Check(), InputError);
+  e.radius_px = 800;
+  e.principal_point = {640, 480};
+  EXPECT_THROW(e.Check(), InputError);  // no image size
+  e.image_size = {1280, 960};
+  EXPECT_NO_THROW(e.Check());
   CalibrationPropagationOptions po;
   po.draws = 1;
   EXPECT_THROW(po.Check(), InputError);
