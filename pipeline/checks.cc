@@ -284,6 +284,19 @@ void AddStructureWarnings(const ResidualStructure& s, const std::vector<std::str
   }
 }
 
+// Room light lights the white reference as it lights the sample (docs/pipeline.md "Ambient
+// light"): a kept ambient whose white-reference irradiance is nowhere positive beyond 2 of its
+// standard deviations is the sample's constant alone, not room light.
+bool WhiteShowsNoRoomLight(const JointFitResult& f) {
+  if (f.ambient_irradiance.empty()) return false;
+  for (size_t c = 0; c < f.ambient_irradiance.size(); ++c) {
+    const auto& sd = c < f.ambient_irradiance_stddev.size() ? f.ambient_irradiance_stddev[c]
+                                                            : std::optional<double>();
+    if (!sd || !(f.ambient_irradiance[c] < 2 * *sd)) return false;
+  }
+  return true;
+}
+
 // Nuisances that --ambient auto / --sample-height auto found and fitted: the user did not
 // declare them, and each costs precision (docs/pipeline.md "Nuisances chosen by evidence").
 void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>& all,
@@ -298,12 +311,25 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                              ? fmt::format(" +- {:.1f}%", 100 * *sd[0] / f.lamp_irradiance)
                              : std::string());
     }
-    m->push_back({WarningCause::kAmbientLight,
-                  "the data show room light" + size +
-                      ", fitted as a constant: it trades against the lamp's distance and the "
-                      "material's shape, so every error bar is wider; lamp-off frames "
-                      "(session.json lamp_off) remove it exactly",
-                  all});
+    if (WhiteShowsNoRoomLight(f)) {
+      m->push_back({WarningCause::kNotExplained,
+                    "the sample shows a constant radiance that the white reference does not (its "
+                    "room light reads" +
+                        size +
+                        "): room light would light both, so the constant the selection kept "
+                        "stands for something the model does not hold (the material model's "
+                        "shape, the response's dark end), and the values and error bars may be "
+                        "off by it; lamp-off frames (session.json lamp_off) would show whether "
+                        "the room was dark",
+                    all});
+    } else {
+      m->push_back({WarningCause::kAmbientLight,
+                    "the data show room light" + size +
+                        ", fitted as a constant: it trades against the lamp's distance and the "
+                        "material's shape, so every error bar is wider; lamp-off frames "
+                        "(session.json lamp_off) remove it exactly",
+                    all});
+    }
   }
   if (const auto& u = f.unresolved_nuisance) {
     const bool ambient = u->term == UnresolvedNuisance::Term::kAmbient;

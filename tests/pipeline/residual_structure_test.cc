@@ -143,6 +143,30 @@ TEST(RunWarnings, TouchedResultsListEachCauseOnce) {
   EXPECT_EQ(w[0].ToJson()["cause"], "at-bound");
 }
 
+// A kept ambient term is room light only when the white reference sees it too (checks.cc
+// WhiteShowsNoRoomLight): the coverage bench's tson runs kept a sample constant 13 standard
+// deviations out while the white's room light read -1.1 % +- 1.2 % of the lamp's.
+TEST(RunWarnings, AnAmbientTheWhiteDoesNotShareIsNotRoomLight) {
+  JointFitResult f = TrueFit();
+  f.ambient = AmbientTerm::kFit;
+  f.ambient_reason = "nuisances by BIC: ambient light kept";
+  f.lamp_irradiance = 210;
+  f.ambient_sample = {0.18};
+  f.ambient_sample_stddev = {0.014};
+  const auto cause_of = [&](double e, double sd) {
+    f.ambient_irradiance = {e};
+    f.ambient_irradiance_stddev = {sd};
+    const auto w = FitChecks().Warnings(f);
+    EXPECT_EQ(w.size(), 1u);
+    return w.empty() ? WarningCause::kFit : w[0].cause;
+  };
+  EXPECT_EQ(cause_of(-2.2, 2.6), WarningCause::kNotExplained);
+  EXPECT_EQ(cause_of(4.0, 2.6), WarningCause::kNotExplained);  // 1.5 sd: not shown
+  EXPECT_EQ(cause_of(10.5, 2.0), WarningCause::kAmbientLight);
+  f.ambient_irradiance_stddev = {std::nullopt};  // the white's not determined: say room light
+  EXPECT_EQ(FitChecks().Warnings(f).at(0).cause, WarningCause::kAmbientLight);
+}
+
 // `gonio run --maps`: the maps' warnings become run warnings touching the maps, the frames the
 // run already names skipped are not repeated.
 TEST(RunWarnings, MapsWarningsAreRunWarnings) {
