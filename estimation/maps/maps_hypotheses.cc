@@ -333,12 +333,6 @@ std::vector<uint8_t> SearchMask(const TexelData& d, size_t target) {
   return mask;
 }
 
-// Shared steps of the per-texel fit that labels every texel (FinalFit). Its lamp moved by less
-// than 0.1 mm, a third of its statistical standard deviation, after the first step on
-// full-size textured-3mat, and the next 11 steps (53 s of the command's 164 s) improved the
-// cost by 0.2 %; its labels and start are all the final fit takes from it.
-constexpr int kLabelOuterIterations = 2;
-
 // The chosen hypothesis on every texel of `data`, with the search's lamp, noise model, shared
 // roughness values and mixture (its clusters assigned to every texel from a per-texel fit).
 void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptions& so,
@@ -361,10 +355,7 @@ void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptio
     // refined on every texel. Held at the search's lamp it took 105 s instead of 134 s on
     // full-size textured-3mat but doubled the texels marked as edges (51,320 for 27,752:
     // scattered mislabelled texels, albedo z 3.2 on them; docs/maps.md "Full size").
-    TexelSolveOptions label_so = so;
-    label_so.outer_iterations = std::min(so.outer_iterations, kLabelOuterIterations);
-    texel =
-        FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp, search.noise, &seed, label_so);
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp, search.noise, &seed, so);
     std::vector<size_t> texels;
     const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(texel, &texels));
     for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
