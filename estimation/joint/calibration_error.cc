@@ -296,6 +296,14 @@ void CalibrationErrorModel::Check() const {
   if (!(image_size.minCoeff() > 0) || !image_size.allFinite()) {
     throw InputError("calibration error: the image size must be finite, > 0");
   }
+  if (!vignette_input_raw.empty() &&
+      (vignette_input_cell_px < 1 || vignette_input_raw.type() != CV_32F ||
+       vignette_input_log2x.size() != vignette_input_raw.size() ||
+       vignette_input_log2x.type() != CV_32F)) {
+    throw InputError(
+        "calibration error: V's input raw values need their log2 X of the same size (CV_32F) and "
+        "a cell of at least 1 px");
+  }
 }
 
 void CalibrationPropagationOptions::Check() const {

@@ -338,6 +338,11 @@ TEST(CalibrationError, BadOptionsAreInputErrors) {
   EXPECT_THROW(e.Check(), InputError);  // no image size
   e.image_size = {1280, 960};
   EXPECT_NO_THROW(e.Check());
+  e.vignette_input_raw = cv::Mat(30, 40, CV_32F, cv::Scalar(1000));
+  e.vignette_input_cell_px = 32;
+  EXPECT_THROW(e.Check(), InputError);  // no log2 X beside the raw values
+  e.vignette_input_log2x = cv::Mat(30, 40, CV_32F, cv::Scalar(10));
+  EXPECT_NO_THROW(e.Check());
   CalibrationPropagationOptions po;
   po.draws = 1;
   EXPECT_THROW(po.Check(), InputError);
