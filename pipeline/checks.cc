@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/error.h"
+#include "common/math.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
@@ -285,16 +286,33 @@ void AddStructureWarnings(const ResidualStructure& s, const std::vector<std::str
 }
 
 // Room light lights the white reference as it lights the sample (docs/pipeline.md "Ambient
-// light"): a kept ambient whose white-reference irradiance is nowhere positive beyond 2 of its
-// standard deviations is the sample's constant alone, not room light.
-bool WhiteShowsNoRoomLight(const JointFitResult& f) {
-  if (f.ambient_irradiance.empty()) return false;
-  for (size_t c = 0; c < f.ambient_irradiance.size(); ++c) {
-    const auto& sd = c < f.ambient_irradiance_stddev.size() ? f.ambient_irradiance_stddev[c]
-                                                            : std::optional<double>();
-    if (!sd || !(f.ambient_irradiance[c] < 2 * *sd)) return false;
+// light"): a sample constant L_a implies a white irradiance E_a = pi L_a / albedo (Lambertian;
+// rho_dh for the others, approximated by the albedo). The kept constant is not room light when,
+// in some channel, it is negative beyond 3 of its standard deviations or the white's measured
+// E_a falls short of the implied one by more than 3 standard deviations of their difference.
+// A white whose E_a is too uncertain to tell says nothing either way.
+bool AmbientIsNotRoomLight(const JointFitResult& f) {
+  const auto& names = f.per_channel_param_names;
+  const auto albedo_at = std::find(names.begin(), names.end(), "albedo");
+  if (albedo_at == names.end()) return false;
+  const size_t k = albedo_at - names.begin();
+  for (size_t c = 0; c < f.ambient_sample.size(); ++c) {
+    const auto sd_l =
+        c < f.ambient_sample_stddev.size() ? f.ambient_sample_stddev[c] : std::optional<double>();
+    if (!sd_l) continue;
+    const double l_a = f.ambient_sample[c];
+    if (l_a < -3 * *sd_l) return true;
+    if (c >= f.ambient_irradiance.size() || c >= f.ambient_irradiance_stddev.size() ||
+        !f.ambient_irradiance_stddev[c] || c >= f.per_channel_params.size() ||
+        k >= f.per_channel_params[c].size() || !(f.per_channel_params[c][k] > 0)) {
+      continue;
+    }
+    const double albedo = f.per_channel_params[c][k];
+    const double implied = kPi * l_a / albedo, sd_implied = kPi * *sd_l / albedo;
+    const double sd = std::hypot(*f.ambient_irradiance_stddev[c], sd_implied);
+    if (f.ambient_irradiance[c] + 3 * sd < implied) return true;
   }
-  return true;
+  return false;
 }
 
 // Nuisances that --ambient auto / --sample-height auto found and fitted: the user did not
@@ -311,16 +329,15 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                              ? fmt::format(" +- {:.1f}%", 100 * *sd[0] / f.lamp_irradiance)
                              : std::string());
     }
-    if (WhiteShowsNoRoomLight(f)) {
+    if (AmbientIsNotRoomLight(f)) {
       m->push_back({WarningCause::kNotExplained,
-                    "the sample shows a constant radiance that the white reference does not (its "
-                    "room light reads" +
+                    "the sample shows a constant radiance that room light cannot give (negative, "
+                    "or more than the white reference's room light" +
                         size +
-                        "): room light would light both, so the constant the selection kept "
-                        "stands for something the model does not hold (the material model's "
-                        "shape, the response's dark end), and the values and error bars may be "
-                        "off by it; lamp-off frames (session.json lamp_off) would show whether "
-                        "the room was dark",
+                        " allows): the constant the selection kept stands for something the "
+                        "model does not hold (the material model's shape, the response's dark "
+                        "end), and the values and error bars may be off by it; lamp-off frames "
+                        "(session.json lamp_off) would show whether the room was dark",
                     all});
     } else {
       m->push_back({WarningCause::kAmbientLight,

@@ -143,27 +143,33 @@ TEST(RunWarnings, TouchedResultsListEachCauseOnce) {
   EXPECT_EQ(w[0].ToJson()["cause"], "at-bound");
 }
 
-// A kept ambient term is room light only when the white reference sees it too (checks.cc
-// WhiteShowsNoRoomLight): the coverage bench's tson runs kept a sample constant 13 standard
-// deviations out while the white's room light read -1.1 % +- 1.2 % of the lamp's.
-TEST(RunWarnings, AnAmbientTheWhiteDoesNotShareIsNotRoomLight) {
+// A kept ambient term is room light only when the white reference can see it too (checks.cc
+// AmbientIsNotRoomLight): a sample constant L_a = 0.18 +- 0.014 with albedo 0.6 implies a white
+// irradiance of pi 0.18 / 0.6 = 0.94. The coverage bench's tson runs read E_a -2.2 +- 2.6 there:
+// too uncertain to tell, room light. A white that reads -10 +- 2, or a negative constant, cannot
+// be room light.
+TEST(RunWarnings, AnAmbientTheWhiteContradictsIsNotRoomLight) {
   JointFitResult f = TrueFit();
   f.ambient = AmbientTerm::kFit;
   f.ambient_reason = "nuisances by BIC: ambient light kept";
   f.lamp_irradiance = 210;
-  f.ambient_sample = {0.18};
-  f.ambient_sample_stddev = {0.014};
-  const auto cause_of = [&](double e, double sd) {
-    f.ambient_irradiance = {e};
-    f.ambient_irradiance_stddev = {sd};
+  f.per_channel_param_names = {"albedo"};
+  f.per_channel_params = {{0.6}};
+  const auto cause_of = [&](double l_a, double e_a, double sd_e) {
+    f.ambient_sample = {l_a};
+    f.ambient_sample_stddev = {0.014};
+    f.ambient_irradiance = {e_a};
+    f.ambient_irradiance_stddev = {sd_e};
     const auto w = FitChecks().Warnings(f);
     EXPECT_EQ(w.size(), 1u);
     return w.empty() ? WarningCause::kFit : w[0].cause;
   };
-  EXPECT_EQ(cause_of(-2.2, 2.6), WarningCause::kNotExplained);
-  EXPECT_EQ(cause_of(4.0, 2.6), WarningCause::kNotExplained);  // 1.5 sd: not shown
-  EXPECT_EQ(cause_of(10.5, 2.0), WarningCause::kAmbientLight);
-  f.ambient_irradiance_stddev = {std::nullopt};  // the white's not determined: say room light
+  EXPECT_EQ(cause_of(0.18, -2.2, 2.6), WarningCause::kAmbientLight);  // cannot tell
+  EXPECT_EQ(cause_of(0.18, 1.0, 0.1), WarningCause::kAmbientLight);   // agrees
+  EXPECT_EQ(cause_of(0.18, -10, 2.0), WarningCause::kNotExplained);   // 5.4 sd short
+  EXPECT_EQ(cause_of(-0.18, 0.0, 2.6), WarningCause::kNotExplained);  // negative room light
+  f.ambient_irradiance_stddev = {std::nullopt};  // the white's not determined: room light
+  f.ambient_sample = {0.18};
   EXPECT_EQ(FitChecks().Warnings(f).at(0).cause, WarningCause::kAmbientLight);
 }
 
