@@ -118,11 +118,7 @@ PhotometricCalibration CalibrateVignetting(const Session& session, const Board& 
   p.response = response;
   *vignette =
       CalibrateVignette(camera, PaperRegion::FromBoard(board), p, frames, VignetteOptions{});
-  p.vignette = vignette->map;
-  p.vignette_input_raw = vignette->input_raw;
-  p.vignette_input_cell_px = vignette->input_cell_px;
-  p.relative_accuracy = PhotometricCalibration::CombinedAccuracy(response, vignette->Accuracy());
-  return p;
+  return WithVignette(std::move(p), *vignette);
 }
 
 // The user's calibrations into `dir`: camera.cameramodel, response.json, photometric.json.

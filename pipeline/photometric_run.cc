@@ -299,13 +299,7 @@ void WriteSessionVignette(const SessionVignette& v, const std::string& out,
   if (!photometric_out.empty()) {
     const fs::path path(photometric_out);
     if (path.has_parent_path()) EnsureDirectory(path.parent_path());
-    PhotometricCalibration calib = v.calib;
-    calib.vignette = v.result.map;
-    calib.vignette_input_raw = v.result.input_raw;
-    calib.vignette_input_cell_px = v.result.input_cell_px;
-    calib.relative_accuracy =
-        PhotometricCalibration::CombinedAccuracy(calib.response, v.result.Accuracy());
-    calib.Write(photometric_out);
+    WithVignette(v.calib, v.result).Write(photometric_out);
   }
 }
 

@@ -133,6 +133,7 @@ std::array<double, 2> CheckedRange(const ResponseResult& result, const Setup& s,
 // knots' values and the change's median there (a common offset: an exposure scale no ratio
 // sees). Used by the smoothing sensitivity and the bootstrap (response_smoothing.cc).
 struct KnotChange {
+  std::array<double, 2> range{};  // CheckedRange
   std::vector<int> knot;
   std::vector<double> z, d;
   double median = 0;

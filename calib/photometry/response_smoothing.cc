@@ -47,8 +47,9 @@ std::array<double, 2> CheckedRange(const ResponseResult& result, const Setup& s,
 KnotChange ChangeOverCheckedRange(const ResponseResult& result, const Setup& s, int c,
                                   const std::vector<double>& refit_h,
                                   const std::vector<double>& fit_h) {
-  const auto [lo, hi] = CheckedRange(result, s, c);
   KnotChange out;
+  out.range = CheckedRange(result, s, c);
+  const auto [lo, hi] = out.range;
   for (int k = 0; k < s.num_knots; ++k) {
     const double z = k * s.max_value / (s.num_knots - 1.0);
     if (z < lo || z > hi) continue;
@@ -83,16 +84,14 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
     // the common offset (an exposure scale, which no radiance ratio sees) removed.
     const KnotChange change =
         ChangeOverCheckedRange(result, s, static_cast<int>(c), refit.h, fits[c].h);
-    const std::vector<double>& z_of = change.z;
-    const std::vector<double>& d = change.d;
-    if (d.size() < 2) continue;
+    if (change.d.size() < 2) continue;
     const double mid = change.median;
-    const auto [lo, hi] = CheckedRange(result, s, static_cast<int>(c));
+    const auto [lo, hi] = change.range;
     const int bands = PairConsistency::kBands;
     std::vector<std::vector<double>> in_band(bands);
-    for (size_t q = 0; q < d.size(); ++q) {
-      const int b = std::min(bands - 1, static_cast<int>((z_of[q] - lo) / (hi - lo) * bands));
-      in_band[b].push_back(std::abs(d[q] - mid));
+    for (size_t q = 0; q < change.d.size(); ++q) {
+      const int b = std::min(bands - 1, static_cast<int>((change.z[q] - lo) / (hi - lo) * bands));
+      in_band[b].push_back(std::abs(change.d[q] - mid));
     }
     for (const auto& v : in_band) {
       if (!v.empty()) worst = std::max(worst, Median(v));

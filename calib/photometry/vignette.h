@@ -120,6 +120,10 @@ VignetteResult CalibrateFlatFieldVignette(const CameraModel& camera,
                                           const std::vector<VignetteFrame>& frames,
                                           const VignetteOptions& options);
 
+// The calibration photometric.json holds (docs/formats.md): `response_only` with the map of
+// `v`, the raw values it was read from and the combined relative accuracy.
+PhotometricCalibration WithVignette(PhotometricCalibration response_only, const VignetteResult& v);
+
 // V of the radial polynomial at pixel (x, y) for the camera's principal point and half-diagonal.
 double RadialVignetting(const CameraModel& camera, const std::array<double, 3>& v, double x,
                         double y);

@@ -143,6 +143,15 @@ std::string VignetteResult::Report() const {
   return s;
 }
 
+PhotometricCalibration WithVignette(PhotometricCalibration response_only, const VignetteResult& v) {
+  PhotometricCalibration& p = response_only;
+  p.vignette = v.map;
+  p.vignette_input_raw = v.input_raw;
+  p.vignette_input_cell_px = v.input_cell_px;
+  p.relative_accuracy = PhotometricCalibration::CombinedAccuracy(p.response, v.Accuracy());
+  return p;
+}
+
 double VignetteResult::Accuracy() const {
   return std::isfinite(map_error_rms) ? 2 * map_error_rms : rms_relative_residual;
 }

@@ -30,7 +30,7 @@ std::vector<double> Centred(std::vector<double> v, double scale = 1.0) {
 // about the principal point.
 constexpr int kVignetteModes = 4;
 double VignetteMode(const CalibrationErrorModel& e, int mode, const Eigen::Vector2d& pixel) {
-  const Eigen::Vector2d d = (pixel - e.principal_point) / e.radius_px;
+  const Eigen::Vector2d d = (pixel - e.principal_point) / e.RadiusPx();
   switch (mode) {
     case 0:
       return d.squaredNorm();
@@ -290,8 +290,8 @@ void CalibrationErrorModel::Check() const {
       throw InputError("calibration error: a response end's error must be in [0, 1)");
     }
   }
-  if (!(radius_px > 0) || !principal_point.allFinite()) {
-    throw InputError("calibration error: the principal point and radius must be finite, > 0");
+  if (!principal_point.allFinite()) {
+    throw InputError("calibration error: the principal point must be finite");
   }
   if (!(image_size.minCoeff() > 0) || !image_size.allFinite()) {
     throw InputError("calibration error: the image size must be finite, > 0");
@@ -412,7 +412,6 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
   e.vignette_rms =
       std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
   e.principal_point = {camera.intrinsics[2], camera.intrinsics[3]};
-  e.radius_px = 0.5 * std::hypot(camera.width, camera.height);
   e.image_size = {static_cast<double>(camera.width), static_cast<double>(camera.height)};
   SetVignetteInput(photometric, &e);
   return e;

@@ -79,9 +79,9 @@ struct CalibrationErrorModel {
   // channel the change of ln X at every knot, `response_knot_spacing` raw values apart.
   std::vector<std::vector<std::vector<double>>> response_replicates;
   double vignette_rms = 0;  // 1-sigma relative error of V(x), RMS over the image
-  Eigen::Vector2d principal_point = Eigen::Vector2d::Zero();  // pixels
-  double radius_px = 1;                                       // half the image diagonal
-  Eigen::Vector2d image_size = Eigen::Vector2d::Zero();       // pixels; V's RMS is over the image
+  Eigen::Vector2d principal_point = Eigen::Vector2d::Zero();   // pixels
+  Eigen::Vector2d image_size = Eigen::Vector2d::Zero();        // pixels; V's RMS is over the image
+  double RadiusPx() const { return 0.5 * image_size.norm(); }  // half the image diagonal
   // The raw values V was measured from, per cell of vignette_input_cell_px pixels, and log2 of
   // the inverse response there (CV_32F, NaN where unknown; PhotometricCalibration::
   // vignette_input_raw). Empty: V's share of the response's error is not propagated.

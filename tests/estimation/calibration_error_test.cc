@@ -46,7 +46,6 @@ ObservationSet WithCalibrationError(ObservationSet data, double ratio_per_octave
 CalibrationErrorModel ModelForTheImage() {
   CalibrationErrorModel e;
   e.principal_point = kPrincipalPoint;
-  e.radius_px = kRadiusPx;
   e.image_size = kImageSize;
   return e;
 }
@@ -317,7 +316,6 @@ TEST(CalibrationError, NoCalibrationErrorAddsNothing) {
   const JointFitResult fit = FitJoint("oren-nayar", data, kLamp, o);
   CalibrationErrorModel e;
   e.principal_point = kPrincipalPoint;
-  e.radius_px = kRadiusPx;
   e.image_size = kImageSize;
   CalibrationPropagationOptions po;
   po.draws = 3;
@@ -331,9 +329,8 @@ TEST(CalibrationError, BadOptionsAreInputErrors) {
   e.vignette_rms = -0.1;
   EXPECT_THROW(e.Check(), InputError);
   e.vignette_rms = 0.01;
-  e.radius_px = 0;
+  e.principal_point = {NAN, 480};
   EXPECT_THROW(e.Check(), InputError);
-  e.radius_px = 800;
   e.principal_point = {640, 480};
   EXPECT_THROW(e.Check(), InputError);  // no image size
   e.image_size = {1280, 960};
