@@ -32,6 +32,11 @@ void AddFitArgs(CLI::App* cmd, FitArgs* a) {
                   "(fitted when the criterion says the data need it; lamp-off frames are "
                   "better); docs/pipeline.md")
       ->capture_default_str();
+  cmd->add_option("--patch-model", a->patch_model,
+                  "A patch's radiance as the BRDF at its centre (centre), its mean over the "
+                  "patch (average), or auto (the mean where the centre's bias could move a "
+                  "parameter by a fifth of its sd); docs/pipeline.md")
+      ->capture_default_str();
   cmd->add_option("--threads", a->threads, "Threads (0 = all cores)");
 }
 
@@ -69,6 +74,7 @@ JointFitOptions ToJointFitOptions(const FitArgs& a) {
   }
   o.robust_loss = ParseRobustLoss(a.robust, "--robust");
   o.ambient = ParseAmbientTerm(a.ambient, "--ambient");
+  o.patch_model = ParsePatchModel(a.patch_model, "--patch-model");
   o.threads = a.threads;
   o.Check();
   return o;

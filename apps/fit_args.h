@@ -12,7 +12,8 @@ namespace gonio::cli {
 
 struct FitArgs {
   std::string models = "auto", criterion = "bic", lamp_frame = "board", lamp_init;
-  std::string robust = "huber", white_albedo, noise_floor, ambient = "auto", sample_height = "auto";
+  std::string robust = "huber", white_albedo, noise_floor, ambient = "auto", sample_height = "auto",
+              patch_model = "auto";
   bool grey = false, fit_sample_height = false;
   int threads = 0;
 };

@@ -194,6 +194,7 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
                   int u, int v, Counters* count, Observation* o) {
   const int C = ctx.channels, P = ctx.patch;
   Eigen::Vector3d sum_p = Eigen::Vector3d::Zero();
+  Eigen::Matrix2d sum_pp = Eigen::Matrix2d::Zero();
   std::vector<double> sum(C, 0.0), sum_sq(C, 0.0), sum_var(C, 0.0), sum_value(C, 0.0);
   int n = 0, region_kind = -1;
   // The raw values, where they map one to one onto the radiance's pixels and channels.
@@ -230,6 +231,7 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
         sum_var[c] += V[c];
       }
       sum_p += p;
+      sum_pp += q * q.transpose();
       ++n;
     }
   }
@@ -237,6 +239,13 @@ bool ExtractPatch(const PatchContext<Region>& ctx, const FrameGeometry& g, const
   o->px = u + 0.5 * (P - 1);
   o->py = v + 0.5 * (P - 1);
   o->p_in_board = sum_p / n;
+  // The pixel centres' scatter, widened from P x P points to the P x P pixels' area (per
+  // axis (P^2 - 1) / 12 -> P^2 / 12 pixels^2): each pixel integrates its own square.
+  if (n > 1) {
+    const Eigen::Vector2d mean = o->p_in_board.head<2>();
+    const double area = static_cast<double>(n) / (n - 1);
+    o->patch_moment = (sum_pp / n - mean * mean.transpose()) * area;
+  }
   o->p_in_board.z() = (*ctx.regions)[region_kind].z;
   o->camera_in_board = g.board_from_cam.t;
   o->board_from_cam_aa = g.board_from_cam_aa;

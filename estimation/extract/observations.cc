@@ -1,6 +1,7 @@
 #include "estimation/extract/observations.h"
 
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <cmath>
 #include <cstdio>
@@ -31,6 +32,21 @@ int IntegerCell(const CsvTable& csv, size_t row, size_t col, int lo, int hi,
   return static_cast<int>(v);
 }
 
+// The patch's second moment (m^2): a covariance, so its diagonal is >= 0 and |xy| at most
+// sqrt(xx yy); and far below a square metre.
+void ReadPatchMoment(const CsvTable& csv, size_t row, const std::array<size_t, 3>& cols,
+                     const std::string& path, Eigen::Matrix2d* m) {
+  const double xx = csv.Number(row, cols[0]), xy = csv.Number(row, cols[1]),
+               yy = csv.Number(row, cols[2]);
+  if (!(xx >= 0 && yy >= 0 && xx < 1 && yy < 1 && xy * xy <= xx * yy * (1 + 1e-6) + 1e-30)) {
+    throw InputError(
+        fmt::format("{}: line {}: patch_xx, patch_xy, patch_yy are not a patch's "
+                    "second moment (m^2)",
+                    path, csv.LineOf(row)));
+  }
+  *m << xx, xy, xy, yy;
+}
+
 // A header line recording what the extraction assumed (ObservationSet::assumptions).
 constexpr const char* kAssumption = "# assumption: ";
 
@@ -44,13 +60,14 @@ void WriteObservations(const std::filesystem::path& path, const ObservationSet& 
   for (size_t f = 0; f < set.frame_files.size(); ++f) {
     out += fmt::format("# frame {} {}\n", f, set.frame_files[f]);
   }
-  out += "frame,px,py,x,y,z,cam_x,cam_y,cam_z,aa_x,aa_y,aa_z,region,n";
+  out += "frame,px,py,x,y,z,cam_x,cam_y,cam_z,aa_x,aa_y,aa_z,region,n,patch_xx,patch_xy,patch_yy";
   for (int c = 0; c < set.channels; ++c) out += fmt::format(",L{}", c);
   for (int c = 0; c < set.channels; ++c) out += fmt::format(",var{}", c);
   out += "\n";
   for (const auto& o : set.observations) {
     // No NaN or Inf reaches a file: extraction refuses them, so one here is a defect.
-    bool finite = o.p_in_board.allFinite() && o.camera_in_board.allFinite();
+    bool finite =
+        o.p_in_board.allFinite() && o.camera_in_board.allFinite() && o.patch_moment.allFinite();
     for (double v : o.radiance) finite = finite && std::isfinite(v);
     for (double v : o.variance) finite = finite && std::isfinite(v);
     if (!finite) {
@@ -60,11 +77,13 @@ void WriteObservations(const std::filesystem::path& path, const ObservationSet& 
                       path.string(), o.frame, o.px, o.py));
     }
     out += fmt::format(
-        "{},{:.2f},{:.2f},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.9g},{:.9g},{:.9g},{},{}",
+        "{},{:.2f},{:.2f},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.7g},{:.9g},{:.9g},{:.9g},{},{},"
+        "{:.6g},{:.6g},{:.6g}",
         o.frame, o.px, o.py, o.p_in_board.x(), o.p_in_board.y(), o.p_in_board.z(),
         o.camera_in_board.x(), o.camera_in_board.y(), o.camera_in_board.z(),
         o.board_from_cam_aa.x(), o.board_from_cam_aa.y(), o.board_from_cam_aa.z(),
-        o.white ? "white" : "sample", o.num_pixels);
+        o.white ? "white" : "sample", o.num_pixels, o.patch_moment(0, 0), o.patch_moment(0, 1),
+        o.patch_moment(1, 1));
     for (double v : o.radiance) out += fmt::format(",{:.7g}", v);
     for (double v : o.variance) out += fmt::format(",{:.7g}", v);
     out += "\n";
@@ -104,6 +123,11 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
   set.channels = 0;
   while (csv.Find(fmt::format("L{}", set.channels))) ++set.channels;
   if (set.channels == 0) throw InputError(path.string() + ": missing column 'L0'");
+  // The patch's second moment: optional (files written before it stay readable).
+  const auto xx = csv.Find("patch_xx"), xy = csv.Find("patch_xy"), yy = csv.Find("patch_yy");
+  if ((xx || xy || yy) && !(xx && xy && yy)) {
+    throw InputError(path.string() + ": patch_xx, patch_xy and patch_yy go together");
+  }
   std::vector<size_t> lc, vc;
   for (int c = 0; c < set.channels; ++c) {
     lc.push_back(csv.Require(fmt::format("L{}", c)));
@@ -124,6 +148,7 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
     }
     o.white = region == "white";
     o.num_pixels = IntegerCell(csv, r, col[13], 1, INT_MAX, path.string(), "n");
+    if (xx) ReadPatchMoment(csv, r, {*xx, *xy, *yy}, path.string(), &o.patch_moment);
     for (int c = 0; c < set.channels; ++c) {
       o.radiance.push_back(csv.Number(r, lc[c]));
       o.variance.push_back(csv.Number(r, vc[c]));

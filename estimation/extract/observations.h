@@ -19,6 +19,10 @@ struct Observation {
   Eigen::Vector3d board_from_cam_aa;  // rotation (angle-axis) of board_from_cam
   bool white = false;                 // white reference paper (known albedo) instead of the sample
   int num_pixels = 1;
+  // Second moment of the patch's area about p_in_board, board x and y (m^2): the radiance is
+  // the mean over that area, which the joint fit models where the BRDF bends across it
+  // (docs/pipeline.md "Patch average"). Zero for one pixel and for files without it.
+  Eigen::Matrix2d patch_moment = Eigen::Matrix2d::Zero();
   std::vector<double> radiance;  // per channel, linear relative units
   std::vector<double> variance;  // per channel
   // Per channel: the mean raw pixel value the radiance was read from (extraction only; empty

@@ -68,7 +68,7 @@ State InitialState(const ModelInfo& info, const ObservationSet& data,
   for (size_t i : use) {
     const Observation& obs = data.observations[i];
     for (int c = 0; c < data.channels; ++c) {
-      const double pred = Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo);
+      const double pred = Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo, o.patch_model);
       const double w = 1.0 / std::pow(Sigma(obs, c, o.relative_noise_floor), 2);
       fy += w * pred * obs.radiance[c];
       ff += w * pred * pred;
@@ -104,6 +104,8 @@ JointFitResult ResultFromState(const ModelInfo& info, const State& s, const Join
   }
   r.lamp_position = s.lamp;
   r.intensity = s.intensity;
+  r.patch_model =
+      o.patch_model == PatchModel::kAverage ? PatchModel::kAverage : PatchModel::kCentre;
   r.ambient = o.ambient;
   if (o.sample_height == NuisanceTerm::kFit) r.sample_height_offset = s.height_offset;
   if (o.ambient == AmbientTerm::kFit) {
@@ -364,8 +366,8 @@ void ComputeMetrics(const ModelInfo& info, const ObservationSet& data,
     const Observation& obs = data.observations[i];
     if (!HasResidual(obs, o)) continue;
     for (int c = 0; c < data.channels; ++c) {
-      const double res =
-          Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo) - obs.radiance[c];
+      const double res = Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo, o.patch_model) -
+                         obs.radiance[c];
       const double z = res / Sigma(obs, c, o.relative_noise_floor);
       ssr_w += z * z;
       ++n_res;
@@ -417,7 +419,8 @@ std::optional<double> HeldOutFrameRms(const ModelInfo& info, const ObservationSe
       if (obs.white) continue;
       for (int c = 0; c < data.channels; ++c) {
         const double res =
-            Predict<M>(obs, c, t, info, o.lamp_frame, o.white_albedo) - obs.radiance[c];
+            Predict<M>(obs, c, t, info, o.lamp_frame, o.white_albedo, o.patch_model) -
+            obs.radiance[c];
         cv_sq += res * res;
         ++cv_n;
       }
@@ -457,24 +460,77 @@ State StateFromResult(const ModelInfo& info, const JointFitResult& r, const Obse
   return s;
 }
 
+// The bound on any parameter's shift, in its standard deviations, that evaluating the model at
+// the patch centres instead of over the patches causes at state `s` (kPatchBiasMaxSd):
+// sqrt(sum over residuals of ((mean - centre) / sigma)^2).
+template <typename M>
+double PatchBiasBound(const ModelInfo& info, const ObservationSet& data,
+                      const std::vector<size_t>& use, const JointFitOptions& o, const State& s) {
+  double sum = 0;
+  for (size_t i : use) {
+    const Observation& obs = data.observations[i];
+    if (obs.white || !HasResidual(obs, o)) continue;
+    for (int c = 0; c < data.channels; ++c) {
+      const double centre = Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo);
+      const double mean =
+          Predict<M>(obs, c, s, info, o.lamp_frame, o.white_albedo, PatchModel::kAverage);
+      sum += std::pow((mean - centre) / Sigma(obs, c, o.relative_noise_floor), 2);
+    }
+  }
+  return std::sqrt(sum);
+}
+
+// PatchModel::kAuto: solved at the patch centres; solved again over the patches, from there,
+// when the centres' bias could move a parameter by more than kPatchBiasMaxSd. Returns the
+// options the fit used (kCentre or kAverage), for its uncertainty and metrics.
+template <typename M>
+JointFitOptions SolvePatchModel(const ModelInfo& info, const ObservationSet& data,
+                                const std::vector<size_t>& use, const JointFitOptions& o, State* s,
+                                std::optional<double>* bound) {
+  JointFitOptions used = o;
+  if (o.patch_model != PatchModel::kAuto) {
+    Solve<M>(data, use, info, o, s);
+    return used;
+  }
+  used.patch_model = PatchModel::kCentre;
+  Solve<M>(data, use, info, used, s);
+  if (!s->usable) return used;
+  *bound = PatchBiasBound<M>(info, data, use, used, *s);
+  if (!(**bound > kPatchBiasMaxSd)) return used;
+  used.patch_model = PatchModel::kAverage;
+  State averaged = *s;
+  Solve<M>(data, use, info, used, &averaged);
+  spdlog::debug("{}: the patch centres' bias bounded by {:.2g} sd: fitted over the patches ({})",
+                info.name, **bound, averaged.usable ? "converged" : "failed; the centres kept");
+  if (!averaged.usable) {
+    used.patch_model = PatchModel::kCentre;
+    return used;
+  }
+  *s = averaged;
+  return used;
+}
+
 // One model on the `use` observations from `lamp_start` (or from `warm`, a converged fit of
 // the same model and options): solve, uncertainty, the lamp distance's contrast check, metrics
 // and (optionally) cross-validation over frames.
 template <typename M>
 JointFitResult FitModel(const ModelInfo& info, const ObservationSet& data,
                         const std::vector<size_t>& use, const Eigen::Vector3d& lamp_start,
-                        const JointFitOptions& o, bool cross_validate,
+                        const JointFitOptions& options, bool cross_validate,
                         const JointFitResult* warm = nullptr) {
   using Fast = typename Tabulated<M>::type;  // estimation/joint/tabulated_models.h
   if constexpr (!std::is_same_v<Fast, M>) {
-    if (o.tabulated_models) {
-      return FitModel<Fast>(info, data, use, lamp_start, o, cross_validate, warm);
+    if (options.tabulated_models) {
+      return FitModel<Fast>(info, data, use, lamp_start, options, cross_validate, warm);
     }
   }
-  State s = warm && warm->material.converged ? StateFromResult(info, *warm, data, o)
-                                             : InitialState<M>(info, data, use, lamp_start, o);
-  Solve<M>(data, use, info, o, &s);
+  State s = warm && warm->material.converged
+                ? StateFromResult(info, *warm, data, options)
+                : InitialState<M>(info, data, use, lamp_start, options);
+  std::optional<double> bound;
+  const JointFitOptions o = SolvePatchModel<M>(info, data, use, options, &s, &bound);
   JointFitResult r = ResultFromState(info, s, o, use.size());
+  r.patch_bias_bound_sd = bound;
   r.material.n_samples = CountResiduals(data, use, o);
   if (!s.usable) return r;
   r.lamp_off_frames = data.lamp_off_frames;

@@ -46,6 +46,20 @@ std::string ToString(NuisanceTerm term);
 using AmbientTerm = NuisanceTerm;
 AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_name);
 
+// How a patch observation's radiance is modelled (docs/pipeline.md "Patch average"): the BRDF
+// at the patch's centre (kCentre), or its mean over the patch's area (kAverage: four points
+// that match the area's second moment, Observation::patch_moment, exact for a radiance
+// quadratic across the patch), or kAuto: the centre, and the average where the centre's
+// bias could move a parameter by more than kPatchBiasMaxSd of its standard deviations.
+enum class PatchModel { kCentre, kAverage, kAuto };
+// The bound on any parameter's shift, in its standard deviations, from modelling the patch
+// mean by its centre: |z_k| <= sqrt(sum_i (bias_i / sigma_i)^2) (Cauchy-Schwarz in the
+// whitened least squares). A fifth of a standard deviation widens RMS z by 2% at most.
+inline constexpr double kPatchBiasMaxSd = 0.2;
+// "centre", "average" or "auto"; InputError naming `option_name` otherwise.
+PatchModel ParsePatchModel(const std::string& word, const std::string& option_name);
+std::string ToString(PatchModel model);
+
 // Lamp starts farther than this from the board origin are refused as typos (metres).
 inline constexpr double kMaxLampDistance = 1000.0;
 
@@ -60,6 +74,9 @@ struct JointFitOptions {
   // --sample-height: a correction to board.json's sample_height_m fitted with the rest (the
   // sample's points move along their pixel rays; docs/pipeline.md "Raised sample").
   NuisanceTerm sample_height = NuisanceTerm::kAuto;
+  // The model search compares candidates at the patch centre; the final fit (and FitJoint)
+  // follow this.
+  PatchModel patch_model = PatchModel::kAuto;
   // kAuto nuisances are kept when they lower the criterion by more than this and each of their
   // terms exceeds nuisance_min_z of its standard deviations.
   double nuisance_margin = 2.0;
@@ -153,6 +170,10 @@ struct JointFitResult {
   std::optional<double> sample_height_offset, sample_height_offset_stddev;
   std::string sample_height_reason;  // kAuto: why the correction was kept or left out
   std::optional<UnresolvedNuisance> unresolved_nuisance;  // kAuto: see UnresolvedNuisance
+  // The patch model the fit used (kCentre or kAverage) and, when it was chosen (kAuto), the
+  // bound on the centre's bias in standard deviations that chose it.
+  PatchModel patch_model = PatchModel::kCentre;
+  std::optional<double> patch_bias_bound_sd;
   size_t lamp_off_frames = 0;  // frames whose lamp-off radiance extraction subtracted
   double fit_s = 0;  // wall time of this fit's solves (a search candidate's: docs/pipeline.md)
   std::vector<FrameResidual> frames;

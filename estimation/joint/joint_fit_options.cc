@@ -31,6 +31,18 @@ AmbientTerm ParseAmbientTerm(const std::string& word, const std::string& option_
 
 std::string ToString(NuisanceTerm term) { return OptionWordOf(kNuisanceWords, term); }
 
+namespace {
+constexpr OptionWord<PatchModel> kPatchWords[] = {{PatchModel::kCentre, "centre"},
+                                                  {PatchModel::kAverage, "average"},
+                                                  {PatchModel::kAuto, "auto"}};
+}  // namespace
+
+PatchModel ParsePatchModel(const std::string& word, const std::string& option_name) {
+  return ParseOptionWord(kPatchWords, word, option_name);
+}
+
+std::string ToString(PatchModel model) { return OptionWordOf(kPatchWords, model); }
+
 JointFitOptions WithChosenNuisances(const JointFitOptions& options, const JointFitResult& fit) {
   JointFitOptions o = options;
   o.ambient = fit.ambient == AmbientTerm::kFit ? AmbientTerm::kFit : AmbientTerm::kNone;
@@ -42,7 +54,8 @@ double PredictedRadiance(const Observation& o, int channel, const JointFitResult
                          double white_albedo) {
   double lb[3], ls[3], vs[3];
   LampInBoard(o, fit.lamp_frame, fit.lamp_position.data(), lb);
-  const double e = Geometry(o, lb, ls, vs, o.white ? 0.0 : fit.sample_height_offset.value_or(0));
+  const double height = o.white ? 0.0 : fit.sample_height_offset.value_or(0);
+  const double e = Geometry(o, lb, ls, vs, height);
   if (!(ls[2] > 0) || !(e > 0)) return NAN;
   auto at = [&](const std::vector<double>& v) {
     return channel < static_cast<int>(v.size()) ? v[channel] : 0.0;
@@ -57,12 +70,15 @@ double PredictedRadiance(const Observation& o, int channel, const JointFitResult
       p[k] = fit.per_channel_params[c][j++];
     }
   }
-  double f = 0;
+  // The patch modelled as the fit modelled it (PatchModel).
+  const joint_fit_internal::PatchPoints pts =
+      joint_fit_internal::PatchPointsOf(o, fit.patch_model == PatchModel::kAverage);
+  double lamp = 0;
   VisitModel(fit.material.model, [&](auto tag) {
     using M = typename decltype(tag)::type;
-    f = M::Evaluate(p.data(), AnglesFromDirections(ls, vs));
+    lamp = joint_fit_internal::LampRadiance<M>(o, lb, p.data(), fit.intensity, height, pts);
   });
-  return f * fit.intensity * e + at(fit.ambient_sample);
+  return lamp + at(fit.ambient_sample);
 }
 
 void JointFitOptions::Check() const {

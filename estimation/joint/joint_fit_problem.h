@@ -14,6 +14,7 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <spdlog/spdlog.h>
+#include <Eigen/Eigenvalues>
 
 #include "common/math.h"
 #include "common/parallel.h"
@@ -46,17 +47,19 @@ void LampInBoard(const Observation& o, LampFrame frame, const T* lamp, T* lamp_i
 // height_offset: the sample's surface this much further out of the board than the
 // observation's point (metres; the fitted correction to board.json's sample_height_m): the
 // point moves along the pixel's ray, from the camera, to the plane z = p.z - height_offset.
+// in_plane: a point of the observation's patch this far (board x, y, metres) from its centre.
 template <typename T>
 T Geometry(const Observation& o, const T* lamp_in_board, T* lamp_dir_in_sample,
-           T* view_dir_in_sample, const T& height_offset = T(0)) {
+           T* view_dir_in_sample, const T& height_offset = T(0),
+           const Eigen::Vector2d& in_plane = Eigen::Vector2d::Zero()) {
   const T* lb = lamp_in_board;
   T* ls = lamp_dir_in_sample;
   T* vs = view_dir_in_sample;
   const Eigen::Vector3d& c = o.camera_in_board;
   const Eigen::Vector3d ray = o.p_in_board - c;
   const T along = (T(ray.z()) - height_offset) / T(ray.z());  // 1 without an offset
-  const T p[3] = {T(c.x()) + along * T(ray.x()), T(c.y()) + along * T(ray.y()),
-                  T(c.z()) + along * T(ray.z())};
+  const T p[3] = {T(c.x()) + along * T(ray.x()) + T(in_plane.x()),
+                  T(c.y()) + along * T(ray.y()) + T(in_plane.y()), T(c.z()) + along * T(ray.z())};
   const T l[3] = {lb[0] - p[0], lb[1] - p[1], lb[2] - p[2]};
   ls[0] = l[0];
   ls[1] = -l[1];
@@ -69,6 +72,45 @@ T Geometry(const Observation& o, const T* lamp_in_board, T* lamp_dir_in_sample,
   return ls[2] / (d2 * sqrt(d2));  // cos(theta_i) / d^2
 }
 
+// The points a patch's mean radiance is evaluated at (PatchModel::kAverage): with the patch
+// area's second moment S = sum_k lambda_k e_k e_k' (Observation::patch_moment), the four points
+// +-sqrt(2 lambda_k) e_k, equally weighted, have mean 0 and second moment S, so their mean is
+// the area's mean for any radiance quadratic across the patch (the patch is a few pixels: its
+// cubic terms are smaller by its width over the lobe's). None for kCentre or a one-pixel patch.
+struct PatchPoints {
+  int n = 0;
+  std::array<Eigen::Vector2d, 4> offset;
+};
+inline PatchPoints PatchPointsOf(const Observation& o, bool average) {
+  PatchPoints pts;
+  if (!average || !(o.patch_moment.trace() > 0)) return pts;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(o.patch_moment);
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector2d a =
+        std::sqrt(2.0 * std::max(0.0, eig.eigenvalues()(k))) * eig.eigenvectors().col(k);
+    pts.offset[pts.n++] = a;
+    pts.offset[pts.n++] = -a;
+  }
+  return pts;
+}
+
+// The lamp's radiance off the sample at an observation (no ambient): f_r I cos(theta_i) / d^2
+// at the patch centre, or its mean over `pts`. p: the model's parameters of this channel.
+template <typename M, typename T>
+T LampRadiance(const Observation& o, const T* lamp_in_board, const T* p, const T& intensity,
+               const T& height_offset, const PatchPoints& pts) {
+  auto at = [&](const Eigen::Vector2d& in_plane) {
+    T ls[3], vs[3];
+    const T e = Geometry(o, lamp_in_board, ls, vs, height_offset, in_plane);
+    if (!(ls[2] > T(0)) || !(e > T(0))) return T(0);
+    return M::Evaluate(p, AnglesFromDirections(ls, vs)) * intensity * e;
+  };
+  if (pts.n == 0) return at(Eigen::Vector2d::Zero());
+  T sum = T(0);
+  for (int k = 0; k < pts.n; ++k) sum += at(pts.offset[k]);
+  return sum / T(pts.n);
+}
+
 // Residual of one sample observation in one channel. The model's parameters come from two
 // blocks: `shared` (roughness and the like, one for all channels) and `channel` (the
 // per-channel ones of this channel); per_channel[k] says which block holds parameter k.
@@ -79,19 +121,17 @@ struct SampleRadianceResidual {
   double inv_sigma;
   LampFrame lamp_frame;
   std::array<bool, 16> per_channel;
+  PatchPoints patch;
   // ambient: this channel's ambient radiance of the sample (0 and constant unless fitted).
   // height_offset: the fitted correction to the sample's height (0 and constant unless fitted).
   template <typename T>
   bool operator()(const T* shared, const T* chan, const T* lamp, const T* intensity,
                   const T* ambient, const T* height_offset, T* r) const {
-    T lb[3], ls[3], vs[3];
+    T lb[3];
     LampInBoard(*o, lamp_frame, lamp, lb);
-    const T e = Geometry(*o, lb, ls, vs, height_offset[0]);
     T p[M::kNumParams];
     for (int k = 0; k < M::kNumParams; ++k) p[k] = per_channel[k] ? chan[k] : shared[k];
-    T f = T(0);
-    if (ls[2] > T(0)) f = M::Evaluate(p, AnglesFromDirections(ls, vs));
-    const T model = (e > T(0) ? f * intensity[0] * e : T(0)) + ambient[0];
+    const T model = LampRadiance<M>(*o, lb, p, intensity[0], height_offset[0], patch) + ambient[0];
     r[0] = (model - T(o->radiance[channel])) * T(inv_sigma);
     return true;
   }
@@ -202,6 +242,7 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
                   const JointFitOptions& o, State* s, bool plain, ceres::Problem* problem) {
   std::array<bool, 16> per_channel{};
   for (int k = 0; k < M::kNumParams; ++k) per_channel[k] = info.params[k].per_channel;
+  const bool average = o.patch_model == PatchModel::kAverage;
   for (size_t idx : use) {
     const Observation& obs = data.observations[idx];
     if (!HasResidual(obs, o)) continue;
@@ -218,7 +259,8 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
         problem->AddResidualBlock(
             new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
                                             M::kNumParams, 3, 1, 1, 1>(
-                new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.lamp_frame, per_channel}),
+                new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.lamp_frame, per_channel,
+                                              PatchPointsOf(obs, average)}),
             loss, s->shared.data(), s->chan[chan].data(), s->lamp.data(), &s->intensity,
             &s->ambient_sample[c], &s->height_offset);
       }
@@ -324,21 +366,25 @@ void Solve(const ObservationSet& data, const std::vector<size_t>& use, const Mod
               s->lamp.allFinite() && std::isfinite(s->intensity);
 }
 
+// The radiance `s` predicts for an observation's channel, with the patch modelled as
+// `patch_model` says (kAverage: the mean over the patch; otherwise its centre).
 template <typename M>
 double Predict(const Observation& obs, int c, const State& s, const ModelInfo& info,
-               LampFrame lamp_frame, std::optional<double> white_albedo) {
+               LampFrame lamp_frame, std::optional<double> white_albedo,
+               PatchModel patch_model = PatchModel::kCentre) {
   double lb[3], ls[3], vs[3];
   LampInBoard(obs, lamp_frame, s.lamp.data(), lb);
-  const double e = Geometry(obs, lb, ls, vs, obs.white ? 0.0 : s.height_offset);
   if (obs.white) {
+    const double e = Geometry(obs, lb, ls, vs);
     return white_albedo.value_or(0.0) * kInvPi *
            ((e > 0 ? s.intensity * e : 0.0) + s.ambient_irradiance[c]);
   }
-  if (e <= 0) return s.ambient_sample[c];
   double p[M::kNumParams];
   const auto& ch = s.chan[std::min<size_t>(c, s.chan.size() - 1)];
   for (int k = 0; k < M::kNumParams; ++k) p[k] = info.params[k].per_channel ? ch[k] : s.shared[k];
-  return M::Evaluate(p, AnglesFromDirections(ls, vs)) * s.intensity * e + s.ambient_sample[c];
+  return LampRadiance<M>(obs, lb, p, s.intensity, s.height_offset,
+                         PatchPointsOf(obs, patch_model == PatchModel::kAverage)) +
+         s.ambient_sample[c];
 }
 
 // One free column of the Jacobian: the entry `index` of parameter block `block`, its range

@@ -61,6 +61,9 @@ nlohmann::json JointFitResult::ToJson() const {
         sample_height_offset_stddev ? Finite(*sample_height_offset_stddev) : nlohmann::json();
   }
   if (!sample_height_reason.empty()) j["sample_height_reason"] = sample_height_reason;
+  j["patch_model"] = {{"evaluation", ToString(patch_model)},
+                      {"centre_bias_bound_sd",
+                       patch_bias_bound_sd ? Finite(*patch_bias_bound_sd) : nlohmann::json()}};
   j["warnings"] = warnings;
   j["n_observations"] = n_observations;
   return j;
@@ -160,6 +163,10 @@ std::string JointSelectionResult::Report() const {
   }
   if (!f.sample_height_reason.empty() && f.sample_height_reason != f.ambient_reason) {
     s << "sample height: " << f.sample_height_reason << "\n";
+  }
+  if (f.patch_bias_bound_sd) {
+    s << fmt::format("patch model: {} (the centre's bias bounded by {:.2g} sd)\n",
+                     ToString(f.patch_model), *f.patch_bias_bound_sd);
   }
   for (const auto& u : f.undetermined_lamp) s << "undetermined: " << u << "\n";
   for (const auto& w : f.warnings) s << "warning: " << w << "\n";

@@ -471,6 +471,9 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   // tolerance; the search's to the criterion's (WithSearchTolerance).
   const JointFitOptions refit = search;
   search = WithSearchTolerance(search, CountResiduals(data, use, search));
+  // The candidates are compared at their patches' centres (a bias common to them all); the
+  // reported fits model the patch as `options` says (PatchModel).
+  search.patch_model = PatchModel::kCentre;
   JointSelectionResult out;
   SearchModels(data, names, use, light0, search, &out);
   std::string nuisance_reason;
@@ -499,6 +502,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   // single cost for the expensive models: 10x the subsample, docs/bench.md).
   JointFitOptions final_options = chosen_options;
   final_options.function_tolerance = refit.function_tolerance;
+  final_options.patch_model = refit.patch_model;
   out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position,
                                final_options, false, &chosen);
   DropUnsupportedNuisances(data, final_use, refit, options, without_nuisances, &nuisance_reason,

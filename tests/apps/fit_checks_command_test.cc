@@ -43,7 +43,8 @@ std::string EditRows(const std::string& csv,
   return out;
 }
 
-constexpr size_t kRegion = 12, kL0 = 14;  // columns of observations.csv (docs/formats.md)
+// Columns of observations.csv (docs/formats.md): L0 after the patch moment's three.
+constexpr size_t kRegion = 12, kL0 = 17;
 
 // Session a (oren-nayar, lamp at the preset's place), b (the same views, lamp moved 13 cm) and
 // "moved" (a with its last two frames from b), each located and extracted through the CLI.

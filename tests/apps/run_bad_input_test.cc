@@ -80,6 +80,15 @@ TEST_F(BadInputCli, NoPhotometricCalibrationIsRefusedOrRecorded) {
   EXPECT_NE(ok.out.find("ASSUMED:"), std::string::npos) << ok.out;
 }
 
+// An unknown --patch-model word is refused before any work, naming the option.
+TEST_F(BadInputCli, AnUnknownPatchModelIsRefused) {
+  testing::TempDir work;
+  const fs::path out = work.path() / "out";
+  ExpectOneLineError(testing::RunGonio(Run(Session(), out, "--patch-model middle")),
+                     "--patch-model", "'middle' is not one of centre, average, auto");
+  ExpectNothingLeft(out);
+}
+
 // 3. --out equal to an input never replaces it.
 TEST_F(BadInputCli, OutputEqualToAnInputIsRefused) {
   testing::TempDir work;

@@ -156,6 +156,11 @@ TEST(OptionWords, RoundTripAndUnknownWordsNameTheOption) {
     EXPECT_EQ(ToString(ParseRobustLoss(w, "-r")), w);
   }
   for (const char* w : {"board", "camera"}) EXPECT_EQ(ToString(ParseLampFrame(w, "-l")), w);
+  for (const char* w : {"centre", "average", "auto"}) {
+    EXPECT_EQ(ToString(ParsePatchModel(w, "-p")), w);
+  }
+  EXPECT_EQ(InputErrorOf([] { ParsePatchModel("middle", "--patch-model"); }),
+            "--patch-model: 'middle' is not one of centre, average, auto");
   EXPECT_EQ(InputErrorOf([] { ParseCriterion("r2", "--criterion"); }),
             "--criterion: 'r2' is not one of aic, bic, cv");
   EXPECT_EQ(InputErrorOf([] { ParseRobustLoss("tukey", "--robust"); }),

@@ -66,5 +66,39 @@ TEST(Observations, FrameAndPixelCountMustBeSaneIntegers) {
             p + ": line 2: n must be an integer in [1, 2147483647]");
 }
 
+// The patch's second moment (docs/formats.md): optional, read back as written, refused when it is
+// no second moment or comes in part.
+TEST(Observations, ThePatchMomentRoundTripsAndIsChecked) {
+  testing::TempDir dir;
+  const auto path = dir.path() / "o.csv";
+  const std::string p = path.string();
+  const std::string header =
+      "frame,px,py,x,y,z,cam_x,cam_y,cam_z,aa_x,aa_y,aa_z,region,n,"
+      "patch_xx,patch_xy,patch_yy,L0,var0\n";
+  WriteTextAtomically(path, header + "0" + kRowTail + "16,1.2e-6,-3e-7,9e-7,62.8,0.0018\n");
+  const ObservationSet set = ReadObservations(path);
+  EXPECT_DOUBLE_EQ(set.observations[0].patch_moment(0, 0), 1.2e-6);
+  EXPECT_DOUBLE_EQ(set.observations[0].patch_moment(1, 0), -3e-7);
+  EXPECT_DOUBLE_EQ(set.observations[0].patch_moment(0, 1), -3e-7);
+  EXPECT_DOUBLE_EQ(set.observations[0].patch_moment(1, 1), 9e-7);
+  WriteObservations(dir.path() / "again.csv", set);
+  EXPECT_EQ(ReadObservations(dir.path() / "again.csv").observations[0].patch_moment,
+            set.observations[0].patch_moment);
+  // A file without the columns reads as patches of no extent.
+  WriteTextAtomically(path, kHeader + std::string("0") + kRowTail + "64,62.8,0.0018\n");
+  EXPECT_EQ(ReadObservations(path).observations[0].patch_moment, Eigen::Matrix2d::Zero());
+  const std::string bad =
+      p + ": line 2: patch_xx, patch_xy, patch_yy are not a patch's second moment (m^2)";
+  EXPECT_EQ(ErrorOf(path, header + "0" + kRowTail + "16,-1e-6,0,9e-7,62.8,0.0018\n"), bad);
+  EXPECT_EQ(ErrorOf(path, header + "0" + kRowTail + "16,1e-6,2e-6,1e-6,62.8,0.0018\n"), bad);
+  EXPECT_EQ(ErrorOf(path, header + "0" + kRowTail + "16,nan,0,1e-6,62.8,0.0018\n"),
+            p + ": line 2, column 'patch_xx': 'nan' is not a finite number");
+  EXPECT_EQ(ErrorOf(path,
+                    "frame,px,py,x,y,z,cam_x,cam_y,cam_z,aa_x,aa_y,aa_z,region,n,"
+                    "patch_xx,L0,var0\n0" +
+                        std::string(kRowTail) + "16,1e-6,62.8,0.0018\n"),
+            p + ": patch_xx, patch_xy and patch_yy go together");
+}
+
 }  // namespace
 }  // namespace gonio
