@@ -91,18 +91,43 @@ JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResul
   return fit;
 }
 
+// Per session frame (Observation::frame), its located pose's covariance; zero for a frame
+// without a pose.
+PoseErrorModel PoseErrorOf(const Session& session, const SessionPoses& poses) {
+  std::map<std::string, const PoseCovariance*> covariance_of;
+  for (const auto& f : poses.frames) covariance_of[f.file] = &f.pose.covariance;
+  PoseErrorModel m;
+  m.covariance_by_frame.assign(session.frames.size(), PoseCovariance::Zero());
+  for (size_t i = 0; i < session.frames.size(); ++i) {
+    const auto it = covariance_of.find(session.frames[i].file);
+    if (it != covariance_of.end()) m.covariance_by_frame[i] = *it->second;
+  }
+  return m;
+}
+
 // The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
-// when photometric.json says how accurate it is.
+// when photometric.json says how accurate it is, and the board poses' (pose_error.h).
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
                           const JointFitOptions& fit_options, RunResult* r) {
   if (o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
-  const std::optional<CalibrationErrorModel> e =
+  std::optional<CalibrationErrorModel> e =
       CalibrationErrorModelAt(in.photometric, r->observations, r->camera);
-  if (!e) return;
-  spdlog::info("propagating the calibration's error ({} refits)", o.calibration_error.draws);
+  const PoseErrorModel poses = PoseErrorOf(in.session, r->poses);
+  if (!e && poses.empty()) return;
+  if (!e) {  // the poses' error alone: a calibration that states no accuracy
+    e.emplace();
+    e->photometric = false;
+    e->image_size = Eigen::Vector2d(r->camera.width, r->camera.height);
+    e->principal_point = 0.5 * (e->image_size - Eigen::Vector2d::Ones());
+  }
+  e->poses = poses;
+  spdlog::info("propagating the {}error ({} refits)",
+               in.photometric.relative_accuracy ? "calibration's and the poses' " : "poses' ",
+               o.calibration_error.draws);
   r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
                                                    *e, o.calibration_error);
-  if (o.noise_floor_from_calibration) {  // the floor is the stated accuracy (FitOptionsFor)
+  // The floor is the stated accuracy (FitOptionsFor), which the refits now carry.
+  if (o.noise_floor_from_calibration && in.photometric.relative_accuracy) {
     r->statistical_rescale =
         RescaleForPropagatedFloor(r->observations, r->noise_floor, &r->fit.final_fit);
   }
@@ -279,7 +304,8 @@ std::string RunResult::Report() const {
   if (calibration_error) {
     s += calibration_error->Report();
   } else {
-    s += "calibration error: not propagated (the photometric calibration reports no accuracy)\n";
+    s += "calibration error: not propagated (the photometric calibration reports no accuracy, "
+         "the poses no covariance)\n";
   }
   s += ObservedAnglesOf(fit.final_fit, observations).Report();
   s += plan_coverage_report;

@@ -228,10 +228,10 @@ void AddReplicate(const ErrorModes& modes, const CalibrationErrorModel& e, int d
 }
 
 // The observations in `use`, every radiance (and its variance) multiplied by draw `draw` of the
-// calibration error field.
+// calibration error field, and every frame's observations moved by a draw of its pose error.
 ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_t>& use,
                              const ErrorModes& modes, const CalibrationErrorModel& e, int draw,
-                             std::mt19937_64* rng) {
+                             std::mt19937_64* rng, std::mt19937_64* pose_rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<double> log_field(use.size(), 0.0);
   // Response modes are in octaves of radiance: a slope error a per octave is a ratio error of
@@ -247,12 +247,16 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   AddWiggles(modes, e, rng, &log_field);
   AddReplicate(modes, e, draw, rng, &log_field);
   add(modes.vignette, e.vignette_rms / std::sqrt(std::max<size_t>(modes.vignette.size(), 1)));
+  const std::vector<PoseDelta> pose_error = DrawPoseErrors(e.poses, pose_rng);
   ObservationSet out;
   out.channels = data.channels;
   out.frame_files = data.frame_files;
   out.observations.reserve(use.size());
   for (size_t k = 0; k < use.size(); ++k) {
     Observation o = data.observations[use[k]];
+    if (o.frame >= 0 && static_cast<size_t>(o.frame) < pose_error.size()) {
+      MoveObservationPose(pose_error[o.frame], &o);
+    }
     const double f = std::exp(log_field[k]);
     for (double& x : o.radiance) x *= f;
     for (double& v : o.variance) v *= f * f;
@@ -290,6 +294,7 @@ void CalibrationErrorModel::Check() const {
       throw InputError("calibration error: a response end's error must be in [0, 1)");
     }
   }
+  poses.Check();
   if (!principal_point.allFinite()) {
     throw InputError("calibration error: the principal point must be finite");
   }
@@ -322,14 +327,19 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   const ErrorModes modes = ModesAt(data, use, error);
   std::vector<size_t> all(use.size());
   for (size_t k = 0; k < all.size(); ++k) all[k] = k;
-  std::mt19937_64 rng(options.seed);
+  // The poses' draws from a stream of their own: the photometric draws stay what they are
+  // without them.
+  std::mt19937_64 rng(options.seed), pose_rng(options.seed + 0x9E3779B97F4A7C15ull);
   const size_t np = fit.material.params.size();
+  // The refits model each patch as the fit did (its kAuto decided once).
+  JointFitOptions refit_options = fit_options;
+  refit_options.patch_model = fit.patch_model;
   std::vector<std::vector<double>> params(np);
   std::vector<double> lx, ly, lz, intensity;
   for (int d = 0; d < options.draws; ++d) {
-    const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, d, &rng);
+    const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, d, &rng, &pose_rng);
     const JointFitResult r = joint_fit_internal::FitCandidate(
-        fit.material.model, perturbed, all, fit.lamp_position, fit_options, false);
+        fit.material.model, perturbed, all, fit.lamp_position, refit_options, false);
     if (!r.material.converged || r.material.params.size() != np) continue;
     for (size_t i = 0; i < np; ++i) params[i].push_back(r.material.params[i]);
     lx.push_back(r.lamp_position.x());
@@ -339,6 +349,8 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   }
   CalibrationPropagation p;
   p.draws = static_cast<int>(lx.size());
+  p.photometric = error.photometric;
+  p.poses = !error.poses.empty();
   if (2 * p.draws < options.draws) {
     throw NumericalError(fmt::format(
         "calibration error propagation: only {} of {} refits converged", p.draws, options.draws));
@@ -473,7 +485,10 @@ void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* 
 }
 
 std::string CalibrationPropagation::Report() const {
-  std::string s = fmt::format("calibration error propagated ({} refits):", draws);
+  const char* what = photometric && poses ? "calibration and pose error"
+                     : poses              ? "pose error"
+                                          : "calibration error";
+  std::string s = fmt::format("{} propagated ({} refits):", what, draws);
   for (size_t i = 0; i < param_names.size(); ++i) {
     s += fmt::format(" {} +-{:.3g}", param_names[i], param_stddev[i]);
   }
@@ -486,6 +501,8 @@ nlohmann::json CalibrationPropagation::ToJson() const {
   nlohmann::json params = nlohmann::json::object();
   for (size_t i = 0; i < param_names.size(); ++i) params[param_names[i]] = param_stddev[i];
   return {{"draws", draws},
+          {"photometric", photometric},
+          {"poses", poses},
           {"param_stddev", params},
           {"lamp_stddev", {lamp_stddev.x(), lamp_stddev.y(), lamp_stddev.z()}},
           {"intensity_stddev", intensity_stddev}};

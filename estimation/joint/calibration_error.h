@@ -46,6 +46,8 @@
 // sample and V's input were read at the same values, the response's error cancels; where V's
 // input spans values the sample does not, V carries an error of its own that the split halves
 // share and cannot show.
+// The board poses: each draw moves every frame's observations by a pose error drawn from the
+// frame's covariance (pose_error.h): one draw per frame, common to its observations.
 // Response amplitudes are drawn with standard deviation response_ratio_error per octave,
 // vignetting amplitudes with vignette_rms / sqrt(4), so the expected RMS of the vignetting
 // field is vignette_rms.
@@ -64,6 +66,7 @@
 #include "common/camera_model.h"
 #include "estimation/extract/observations.h"
 #include "estimation/joint/joint_fit.h"
+#include "estimation/joint/pose_error.h"
 
 namespace gonio {
 
@@ -87,6 +90,12 @@ struct CalibrationErrorModel {
   // vignette_input_raw). Empty: V's share of the response's error is not propagated.
   cv::Mat vignette_input_raw, vignette_input_log2x;
   int vignette_input_cell_px = 0;
+  // The board poses' error (estimation/joint/pose_error.h): each draw also moves every frame's
+  // observations by a pose error drawn from its covariance. Empty: the poses are taken as exact.
+  PoseErrorModel poses;
+  // Whether the photometric fields hold a calibration's stated error (CalibrationErrorModelAt);
+  // false: a model of the poses' error alone, its photometric fields zero.
+  bool photometric = true;
   void Check() const;  // InputError naming the field
 };
 
@@ -99,6 +108,9 @@ struct CalibrationPropagationOptions {
 
 struct CalibrationPropagation {
   int draws = 0;  // refits that converged
+  // What the draws held: the photometric calibration's error, the board poses' (either may be
+  // absent: a calibration without a stated accuracy, poses without a covariance).
+  bool photometric = false, poses = false;
   std::vector<std::string> param_names;
   std::vector<double> param_stddev;  // calibration part only, same order as the fit's params
   Eigen::Vector3d lamp_stddev = Eigen::Vector3d::Zero();
@@ -113,6 +125,7 @@ struct CalibrationPropagation {
 // neighbouring exposures, at the observations' raw values), its ends where the prior holds the
 // table, its wiggles between knots, and the rest of relative_accuracy for the vignetting. Used
 // by gonio run (pipeline/run.cc) and gonio maps (estimation/maps/maps_session.cc) alike.
+// The poses' error is the caller's to add (CalibrationErrorModel::poses).
 std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     const PhotometricCalibration& photometric, const ObservationSet& data,
     const CameraModel& camera);
