@@ -134,6 +134,24 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
 }
 
+// The calibration's part for `gonio run --maps`: the photometric one alone. The maps register
+// every view against themselves (docs/maps.md "Registration") and widen the shared values by
+// the views' scatter, so the poses' part of the run's refits would count their error twice;
+// when the run drew both, the photometric part is drawn again without the poses.
+std::optional<CalibrationPropagation> MapsCalibration(const RunInputs& in, const RunOptions& o,
+                                                      const JointFitOptions& fit_options,
+                                                      const RunResult& r) {
+  if (!r.calibration_error || !r.calibration_error->photometric) return std::nullopt;
+  if (!r.calibration_error->poses) return r.calibration_error;
+  const std::optional<CalibrationErrorModel> e =
+      CalibrationErrorModelAt(in.photometric, r.observations, r.camera);
+  if (!e) return std::nullopt;
+  spdlog::info("maps: the calibration's error without the poses' ({} refits)",
+               o.calibration_error.draws);
+  return PropagateCalibrationError(r.observations, r.fit.final_fit, fit_options, *e,
+                                   o.calibration_error);
+}
+
 // The joint fit's own warnings: a lamp too far to measure its distance touches the lamp and
 // the intensity; a frame the model misses, every result.
 void AddFitWarnings(const JointFitResult& f, std::vector<RunWarning>* out) {
@@ -259,8 +277,10 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     mo.lamp_frame = o.fit.lamp_frame;
     mo.white_albedo = o.fit.white_albedo;
     mo.threads = mo.sampling.threads = o.fit.threads;
+    const std::optional<CalibrationPropagation> maps_calibration =
+        MapsCalibration(in, o, fit_options, r);
     r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit,
-                             r.calibration_error ? &*r.calibration_error : nullptr);
+                             maps_calibration ? &*maps_calibration : nullptr);
     AddMapsWarnings(*r.maps, &r.warnings);
     r.timings.maps_s = clock.Lap();
   }

@@ -145,6 +145,13 @@ TEST(MapsCli, RunWithMapsAndExportTextures) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ASSERT_TRUE(fs::exists(out / "maps" / "maps.json"));
   ASSERT_TRUE(fs::exists(out / "fit.json"));
+  // The renderer's calibration states no accuracy: the run's refits draw the poses' error
+  // alone, which the maps do not take (they register every view themselves).
+  const nlohmann::json fit = ReadJsonFile(out / "fit.json");
+  ASSERT_TRUE(fit.contains("calibration_error"));
+  EXPECT_TRUE(fit["calibration_error"]["poses"].get<bool>());
+  EXPECT_FALSE(fit["calibration_error"]["photometric"].get<bool>());
+  EXPECT_FALSE(ReadJsonFile(out / "maps" / "maps.json").contains("calibration_error"));
   // The maps' warnings are the run's (cause "maps"), before its results on the console.
   const nlohmann::json maps_warnings = ReadJsonFile(out / "maps" / "maps.json")["warnings"];
   const nlohmann::json run_warnings = ReadJsonFile(out / "fit.json")["checks"]["warnings"];

@@ -259,6 +259,9 @@ TEST(UserChainMaps, TexturedSampleWithinTwiceTheRenderersCalibrationTargets) {
   const nlohmann::json maps = ReadJsonFile(out / "maps.json");
   ASSERT_TRUE(maps.contains("calibration_error")) << "no calibration error in maps.json";
   EXPECT_GT(maps["calibration_error"]["param_stddev"]["sigma"].get<double>(), 0.0);
+  // The photometric calibration's part alone: the maps register every view themselves.
+  EXPECT_TRUE(maps["calibration_error"]["photometric"].get<bool>());
+  EXPECT_FALSE(maps["calibration_error"]["poses"].get<bool>());
 }
 
 }  // namespace
