@@ -110,19 +110,11 @@ PoseErrorModel PoseErrorOf(const Session& session, const SessionPoses& poses) {
 void PropagateCalibration(const RunInputs& in, const RunOptions& o,
                           const JointFitOptions& fit_options, RunResult* r) {
   if (o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
-  std::optional<CalibrationErrorModel> e =
-      CalibrationErrorModelAt(in.photometric, r->observations, r->camera);
-  const PoseErrorModel poses = PoseErrorOf(in.session, r->poses);
-  if (!e && poses.empty()) return;
-  if (!e) {  // the poses' error alone: a calibration that states no accuracy
-    e.emplace();
-    e->photometric = false;
-    e->image_size = Eigen::Vector2d(r->camera.width, r->camera.height);
-    e->principal_point = 0.5 * (e->image_size - Eigen::Vector2d::Ones());
-  }
-  e->poses = poses;
+  const std::optional<CalibrationErrorModel> e = CalibrationErrorModelAt(
+      in.photometric, r->observations, r->camera, PoseErrorOf(in.session, r->poses));
+  if (!e) return;
   spdlog::info("propagating the {}error ({} refits)",
-               in.photometric.relative_accuracy ? "calibration's and the poses' " : "poses' ",
+               e->photometric ? "calibration's and the poses' " : "poses' ",
                o.calibration_error.draws);
   r->calibration_error = PropagateCalibrationError(r->observations, r->fit.final_fit, fit_options,
                                                    *e, o.calibration_error);

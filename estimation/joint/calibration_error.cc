@@ -390,11 +390,16 @@ void SetVignetteInput(const PhotometricCalibration& photometric, CalibrationErro
 
 std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     const PhotometricCalibration& photometric, const ObservationSet& data,
-    const CameraModel& camera) {
+    const CameraModel& camera, const PoseErrorModel& poses) {
   const auto& accuracy = photometric.relative_accuracy;
-  if (!accuracy) return std::nullopt;
-  const ResponseResult& response = photometric.response;
+  if (!accuracy && poses.empty()) return std::nullopt;
   CalibrationErrorModel e;
+  e.principal_point = {camera.intrinsics[2], camera.intrinsics[3]};
+  e.image_size = {static_cast<double>(camera.width), static_cast<double>(camera.height)};
+  e.poses = poses;
+  e.photometric = accuracy.has_value();
+  if (!accuracy) return e;  // the poses' error alone, the photometric fields zero
+  const ResponseResult& response = photometric.response;
   // The response's error where the observations are: their raw values' bands.
   std::vector<double> values;
   for (const auto& obs : data.observations) {
@@ -423,8 +428,6 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
   const double smoothing = PhotometricCalibration::SmoothingError(response);
   e.vignette_rms =
       std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
-  e.principal_point = {camera.intrinsics[2], camera.intrinsics[3]};
-  e.image_size = {static_cast<double>(camera.width), static_cast<double>(camera.height)};
   SetVignetteInput(photometric, &e);
   return e;
 }

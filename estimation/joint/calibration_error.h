@@ -125,10 +125,12 @@ struct CalibrationPropagation {
 // neighbouring exposures, at the observations' raw values), its ends where the prior holds the
 // table, its wiggles between knots, and the rest of relative_accuracy for the vignetting. Used
 // by gonio run (pipeline/run.cc) and gonio maps (estimation/maps/maps_session.cc) alike.
-// The poses' error is the caller's to add (CalibrationErrorModel::poses).
+// With `poses` (the located frames' covariances, pose_error.h) the draws move the frames too;
+// a calibration without a stated accuracy then gives a model of the poses' error alone
+// (`photometric` false). Neither: none.
 std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     const PhotometricCalibration& photometric, const ObservationSet& data,
-    const CameraModel& camera);
+    const CameraModel& camera, const PoseErrorModel& poses = PoseErrorModel());
 
 // The refits' spread of every material parameter, the lamp position and intensity. Needs a
 // converged `fit` of `data`; NumericalError when fewer than half the refits converge.

@@ -246,6 +246,7 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
   for (size_t idx : use) {
     const Observation& obs = data.observations[idx];
     if (!HasResidual(obs, o)) continue;
+    const PatchPoints patch = PatchPointsOf(obs, average);  // the same in every channel
     for (int c = 0; c < data.channels; ++c) {
       const int chan = o.per_channel ? c : 0;
       ceres::LossFunction* loss = plain ? nullptr : NewLoss(o.robust_loss);
@@ -260,7 +261,7 @@ void AddResiduals(const ObservationSet& data, const std::vector<size_t>& use, co
             new ceres::AutoDiffCostFunction<SampleRadianceResidual<M>, 1, M::kNumParams,
                                             M::kNumParams, 3, 1, 1, 1>(
                 new SampleRadianceResidual<M>{&obs, c, inv_sigma, o.lamp_frame, per_channel,
-                                              PatchPointsOf(obs, average)}),
+                                              patch}),
             loss, s->shared.data(), s->chan[chan].data(), s->lamp.data(), &s->intensity,
             &s->ambient_sample[c], &s->height_offset);
       }

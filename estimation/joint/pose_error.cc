@@ -2,19 +2,26 @@
 
 #include <cmath>
 
-#include <Eigen/Cholesky>
+#include <ceres/rotation.h>
 #include <Eigen/Eigenvalues>
-#include <Eigen/Geometry>
 
 #include "common/error.h"
 
 namespace gonio {
 namespace {
 
+// Ceres' angle-axis conversions (a zero vector is the identity), on Eigen's column-major
+// matrices.
 Eigen::Matrix3d RotationOf(const Eigen::Vector3d& aa) {
-  const double angle = aa.norm();
-  if (!(angle > 0)) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(angle, aa / angle).toRotationMatrix();
+  Eigen::Matrix3d R;
+  ceres::AngleAxisToRotationMatrix(aa.data(), ceres::ColumnMajorAdapter3x3(R.data()));
+  return R;
+}
+
+Eigen::Vector3d AngleAxisOf(const Eigen::Matrix3d& R) {
+  Eigen::Vector3d aa;
+  ceres::RotationMatrixToAngleAxis(ceres::ColumnMajorAdapter3x3(R.data()), aa.data());
+  return aa;
 }
 
 }  // namespace
@@ -69,8 +76,7 @@ bool MoveObservationPose(const PoseDelta& delta, Observation* o) {
   if (!(s > 0)) return false;
   o->p_in_board = camera + s * ray;
   o->camera_in_board = camera;
-  const Eigen::AngleAxisd aa(R_moved.transpose());
-  o->board_from_cam_aa = aa.angle() * aa.axis();
+  o->board_from_cam_aa = AngleAxisOf(R_moved.transpose());
   return true;
 }
 
