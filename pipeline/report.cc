@@ -277,30 +277,106 @@ void WriteReportPlots(const JointFitResult& f, const ObservationSet& data, const
   GeometrySketch(f, data, board, dir / "geometry.png");
 }
 
-// The parameters with their standard deviations and warnings, the lamp, the intensity and the
-// ambient terms, as an HTML table.
-std::string ParameterTable(const JointFitResult& f, const std::vector<RunWarning>& warnings) {
+// A standard deviation's statistical and calibration parts as two cells: the calibration part
+// is the refits' spread, added in quadrature to the fit's own (AddCalibrationUncertainty), so
+// the statistical part is what remains. Per component for the lamp.
+std::string SplitCells(const std::optional<Eigen::VectorXd>& total, const Eigen::VectorXd& part) {
+  if (!total) return "<td>-</td><td>-</td>";
+  const Eigen::VectorXd stat =
+      (total->array().square() - part.array().square()).max(0.0).sqrt().matrix();
+  auto cell = [](const Eigen::VectorXd& v) {
+    if (v.size() == 1) return fmt::format("<td>{:.2g}</td>", v[0]);
+    return fmt::format("<td>({:.2g}, {:.2g}, {:.2g})</td>", v[0], v[1], v[2]);
+  };
+  return cell(stat) + cell(part);
+}
+
+std::optional<Eigen::VectorXd> Scalar(const std::optional<double>& v) {
+  if (!v) return std::nullopt;
+  return Eigen::VectorXd::Constant(1, *v);
+}
+
+// The parameters with their standard deviations (split into their statistical and calibration
+// parts when the calibration's error was propagated) and warnings, the lamp, the intensity and
+// the ambient terms, as an HTML table.
+std::string ParameterTable(const JointFitResult& f, const std::vector<RunWarning>& warnings,
+                           const ReportErrorBars& bars) {
+  const auto& cal = bars.calibration;
   std::ostringstream h;
   h << "<h2>Parameters</h2><table><tr><th>parameter</th><th>value</th><th>std. dev.</th>"
-       "<th>touched by</th></tr>";
+    << (cal ? "<th>statistical</th><th>calibration, poses</th>" : "") << "<th>touched by</th></tr>";
   for (size_t k = 0; k < f.material.params.size(); ++k) {
     const auto& sd = f.material.stddev[k];
-    h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td>{}</tr>", f.material.param_names[k],
-                     f.material.params[k], sd ? fmt::format("{:.2g}", *sd) : "undetermined",
+    std::string split;
+    if (cal) {
+      const auto& names = cal->param_names;
+      const auto at = std::find(names.begin(), names.end(), f.material.param_names[k]);
+      const double part = at == names.end() ? 0.0 : cal->param_stddev[at - names.begin()];
+      split = SplitCells(Scalar(sd), Eigen::VectorXd::Constant(1, part));
+    }
+    h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td>{}{}</tr>",
+                     f.material.param_names[k], f.material.params[k],
+                     sd ? fmt::format("{:.2g}", *sd) : "undetermined", split,
                      WarnedCell(warnings, f.material.param_names[k]));
   }
+  std::optional<Eigen::VectorXd> lamp_sd;
+  if (f.lamp_stddev) lamp_sd = Eigen::VectorXd(*f.lamp_stddev);
   h << fmt::format(
-      "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td>{}</tr>",
+      "<tr><td>lamp ({} frame)</td><td>({:.4f}, {:.4f}, {:.4f}) m</td><td>{}</td>{}{}</tr>",
       ToString(f.lamp_frame), f.lamp_position.x(), f.lamp_position.y(), f.lamp_position.z(),
       f.lamp_stddev ? fmt::format("({:.2g}, {:.2g}, {:.2g})", f.lamp_stddev->x(),
                                   f.lamp_stddev->y(), f.lamp_stddev->z())
                     : "undetermined",
+      cal ? SplitCells(lamp_sd, Eigen::VectorXd(cal->lamp_stddev)) : "",
       WarnedCell(warnings, "lamp"));
-  h << fmt::format("<tr><td>intensity</td><td>{:.5g}</td><td>{}</td>{}</tr>", f.intensity,
+  h << fmt::format("<tr><td>intensity</td><td>{:.5g}</td><td>{}</td>{}{}</tr>", f.intensity,
                    f.intensity_stddev ? fmt::format("{:.2g}", *f.intensity_stddev) : "undetermined",
+                   cal ? SplitCells(Scalar(f.intensity_stddev),
+                                    Eigen::VectorXd::Constant(1, cal->intensity_stddev))
+                       : "",
                    WarnedCell(warnings, "intensity"));
   h << AmbientRows(f) << "</table>";
   return h.str();
+}
+
+// What the standard deviations above hold and what they leave out (docs/pipeline.md "Error
+// bars"): a bar is a claim, and the reader should not have to open fit.json to weigh it.
+std::string ErrorBarNote(const JointFitResult& f, const ReportErrorBars& bars) {
+  std::string h = "<p><b>What the standard deviations hold:</b></p><ul>";
+  h += fmt::format(
+      "<li>statistical: the pixel noise and a relative noise floor of {:.2f}% ({}), scaled by "
+      "the residuals' variance per degree of freedom when above 1",
+      100 * bars.noise_floor, Escape(bars.noise_floor_source));
+  if (bars.statistical_rescale != 1) {
+    h += fmt::format(
+        "; multiplied by {:.2f}, since the floor is the calibration's accuracy, propagated below",
+        bars.statistical_rescale);
+  }
+  h += ";</li>";
+  if (bars.calibration) {
+    const auto& c = *bars.calibration;
+    h += fmt::format(
+        "<li>calibration: the refits' spread over {} draws of {}, added in quadrature;</li>",
+        c.draws,
+        c.photometric && c.poses ? "the photometric calibration's stated error and the board "
+                                   "poses' covariance"
+        : c.poses                ? "the board poses' covariance (the photometric calibration "
+                                   "states no accuracy)"
+                                 : "the photometric calibration's stated error");
+  } else {
+    h += "<li>calibration: not propagated (the photometric calibration states no accuracy and "
+         "the poses carry no covariance);</li>";
+  }
+  h += f.patch_model == PatchModel::kAverage
+           ? std::string("<li>patches: the model is averaged over each patch's footprint;</li>")
+           : fmt::format(
+                 "<li>patches: the model is taken at each patch's centre (its bias "
+                 "bounded by {} standard deviations);</li>",
+                 f.patch_bias_bound_sd ? fmt::format("{:.2g}", *f.patch_bias_bound_sd)
+                                       : std::string("an unmeasured number of"));
+  h += "<li>not held: the camera model's own error (its intrinsics), a bias common to the "
+       "located poses (the tag corners'), and whatever a warning above names.</li></ul>";
+  return h;
 }
 
 // Every candidate model's fit and criteria, the selected one in bold, as an HTML table.
@@ -327,7 +403,7 @@ std::string ModelComparisonTable(const JointSelectionResult& fit) {
 
 void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
                  const std::vector<std::string>& notes, const std::vector<RunWarning>& warnings,
-                 const std::filesystem::path& dir) {
+                 const ReportErrorBars& bars, const std::filesystem::path& dir) {
   EnsureDirectory(dir);
   const JointFitResult& f = fit.final_fit;
   WriteReportPlots(f, data, board, dir);
@@ -349,7 +425,7 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   std::istringstream angle_lines(angles.Report());
   for (std::string line; std::getline(angle_lines, line);) h << " " << Escape(line) << "<br>";
   h << "</p>";
-  h << ParameterTable(f, warnings);
+  h << ParameterTable(f, warnings, bars) << ErrorBarNote(f, bars);
   if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
   h << ModelComparisonTable(fit);
   h << "<p>Residual image per frame (tile = frame, blue: model darker, red: model brighter than "

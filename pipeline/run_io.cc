@@ -110,7 +110,9 @@ void WriteRunOutputs(const RunResult& r, const RunInputs& in, const fs::path& ou
   std::vector<std::string> notes;
   for (const auto& a : r.assumptions) notes.push_back("Assumed: " + a);
   if (!r.checks.Measured()) notes.push_back("NOT A MEASUREMENT: see the warnings.");
-  WriteReport(r.fit, r.observations, in.board, notes, r.warnings, tmp / "report");
+  const ReportErrorBars bars = {r.noise_floor, r.noise_floor_source, r.statistical_rescale,
+                                r.calibration_error};
+  WriteReport(r.fit, r.observations, in.board, notes, r.warnings, bars, tmp / "report");
   nlohmann::json j = r.ToJson();
   j["timing"]["report_s"] =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -409,5 +409,54 @@ TEST(Pipeline, OutputFolderIsCheckedAndReplacedAsAWhole) {
   }
 }
 
+// The report says what its error bars hold: each standard deviation split into the statistical
+// part and the propagated calibration part (in quadrature, so 0.6 of the total leaves 0.8), the
+// noise floor and rescale, and what the bars leave out; without a propagation, that it was not.
+TEST(Pipeline, ReportSaysWhatTheErrorBarsHold) {
+  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  scene.views.per_ring = 1;
+  testing::TempDir dir;
+  const auto session = dir.path() / "session";
+  synth::RenderBoardSession(scene, session, 0);
+  WriteTruePhotometric(session);
+  const RunInputs in = LoadRunInputs(session, "", "");
+  RunOptions o;
+  o.fit.candidates = {"lambert"};
+  o.fit.white_albedo = 0.8;
+  RunResult r = gonio::Run(in, o);
+  auto html_of = [&](const RunResult& run, const std::string& name) {
+    WriteRunOutputs(run, in, dir.path() / name);
+    std::ifstream file(dir.path() / name / "report" / "index.html");
+    return std::string((std::istreambuf_iterator<char>(file)), {});
+  };
+  r.calibration_error.reset();
+  std::string html = html_of(r, "plain");
+  EXPECT_EQ(html.find("<th>statistical</th>"), std::string::npos);
+  EXPECT_NE(html.find("calibration: not propagated"), std::string::npos) << html;
+  EXPECT_NE(html.find("not held: the camera model's own error"), std::string::npos);
+
+  ASSERT_TRUE(r.fit.final_fit.material.stddev[0].has_value());
+  const double total = *r.fit.final_fit.material.stddev[0];
+  CalibrationPropagation p;
+  p.draws = 10;
+  p.photometric = p.poses = true;
+  p.param_names = {"albedo"};
+  p.param_stddev = {0.6 * total};
+  r.calibration_error = p;
+  r.statistical_rescale = 0.5;
+  html = html_of(r, "split");
+  const size_t row = html.find("<td>albedo</td>");
+  ASSERT_NE(row, std::string::npos) << html;
+  const std::string cells =
+      fmt::format("<td>{:.2g}</td><td>{:.2g}</td><td>{:.2g}</td>", total, 0.8 * total, 0.6 * total);
+  EXPECT_LT(html.find(cells, row), html.find("</tr>", row)) << cells << "\n" << html;
+  EXPECT_NE(html.find("<th>statistical</th><th>calibration, poses</th>"), std::string::npos);
+  EXPECT_NE(html.find("over 10 draws of the photometric calibration's stated error and the board "
+                      "poses' covariance"),
+            std::string::npos)
+      << html;
+  EXPECT_NE(html.find("multiplied by 0.50"), std::string::npos) << html;
+}
+
 }  // namespace
 }  // namespace gonio
