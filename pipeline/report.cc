@@ -339,8 +339,8 @@ std::string ParameterTable(const JointFitResult& f, const std::vector<RunWarning
   return h.str();
 }
 
-// What the standard deviations above hold and what they leave out (docs/pipeline.md "Error
-// bars"): a bar is a claim, and the reader should not have to open fit.json to weigh it.
+// What the standard deviations above hold and what they leave out (docs/pipeline.md, Chain,
+// step 5): a bar is a claim, and the reader should not have to open fit.json to weigh it.
 std::string ErrorBarNote(const JointFitResult& f, const ReportErrorBars& bars) {
   std::string h = "<p><b>What the standard deviations hold:</b></p><ul>";
   h += fmt::format(
@@ -369,11 +369,14 @@ std::string ErrorBarNote(const JointFitResult& f, const ReportErrorBars& bars) {
   }
   h += f.patch_model == PatchModel::kAverage
            ? std::string("<li>patches: the model is averaged over each patch's footprint;</li>")
-           : fmt::format(
+       : f.patch_bias_bound_sd
+           ? fmt::format(
                  "<li>patches: the model is taken at each patch's centre (its bias "
-                 "bounded by {} standard deviations);</li>",
-                 f.patch_bias_bound_sd ? fmt::format("{:.2g}", *f.patch_bias_bound_sd)
-                                       : std::string("an unmeasured number of"));
+                 "bounded by {:.2g} standard deviations);</li>",
+                 *f.patch_bias_bound_sd)
+           : std::string(
+                 "<li>patches: the model is taken at each patch's centre, its bias not "
+                 "bounded (--patch-model centre);</li>");
   h += "<li>not held: the camera model's own error (its intrinsics), a bias common to the "
        "located poses (the tag corners'), and whatever a warning above names.</li></ul>";
   return h;

@@ -14,7 +14,7 @@
 
 namespace gonio {
 
-// What the reported standard deviations hold (docs/pipeline.md "Error bars"): the fit's
+// What the reported standard deviations hold (docs/pipeline.md, Chain, step 5): the fit's
 // statistical part, with the relative noise floor it used and its rescale, and the calibration
 // and pose error propagated by refits when it was.
 struct ReportErrorBars {

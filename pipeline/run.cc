@@ -214,9 +214,35 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
   PropagateCalibration(in, o, checked.options, r);
 }
 
-// The fit's own warnings, the residuals' structure and the checks' warnings.
-void CheckResiduals(const RunOptions& o, RunResult* r) {
+// Where the sample's raw values fall, the response between the sweep's exposures is its
+// smoothing prior's (calib/photometry/response.h kSmoothingSensitivityLimit): a sweep of few
+// radiances in whole stops pins the curve only at each value's octave neighbours. Every
+// observation at a value shares that error, so no error bar holds it (docs/pipeline.md
+// "Warnings"); the fix is the capture guide's third stops.
+void AddResponseWarning(const RunInputs& in, RunResult* r) {
+  std::vector<double> values;
+  for (const auto& obs : r->observations.observations) {
+    values.insert(values.end(), obs.value.begin(), obs.value.end());
+  }
+  const double moved =
+      PhotometricCalibration::SmoothingSensitivityAt(in.photometric.response, values);
+  if (!(moved > kSmoothingSensitivityLimit)) return;
+  r->warnings.push_back(
+      {WarningCause::kResponse,
+       fmt::format("the response calibration limits the result: where the sample's values are, "
+                   "its curve moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.0f}%), so "
+                   "between the sweep's exposures it is the prior's guess, an error every "
+                   "observation at a value shares and no error bar holds; shoot the exposure "
+                   "sweep in third stops (docs/capture-guide.md)",
+                   100 * moved, kSmoothingSensitivityFactor, 100 * kSmoothingSensitivityLimit),
+       AllResults(r->fit.final_fit)});
+  spdlog::warn("{}", r->warnings.back().message);
+}
+
+// The fit's own warnings, the response's, the residuals' structure and the checks' warnings.
+void CheckResiduals(const RunInputs& in, const RunOptions& o, RunResult* r) {
   AddFitWarnings(r->fit.final_fit, &r->warnings);
+  AddResponseWarning(in, r);
   r->checks.structure = FindResidualStructure(r->fit.final_fit, r->observations, r->noise_floor,
                                               {r->camera.intrinsics[2], r->camera.intrinsics[3]},
                                               0.5 * std::hypot(r->camera.width, r->camera.height),
@@ -261,7 +287,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
   FitWithChecks(in, o, fit_options, &r);
   r.timings.fit_s = clock.Lap();
-  CheckResiduals(o, &r);
+  CheckResiduals(in, o, &r);
   if (o.maps) {
     spdlog::info("[4/4] per-texel maps of the sample (docs/maps.md)");
     const MapsSessionInputs maps_in{in.session, in.board, r.camera, in.photometric, in.assumptions};

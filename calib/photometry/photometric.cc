@@ -130,6 +130,22 @@ double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& respon
   return std::min(ResponseFieldRmsAt(response, values) / per_pair, 0.99);
 }
 
+double PhotometricCalibration::SmoothingSensitivityAt(const ResponseResult& response,
+                                                      const std::vector<double>& values) {
+  const PairConsistency& c = response.consistency;
+  const auto& bands = response.smoothing_sensitivity_bands;
+  const int n = static_cast<int>(bands.size());
+  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
+  if (values.empty() || n == 0 || !(width > 0)) return SmoothingError(response);
+  double sum = 0;
+  for (double z : values) {
+    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1);
+    const double s = std::isfinite(bands[b]) ? bands[b] : SmoothingError(response);
+    sum += s * s;
+  }
+  return std::min(std::sqrt(sum / values.size()), 0.99);
+}
+
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {
   const double s = response.smoothing_sensitivity;
   return std::isfinite(s) ? std::min(s, 0.99) : 0.0;

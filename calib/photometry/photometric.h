@@ -62,6 +62,12 @@ struct PhotometricCalibration {
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.
   static double SmoothingError(const ResponseResult& response);
+  // The smoothing sensitivity where the data are: the RMS over `values` (raw pixel values, as
+  // ResponseFieldRmsAt) of the sensitivity of the band each falls in, so a band the fit never
+  // reads (the dark end, where a gamma curve bends against the prior) does not set it. A band
+  // without a figure counts as the worst. Without bands or values: SmoothingError.
+  static double SmoothingSensitivityAt(const ResponseResult& response,
+                                       const std::vector<double>& values);
   // sqrt(response^2 + smoothing^2 + vignetting^2): ResponseAccuracy, SmoothingError and the
   // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);

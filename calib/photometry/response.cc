@@ -467,8 +467,9 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
   const auto supported = FinishResponse(frames, fits, setups, o, &result);
   for (auto& cs : setups) cs.usable = s.usable;
   result.knot_spacing = s.max_value / (s.num_knots - 1.0);
-  result.smoothing_sensitivity = SmoothingSensitivity(planes, frames, free_time, setups, pixels,
-                                                      fits, result, o, supported, &result.ends);
+  result.smoothing_sensitivity =
+      SmoothingSensitivity(planes, frames, free_time, setups, pixels, fits, result, o, supported,
+                           &result.ends, &result.smoothing_sensitivity_bands);
   if (o.bootstrap_refits > 0) {
     result.bootstrap_ln_change =
         BootstrapResponse(planes, frames, free_time, setups, pixels, fits, result, o);

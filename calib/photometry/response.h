@@ -119,6 +119,13 @@ struct PairConsistency {
 // holds up between data.
 constexpr double kSmoothingSensitivityFactor = 4.0;
 
+// Above this smoothing sensitivity the curve between the sweep's values is the prior's, not the
+// sweep's, beyond what the capture guide's third stops leave (0.1-0.4 % on the coverage bench's
+// third-stop sweeps, 1.1-3 % on its whole-stop ones; docs/photometric.md "Smoothing
+// sensitivity"): the response report says more exposures would pin it, and gonio run warns when
+// the sample's own values meet it (pipeline/run.cc).
+constexpr double kSmoothingSensitivityLimit = 0.01;
+
 // One end of a channel's table where the sweep's data thin out (docs/photometric.md, "The
 // table's ends"). Below the lowest value the data support the table is a straight line to the
 // black level, anchored at that value's knot; near the highest, the curve rests on few samples.
@@ -160,6 +167,10 @@ struct ResponseResult {
   // the sweep holds, which the self-check cannot see. NaN: not measured (older files,
   // smoothness 0).
   double smoothing_sensitivity = NAN;
+  // The same per band of the self-check's range (PairConsistency::kBands, the largest over the
+  // channels; NaN where no knot falls), so a user of the table can read it where its own values
+  // are (PhotometricCalibration::SmoothingSensitivityAt). Empty in older files.
+  std::vector<double> smoothing_sensitivity_bands;
   // The table's ends where the prior holds it (see ResponseEnd): empty in older files and with
   // smoothness 0.
   std::vector<ResponseEnd> ends;

@@ -157,7 +157,8 @@ std::vector<std::vector<std::vector<double>>> BootstrapResponse(
 // range (black + 2 % of the range to saturation, PairConsistency::kBands equal parts) the median
 // change, and the worst band (response_smoothing.cc); NaN with smoothness 0. `ends` (may be
 // null) gets each channel's two ResponseEnds: the change at the lowest and highest values the
-// data support (`supported`, per channel [low, high]).
+// data support (`supported`, per channel [low, high]). `band_sensitivity` gets the per-band
+// changes (the largest over the channels, NaN where no knot falls; left empty with smoothness 0).
 double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
                             const std::vector<ExposureFrame>& frames,
                             const std::vector<bool>& free_time, const std::vector<Setup>& setups,
@@ -165,6 +166,6 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
                             const std::vector<ChannelFit>& fits, const ResponseResult& result,
                             const ResponseOptions& o,
                             const std::vector<std::array<double, 2>>& supported,
-                            std::vector<ResponseEnd>* ends);
+                            std::vector<ResponseEnd>* ends, std::vector<double>* band_sensitivity);
 
 }  // namespace gonio

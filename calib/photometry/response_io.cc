@@ -225,7 +225,9 @@ std::string ResponseResult::Report() const {
         "smoothing sensitivity {:.2f}% (the curve's change under a 4x stiffer prior, worst value "
         "band: its error between the values the sweep holds){}\n",
         100 * smoothing_sensitivity,
-        smoothing_sensitivity > 0.01 ? "; more exposures (third stops) would pin it" : "");
+        smoothing_sensitivity > kSmoothingSensitivityLimit
+            ? "; more exposures (third stops) would pin it"
+            : "");
   }
   for (const auto& e : ends) {
     if (e.error < 0.005) continue;
@@ -277,6 +279,12 @@ std::vector<std::vector<std::vector<double>>> BootstrapFromJson(const nlohmann::
       }
     }
   }
+  return out;
+}
+
+nlohmann::json NullForNan(const std::vector<double>& values) {
+  nlohmann::json out = nlohmann::json::array();
+  for (double v : values) out.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json());
   return out;
 }
 
@@ -339,6 +347,7 @@ nlohmann::json ResponseResult::ToJson() const {
           {"smoothing_sensitivity", std::isfinite(smoothing_sensitivity)
                                         ? nlohmann::json(smoothing_sensitivity)
                                         : nlohmann::json()},
+          {"smoothing_sensitivity_bands", NullForNan(smoothing_sensitivity_bands)},
           {"ends", EndsToJson(ends)},
           {"knot_spacing",
            std::isfinite(knot_spacing) ? nlohmann::json(knot_spacing) : nlohmann::json()},
@@ -385,6 +394,25 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
       throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
     }
     r.smoothing_sensitivity = v.get<double>();
+  }
+  if (j.contains("smoothing_sensitivity_bands")) {
+    const auto& bands = j["smoothing_sensitivity_bands"];
+    const std::string what = source + ": 'smoothing_sensitivity_bands' must be empty or a list " +
+                             "of " + std::to_string(PairConsistency::kBands) +
+                             " non-negative numbers or nulls";
+    if (!bands.is_array() || (!bands.empty() && bands.size() != PairConsistency::kBands)) {
+      throw InputError(what);
+    }
+    for (const auto& v : bands) {
+      if (v.is_null()) {
+        r.smoothing_sensitivity_bands.push_back(NAN);
+        continue;
+      }
+      if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+        throw InputError(what);
+      }
+      r.smoothing_sensitivity_bands.push_back(v.get<double>());
+    }
   }
   if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
   if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {

@@ -68,10 +68,11 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
                             const std::vector<ChannelFit>& fits, const ResponseResult& result,
                             const ResponseOptions& o,
                             const std::vector<std::array<double, 2>>& supported,
-                            std::vector<ResponseEnd>* ends) {
+                            std::vector<ResponseEnd>* ends, std::vector<double>* band_sensitivity) {
   // Without a prior there is nothing to compare against (knots without data stay where the
   // solver started); the result then says "not measured".
   if (!(o.smoothness > 0)) return NAN;
+  band_sensitivity->assign(PairConsistency::kBands, NAN);
   ResponseOptions stiff = o;
   stiff.smoothness = o.smoothness * kSmoothingSensitivityFactor;
   double worst = 0;
@@ -93,8 +94,12 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
       const int b = std::min(bands - 1, static_cast<int>((change.z[q] - lo) / (hi - lo) * bands));
       in_band[b].push_back(std::abs(change.d[q] - mid));
     }
-    for (const auto& v : in_band) {
-      if (!v.empty()) worst = std::max(worst, Median(v));
+    for (int b = 0; b < bands; ++b) {
+      if (in_band[b].empty()) continue;
+      const double change_b = std::expm1(Median(in_band[b]));
+      worst = std::max(worst, Median(in_band[b]));
+      double& kept = (*band_sensitivity)[b];
+      kept = std::isfinite(kept) ? std::max(kept, change_b) : change_b;
     }
     if (ends) AddEnds(static_cast<int>(c), s, fits[c].h, refit.h, mid, supported[c], ends);
   }

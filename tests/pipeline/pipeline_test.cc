@@ -458,5 +458,55 @@ TEST(Pipeline, ReportSaysWhatTheErrorBarsHold) {
   EXPECT_NE(html.find("multiplied by 0.50"), std::string::npos) << html;
 }
 
+// A response whose curve rests on its prior where the sample's values fall (a whole-stop sweep
+// of few radiances) limits the result, and the run says so with the fix; the same figure in a
+// band the sample never reads (the dark end) does not.
+TEST(Pipeline, ResponseLeftToItsPriorWhereTheSampleIsWarns) {
+  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  scene.views.per_ring = 1;
+  testing::TempDir dir;
+  synth::RenderBoardSession(scene, dir.path(), 0);
+  WriteTruePhotometric(dir.path());
+  RunInputs in = LoadRunInputs(dir.path(), "", "");
+  RunOptions o;
+  o.fit.candidates = {"lambert"};
+  o.fit.white_albedo = 0.8;
+  o.calibration_error.draws = 0;
+  auto response_warnings = [&](const RunResult& r) {
+    std::vector<RunWarning> found;
+    for (const auto& w : r.warnings) {
+      if (w.cause == WarningCause::kResponse) found.push_back(w);
+    }
+    return found;
+  };
+  ResponseResult& response = in.photometric.response;
+  const RunResult plain = gonio::Run(in, o);
+  EXPECT_TRUE(response_warnings(plain).empty());
+  double darkest = INFINITY;
+  for (const auto& obs : plain.observations.observations) {
+    for (double v : obs.value) darkest = std::min(darkest, v);
+  }
+  ASSERT_GT(darkest, 0);
+
+  response.smoothing_sensitivity = 0.02;  // no bands (an older file): the worst band everywhere
+  const RunResult limited = gonio::Run(in, o);
+  const auto warned = response_warnings(limited);
+  ASSERT_EQ(warned.size(), 1u) << limited.Report();
+  EXPECT_NE(warned[0].message.find("moves 2.0%"), std::string::npos) << warned[0].message;
+  EXPECT_NE(warned[0].message.find("third stops"), std::string::npos);
+  EXPECT_EQ(warned[0].touches, AllResults(limited.fit.final_fit));
+  EXPECT_EQ(limited.ToJson()["checks"]["touched_results"]["albedo"][0], "response");
+
+  // The same 2 % in the lowest of the eight bands only, below every observation's value.
+  response.consistency.range_lo = 0;
+  response.consistency.range_hi = 8 * 0.99 * darkest;
+  response.smoothing_sensitivity_bands = {0.02, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001};
+  const RunResult dark_only = gonio::Run(in, o);
+  EXPECT_TRUE(response_warnings(dark_only).empty()) << dark_only.Report();
+  // The other way round: 2 % above the lowest band, which now ends below every value.
+  response.smoothing_sensitivity_bands = {0.001, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02};
+  EXPECT_FALSE(response_warnings(gonio::Run(in, o)).empty());
+}
+
 }  // namespace
 }  // namespace gonio
