@@ -216,9 +216,9 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
 
 // Where the sample's raw values fall, the response between the sweep's exposures is its
 // smoothing prior's (calib/photometry/response.h kSmoothingSensitivityLimit): a sweep of few
-// radiances in whole stops pins the curve only at each value's octave neighbours. Every
-// observation at a value shares that error, so no error bar holds it (docs/pipeline.md
-// "Warnings"); the fix is the capture guide's third stops.
+// radiances in whole stops pins the curve only at each value's octave neighbours. The error
+// bars draw that part (calibration_error.h), but it is the result's limit, 1-4 % of every
+// radiance, and the fix is the capture guide's third stops (docs/pipeline.md "Checks").
 void AddResponseWarning(const RunInputs& in, RunResult* r) {
   std::vector<double> values;
   for (const auto& obs : r->observations.observations) {
@@ -232,8 +232,8 @@ void AddResponseWarning(const RunInputs& in, RunResult* r) {
        fmt::format("the response calibration limits the result: where the sample's values are, "
                    "its curve moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.0f}%), so "
                    "between the sweep's exposures it is the prior's guess, an error every "
-                   "observation at a value shares and no error bar holds; shoot the exposure "
-                   "sweep in third stops (docs/capture-guide.md)",
+                   "observation at a value shares (the error bars draw it from that figure); "
+                   "shoot the exposure sweep in third stops (docs/capture-guide.md)",
                    100 * moved, kSmoothingSensitivityFactor, 100 * kSmoothingSensitivityLimit),
        AllResults(r->fit.final_fit)});
   spdlog::warn("{}", r->warnings.back().message);

@@ -114,8 +114,7 @@ double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response
   return std::min(std::sqrt(sum / values.size()), 0.99);
 }
 
-double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& response,
-                                                    const std::vector<double>& values) {
+double PhotometricCalibration::ExposureStepOctaves(const ResponseResult& response) {
   std::vector<double> times;
   for (const auto& f : response.frames) {
     if (f.used && f.estimated_s > 0) times.push_back(f.estimated_s);
@@ -126,8 +125,12 @@ double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& respon
     // Equal exposures say nothing about the response (MeasurePairConsistency skips them too).
     if (times[k] / times[k - 1] > 1.01) octaves.push_back(std::log2(times[k] / times[k - 1]));
   }
-  const double per_pair = octaves.empty() ? 1.0 : Median(octaves);
-  return std::min(ResponseFieldRmsAt(response, values) / per_pair, 0.99);
+  return octaves.empty() ? 1.0 : Median(octaves);
+}
+
+double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& response,
+                                                    const std::vector<double>& values) {
+  return std::min(ResponseFieldRmsAt(response, values) / ExposureStepOctaves(response), 0.99);
 }
 
 double PhotometricCalibration::SmoothingSensitivityAt(const ResponseResult& response,

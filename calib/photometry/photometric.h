@@ -58,6 +58,10 @@ struct PhotometricCalibration {
   // shows as s/3 per pair). What gonio run's calibration-error propagation draws.
   static double ResponseSlopeErrorAt(const ResponseResult& response,
                                      const std::vector<double>& values);
+  // The sweep's exposure step in octaves: the median log2 ratio of neighbouring used frames'
+  // times (1 without frames: a whole stop). What a ratio check ties, and what it leaves free:
+  // any error periodic in log2 of the exposure with this period.
+  static double ExposureStepOctaves(const ResponseResult& response);
   // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.

@@ -172,8 +172,9 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
 
 // A field over the response's knots, `scale` times it added to `log_field`: per channel (the
 // first `channels`) linear between the knots (`knot_at(channel, k)`, k = 0, 1, ... every
-// `spacing` raw values) at each observation's raw value, the mean over channels; less the same
-// at the raw value V was measured from there (in every channel), where known.
+// `spacing` raw values) at each observation's raw
+// value, the mean over channels; less the same at the raw value V was measured from there (in every
+// channel), where known.
 template <typename KnotAt>
 void AddKnotField(const RawValues& raw, double spacing, size_t channels, double scale,
                   KnotAt knot_at, std::vector<double>* log_field) {
@@ -212,6 +213,45 @@ void AddWiggles(const ErrorModes& modes, const CalibrationErrorModel& e, std::mt
   AddKnotField(modes.raw, e.response_knot_spacing, SIZE_MAX, e.response_wiggle, at, log_field);
 }
 
+// One draw of the response's prior-held part (calibration_error.h) at the observations in
+// `modes`, added to `log_field`: one periodic function of log2(z - black) for every channel
+// (the bands' figure is the largest over them), scaled by the band figure at z, less the same at
+// the raw value V was measured from.
+void AddPriorPart(const ErrorModes& modes, const CalibrationErrorModel& e, std::mt19937_64* rng,
+                  std::vector<double>* log_field) {
+  const auto& bands = e.response_prior_bands;
+  if (bands.empty() || !(e.response_band_width > 0) || !(e.response_prior_period_octaves > 0)) {
+    return;
+  }
+  constexpr int kHarmonics = 2;  // a scallop's dip is sharper than one sine
+  std::normal_distribution<double> normal(0.0, 1.0);
+  double a[kHarmonics], b[kHarmonics];
+  for (int h = 0; h < kHarmonics; ++h) a[h] = normal(*rng), b[h] = normal(*rng);
+  const auto field = [&](double z) {
+    const long band =
+        static_cast<long>(std::floor((z - e.response_band_lo) / e.response_band_width));
+    const double s = bands[std::clamp<long>(band, 0, static_cast<long>(bands.size()) - 1)];
+    const double phase = 2 * kPi * std::log2(std::max(z - e.response_prior_black, 1.0)) /
+                         e.response_prior_period_octaves;
+    double sum = 0;
+    for (int h = 0; h < kHarmonics; ++h) {
+      sum += a[h] * std::sin((h + 1) * phase) + b[h] * std::cos((h + 1) * phase);
+    }
+    return s * sum / std::sqrt(static_cast<double>(kHarmonics));
+  };
+  for (size_t k = 0; k < modes.raw.observed.size(); ++k) {
+    const double z_vignette = modes.raw.vignette[k];
+    double sum = 0;
+    int n = 0;
+    for (double z : modes.raw.observed[k]) {
+      if (!std::isfinite(z)) continue;
+      sum += field(z) - (std::isfinite(z_vignette) ? field(z_vignette) : 0.0);
+      ++n;
+    }
+    if (n > 0) (*log_field)[k] += sum / n;
+  }
+}
+
 // Draw `draw` of the response's statistical error (calibration_error.h): its bootstrap refit
 // `draw` (cycled) with a random sign, at the observations in `modes`, added to `log_field`;
 // beyond the last knot its value there.
@@ -245,6 +285,7 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   add(modes.response, e.response_ratio_error);
   add(modes.ends, 1.0);
   AddWiggles(modes, e, rng, &log_field);
+  AddPriorPart(modes, e, rng, &log_field);
   AddReplicate(modes, e, draw, rng, &log_field);
   add(modes.vignette, e.vignette_rms / std::sqrt(std::max<size_t>(modes.vignette.size(), 1)));
   const std::vector<PoseDelta> pose_error = DrawPoseErrors(e.poses, pose_rng);
@@ -279,6 +320,17 @@ void CalibrationErrorModel::Check() const {
   }
   if (!(response_wiggle >= 0 && response_wiggle < 1) || !(response_knot_spacing >= 0)) {
     throw InputError("calibration error: response_wiggle must be in [0, 1), its spacing >= 0");
+  }
+  for (double b : response_prior_bands) {
+    if (!(b >= 0 && b < 1)) {
+      throw InputError("calibration error: a response prior band's error must be in [0, 1)");
+    }
+  }
+  if (!response_prior_bands.empty() &&
+      !(response_band_width > 0 && std::isfinite(response_band_lo) &&
+        response_prior_period_octaves > 0 && std::isfinite(response_prior_black))) {
+    throw InputError(
+        "calibration error: the response's prior part needs bands of width > 0 and a period > 0");
   }
   for (const auto& refit : response_replicates) {
     for (const auto& d : refit) {
@@ -420,6 +472,20 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
       e.response_wiggle =
           PhotometricCalibration::SmoothingError(response) / (kSmoothingSensitivityFactor - 1.0);
     }
+  }
+  // Its part the sweep leaves to the prior, which the bootstrap reproduces (a band without a
+  // figure counts as the worst, as in PhotometricCalibration::SmoothingSensitivityAt).
+  const auto& bands = response.smoothing_sensitivity_bands;
+  const auto& c = response.consistency;
+  if (!bands.empty() && c.range_hi > c.range_lo) {
+    for (double b : bands) {
+      e.response_prior_bands.push_back(
+          std::min(std::isfinite(b) ? b : PhotometricCalibration::SmoothingError(response), 0.99));
+    }
+    e.response_band_lo = c.range_lo;
+    e.response_band_width = (c.range_hi - c.range_lo) / bands.size();
+    e.response_prior_black = response.black_level.empty() ? 0.0 : response.black_level[0];
+    e.response_prior_period_octaves = PhotometricCalibration::ExposureStepOctaves(response);
   }
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
   // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which

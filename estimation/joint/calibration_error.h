@@ -36,6 +36,18 @@
 //             (calib/photometry/response_bootstrap.cc) with a random sign, interpolated at each
 //             observation's raw value: its size and its correlation between values are the
 //             fit's own.
+//   the response's prior-held part (response_prior_bands): between the values a sweep holds
+//             the curve is the smoothing prior's, and the bootstrap refits, made with the same
+//             prior, reproduce it. A sweep of few radiances in whole stops pins the curve only
+//             at each value's octave neighbours and leaves it 1-4 % off between them
+//             (docs/photometric.md "Smoothing sensitivity"). Exposures a ratio r apart only
+//             tie h(z r) - h(z) (z above black), so what they leave free is any function
+//             periodic in log2(z) with period log2(r): the error is drawn as such a function
+//             (two harmonics, random amplitudes and phases) scaled at each value by the smoothing
+//             sensitivity of its band of the self-check's range (the change under a 4x stiffer
+//             prior): about the error where the prior holds the curve, three times the prior's
+//             bias where the data do (0.02-0.1 % at a third-stop sweep's middle bands, below
+//             its bootstrap's 0.07-0.09 %);
 //   the response's wiggles (response_wiggle), for a response without bootstrap refits (older
 //             files): between the sweep's values the curve is the smoothing prior's
 //             interpolation, off by a fraction of a percent that changes sign from knot to
@@ -78,6 +90,14 @@ struct CalibrationErrorModel {
   // linearly at each observation's raw value. 0: none.
   double response_wiggle = 0;
   double response_knot_spacing = 0;
+  // The response's part its sweep leaves to the smoothing prior: at raw value z a 1-sigma
+  // relative error s(z) (ResponseResult::smoothing_sensitivity_bands, bands
+  // `response_band_width` raw values wide from `response_band_lo`, the band z falls in) times a
+  // random function periodic in log2(z - response_prior_black) with period
+  // `response_prior_period_octaves` (the sweep's exposure step), of variance 1. Empty: none.
+  std::vector<double> response_prior_bands;
+  double response_band_lo = 0, response_band_width = 0;
+  double response_prior_black = 0, response_prior_period_octaves = 0;
   // The response's pixel-bootstrap refits (ResponseResult::bootstrap_ln_change): per refit and
   // channel the change of ln X at every knot, `response_knot_spacing` raw values apart.
   std::vector<std::vector<std::vector<double>>> response_replicates;

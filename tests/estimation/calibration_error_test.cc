@@ -223,6 +223,47 @@ TEST(CalibrationError, ResponseReplicatesSpreadAsTheTableErrorShifts) {
   EXPECT_GT(LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e)), 3.0);
 }
 
+// The response's prior-held part (calibration_error.h): a whole-stop sweep of few radiances
+// leaves the curve between the octaves it pins to the prior, off in a scallop that repeats every
+// octave (here 2 % deep, zero at 1000 x 2^k) and that the bootstrap reproduces. Drawn per band
+// of the self-check's range (8 bands over 0..12800, each band's figure the scallop's RMS about
+// its mean there, as the smoothing sensitivity measures it), the propagated spread must match
+// the shift the scallop causes; bands ten times smaller must not (some |z| above 3).
+TEST(CalibrationError, APriorHeldScallopSpreadsAsItsBandsSay) {
+  std::vector<double> knot(401);
+  for (size_t k = 0; k < knot.size(); ++k) {
+    const double z = std::max(1.0, k * kKnotSpacing);
+    knot[k] = -0.02 * std::pow(std::sin(kPi * std::log2(z / 1000)), 2);
+  }
+  double mean = 0;
+  for (double v : knot) mean += v / knot.size();
+  constexpr int kBands = 8;
+  const double width = 12800.0 / kBands;
+  std::vector<double> bands(kBands, 0.0), count(kBands, 0.0);
+  for (size_t k = 0; k < knot.size(); ++k) {
+    const int b = std::min(kBands - 1, static_cast<int>(k * kKnotSpacing / width));
+    bands[b] += (knot[k] - mean) * (knot[k] - mean);
+    count[b] += 1;
+  }
+  for (int b = 0; b < kBands; ++b) bands[b] = std::sqrt(bands[b] / count[b]);
+  const BentFits bent = FitWithoutAndWith(knot);
+  ASSERT_TRUE(bent.base.material.converged && bent.fit.material.converged);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_prior_bands = bands;
+  e.response_band_lo = 0;
+  e.response_band_width = width;
+  e.response_prior_black = 0;
+  e.response_prior_period_octaves = 1;  // whole stops
+  const double largest =
+      LargestShiftInSd(bent.base, bent.fit, PropagateTen(bent.data, bent.fit, bent.options, e));
+  EXPECT_LT(largest, 3.0);
+  EXPECT_GT(largest, 0.2);
+  for (double& b : e.response_prior_bands) b *= 0.1;
+  EXPECT_GT(
+      LargestShiftInSd(bent.base, bent.fit, PropagateTen(bent.data, bent.fit, bent.options, e)),
+      3.0);
+}
+
 // The vignetting measured through the same response (calibration_error.h): V's input read at
 // raw values that rise across the image (cells of 32 px, 1000 to 3700), the observations all at
 // raw value 2000. The true response error (a smoothed walk) then reaches the fit only through V:
