@@ -120,7 +120,7 @@ void MoveCapture(int seed, synth::Scene* s) {
   v.target += Eigen::Vector3d(0.01 * unit(rng), 0.01 * unit(rng), 0.0);
   v.distance *= 1.0 + 0.05 * unit(rng);
   const double turn = kPi / v.per_ring * (1.0 + unit(rng));  // 0 .. one azimuth step
-  Rigid3d board_from_turned;                                   // about z through the target
+  Rigid3d board_from_turned;                                 // about z through the target
   board_from_turned.R = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   board_from_turned.t = v.target - board_from_turned.R * v.target;
   std::vector<Rigid3d> poses;
