@@ -215,7 +215,7 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
 }
 
 // Where the sample's raw values fall, the response between the sweep's exposures is its
-// smoothing prior's (calib/photometry/response.h kSmoothingSensitivityLimit): a sweep of few
+// smoothing prior's (calib/photometry/response.h kPriorHeldLimitAtValues): a sweep of few
 // radiances in whole stops pins the curve only at each value's octave neighbours. The error
 // bars draw that part (calibration_error.h), but it is the result's limit, 1-4 % of every
 // radiance, and the fix is the capture guide's third stops (docs/pipeline.md "Checks").
@@ -226,15 +226,21 @@ void AddResponseWarning(const RunInputs& in, RunResult* r) {
   }
   const double moved =
       PhotometricCalibration::SmoothingSensitivityAt(in.photometric.response, values);
-  if (!(moved > kSmoothingSensitivityLimit)) return;
+  if (moved > 0) {
+    spdlog::info(
+        "response: {:.2f}% under a {:.0f}x stiffer prior where the sample's values are "
+        "(a warning above {:.1f}%)",
+        100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues);
+  }
+  if (!(moved > kPriorHeldLimitAtValues)) return;
   r->warnings.push_back(
       {WarningCause::kResponse,
        fmt::format("the response calibration limits the result: where the sample's values are, "
-                   "its curve moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.0f}%), so "
+                   "its curve moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.1f}%), so "
                    "between the sweep's exposures it is the prior's guess, an error every "
                    "observation at a value shares (the error bars draw it from that figure); "
                    "shoot the exposure sweep in third stops (docs/capture-guide.md)",
-                   100 * moved, kSmoothingSensitivityFactor, 100 * kSmoothingSensitivityLimit),
+                   100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues),
        AllResults(r->fit.final_fit)});
   spdlog::warn("{}", r->warnings.back().message);
 }

@@ -119,12 +119,19 @@ struct PairConsistency {
 // holds up between data.
 constexpr double kSmoothingSensitivityFactor = 4.0;
 
-// Above this smoothing sensitivity the curve between the sweep's values is the prior's, not the
-// sweep's, beyond what the capture guide's third stops leave (0.1-0.4 % on the coverage bench's
-// third-stop sweeps, 1.1-3 % on its whole-stop ones; docs/photometric.md "Smoothing
-// sensitivity"): the response report says more exposures would pin it, and gonio run warns when
-// the sample's own values meet it (pipeline/run.cc).
+// Above this smoothing sensitivity (its worst band) the response report says more exposures
+// would pin the curve (docs/photometric.md "Smoothing sensitivity"). The worst band is mostly
+// the dark end's, which third-stop sweeps also reach (0.13-1.0 % on the coverage bench).
 constexpr double kSmoothingSensitivityLimit = 0.01;
+
+// Above this smoothing sensitivity where a sample's raw values are (PhotometricCalibration::
+// SmoothingSensitivityAt), the curve there is the prior's, not the sweep's: gonio run warns that
+// the response limits the result (pipeline/run.cc). Measured at the sample's values on the
+// coverage bench's five camera and scene kinds: 0.02-0.12 % for third-stop sweeps (what the
+// capture guide asks), 0.39-2.4 % for whole stops, whose results were then off by up to 8 deg in
+// sigma and 18 % in the lamp's distance. The limit sits between, a factor 1.7 and 2 from either
+// side.
+constexpr double kPriorHeldLimitAtValues = 0.002;
 
 // One end of a channel's table where the sweep's data thin out (docs/photometric.md, "The
 // table's ends"). Below the lowest value the data support the table is a straight line to the

@@ -282,6 +282,29 @@ std::vector<std::vector<std::vector<double>>> BootstrapFromJson(const nlohmann::
   return out;
 }
 
+// response.json smoothing_sensitivity_bands: empty, or PairConsistency::kBands figures >= 0
+// (null: NaN, no knot in the band); InputError naming `source` otherwise.
+std::vector<double> BandsFromJson(const nlohmann::json& bands, const std::string& source) {
+  const std::string what = source + ": 'smoothing_sensitivity_bands' must be empty or a list of " +
+                           std::to_string(PairConsistency::kBands) +
+                           " non-negative numbers or nulls";
+  if (!bands.is_array() || (!bands.empty() && bands.size() != PairConsistency::kBands)) {
+    throw InputError(what);
+  }
+  std::vector<double> out;
+  for (const auto& v : bands) {
+    if (v.is_null()) {
+      out.push_back(NAN);
+      continue;
+    }
+    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
+      throw InputError(what);
+    }
+    out.push_back(v.get<double>());
+  }
+  return out;
+}
+
 nlohmann::json NullForNan(const std::vector<double>& values) {
   nlohmann::json out = nlohmann::json::array();
   for (double v : values) out.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json());
@@ -396,23 +419,7 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
     r.smoothing_sensitivity = v.get<double>();
   }
   if (j.contains("smoothing_sensitivity_bands")) {
-    const auto& bands = j["smoothing_sensitivity_bands"];
-    const std::string what = source + ": 'smoothing_sensitivity_bands' must be empty or a list " +
-                             "of " + std::to_string(PairConsistency::kBands) +
-                             " non-negative numbers or nulls";
-    if (!bands.is_array() || (!bands.empty() && bands.size() != PairConsistency::kBands)) {
-      throw InputError(what);
-    }
-    for (const auto& v : bands) {
-      if (v.is_null()) {
-        r.smoothing_sensitivity_bands.push_back(NAN);
-        continue;
-      }
-      if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
-        throw InputError(what);
-      }
-      r.smoothing_sensitivity_bands.push_back(v.get<double>());
-    }
+    r.smoothing_sensitivity_bands = BandsFromJson(j["smoothing_sensitivity_bands"], source);
   }
   if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
   if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {

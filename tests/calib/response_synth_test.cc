@@ -192,7 +192,7 @@ TEST(ResponseSynthSweep, SixteenBitLinear) {
 
 // The smoothing sensitivity per band, read where a sample's values are: on the board scene's
 // few radiances a whole-stop sweep leaves the curve between them to the prior (the run warns
-// above kSmoothingSensitivityLimit), third stops over the same range pin it. Measured on the
+// above kPriorHeldLimitAtValues), third stops over the same range pin it. Measured on the
 // 16-bit linear camera, values in the middle three quarters of the range: 1.18 % and 0.06 %.
 TEST(ResponseSynthSweep, ThirdStopsPinTheCurveWhereWholeStopsLeaveItToThePrior) {
   const Camera cam{16, synth::ResponseCurve::kLinear, 256};
@@ -218,8 +218,8 @@ TEST(ResponseSynthSweep, ThirdStopsPinTheCurveWhereWholeStopsLeaveItToThePrior) 
         "middle values\n",
         third ? "third" : "whole", 100 * r.smoothing_sensitivity, 100 * moved[third]);
   }
-  EXPECT_GT(moved[0], kSmoothingSensitivityLimit);
-  EXPECT_LT(moved[1], 0.5 * kSmoothingSensitivityLimit);
+  EXPECT_GT(moved[0], 2 * kPriorHeldLimitAtValues);
+  EXPECT_LT(moved[1], 0.5 * kPriorHeldLimitAtValues);
 }
 
 // Bands without a figure count as the worst; no bands: the worst band alone.
