@@ -308,10 +308,8 @@ std::string ParameterTable(const JointFitResult& f, const std::vector<RunWarning
   for (size_t k = 0; k < f.material.params.size(); ++k) {
     const auto& sd = f.material.stddev[k];
     std::string split;
-    if (cal) {
-      const auto& names = cal->param_names;
-      const auto at = std::find(names.begin(), names.end(), f.material.param_names[k]);
-      const double part = at == names.end() ? 0.0 : cal->param_stddev[at - names.begin()];
+    if (cal) {  // the refits' spread in the fit's parameter order (calibration_error.h)
+      const double part = k < cal->param_stddev.size() ? cal->param_stddev[k] : 0.0;
       split = SplitCells(Scalar(sd), Eigen::VectorXd::Constant(1, part));
     }
     h << fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>{}</td>{}{}</tr>",

@@ -220,12 +220,8 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
 // bars draw that part (calibration_error.h), but it is the result's limit, 1-4 % of every
 // radiance, and the fix is the capture guide's third stops (docs/pipeline.md "Checks").
 void AddResponseWarning(const RunInputs& in, RunResult* r) {
-  std::vector<double> values;
-  for (const auto& obs : r->observations.observations) {
-    values.insert(values.end(), obs.value.begin(), obs.value.end());
-  }
-  const double moved =
-      PhotometricCalibration::SmoothingSensitivityAt(in.photometric.response, values);
+  const double moved = PhotometricCalibration::SmoothingSensitivityAt(in.photometric.response,
+                                                                      RawValuesOf(r->observations));
   if (moved > 0) {
     spdlog::info(
         "response: {:.2f}% under a {:.0f}x stiffer prior where the sample's values are "

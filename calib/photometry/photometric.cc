@@ -99,19 +99,31 @@ double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) 
   return n > 0 ? std::min(std::sqrt(sum / n), 0.99) : ResponseAccuracy(response);
 }
 
-double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response,
-                                                  const std::vector<double>& values) {
-  const PairConsistency& c = response.consistency;
-  const int bands = static_cast<int>(c.band_bias.size());
-  const double width = (c.range_hi - c.range_lo) / std::max(bands, 1);
-  if (values.empty() || bands == 0 || !(width > 0)) return ResponseFieldRms(response);
+namespace {
+
+// The RMS over `values` (raw pixel values) of the figure of the self-check's band each falls in
+// (`bands` over the consistency's value range in equal parts; a band without a figure counts as
+// `missing`, values beyond the range as the outer bands); `fallback` without bands or values.
+double BandRmsAt(const PairConsistency& c, const std::vector<double>& bands, double missing,
+                 const std::vector<double>& values, double fallback) {
+  const int n = static_cast<int>(bands.size());
+  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
+  if (values.empty() || n == 0 || !(width > 0)) return fallback;
   double sum = 0;
   for (double z : values) {
-    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, bands - 1);
-    const double bias = std::isfinite(c.band_bias[b]) ? c.band_bias[b] : ResponseAccuracy(response);
-    sum += bias * bias;
+    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1);
+    const double f = std::isfinite(bands[b]) ? bands[b] : missing;
+    sum += f * f;
   }
   return std::min(std::sqrt(sum / values.size()), 0.99);
+}
+
+}  // namespace
+
+double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response,
+                                                  const std::vector<double>& values) {
+  return BandRmsAt(response.consistency, response.consistency.band_bias, ResponseAccuracy(response),
+                   values, ResponseFieldRms(response));
 }
 
 double PhotometricCalibration::ExposureStepOctaves(const ResponseResult& response) {
@@ -135,18 +147,8 @@ double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& respon
 
 double PhotometricCalibration::SmoothingSensitivityAt(const ResponseResult& response,
                                                       const std::vector<double>& values) {
-  const PairConsistency& c = response.consistency;
-  const auto& bands = response.smoothing_sensitivity_bands;
-  const int n = static_cast<int>(bands.size());
-  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
-  if (values.empty() || n == 0 || !(width > 0)) return SmoothingError(response);
-  double sum = 0;
-  for (double z : values) {
-    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1);
-    const double s = std::isfinite(bands[b]) ? bands[b] : SmoothingError(response);
-    sum += s * s;
-  }
-  return std::min(std::sqrt(sum / values.size()), 0.99);
+  return BandRmsAt(response.consistency, response.smoothing_sensitivity_bands,
+                   SmoothingError(response), values, SmoothingError(response));
 }
 
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {

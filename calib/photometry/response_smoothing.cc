@@ -75,7 +75,6 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
   band_sensitivity->assign(PairConsistency::kBands, NAN);
   ResponseOptions stiff = o;
   stiff.smoothness = o.smoothness * kSmoothingSensitivityFactor;
-  double worst = 0;
   for (size_t c = 0; c < fits.size(); ++c) {
     const Setup& s = setups[c];
     const ChannelFit refit = FitChannel(planes[c], frames, free_time, false, s, pixels[c], stiff);
@@ -97,13 +96,17 @@ double SmoothingSensitivity(const std::vector<std::vector<cv::Mat>>& planes,
     for (int b = 0; b < bands; ++b) {
       if (in_band[b].empty()) continue;
       const double change_b = std::expm1(Median(in_band[b]));
-      worst = std::max(worst, Median(in_band[b]));
       double& kept = (*band_sensitivity)[b];
       kept = std::isfinite(kept) ? std::max(kept, change_b) : change_b;
     }
     if (ends) AddEnds(static_cast<int>(c), s, fits[c].h, refit.h, mid, supported[c], ends);
   }
-  return std::expm1(worst);
+  // The worst band over the channels (expm1 keeps the order of the median changes).
+  double worst = 0;
+  for (double b : *band_sensitivity) {
+    if (std::isfinite(b)) worst = std::max(worst, b);
+  }
+  return worst;
 }
 
 }  // namespace gonio

@@ -164,6 +164,13 @@ ObservationSet ReadObservations(const std::filesystem::path& path) {
   return set;
 }
 
+std::vector<double> RawValuesOf(const ObservationSet& set) {
+  std::vector<double> values;
+  for (const auto& o : set.observations)
+    values.insert(values.end(), o.value.begin(), o.value.end());
+  return values;
+}
+
 ObservationSet MergeObservations(const std::vector<ObservationSet>& sets) {
   ObservationSet out;
   if (sets.empty()) return out;

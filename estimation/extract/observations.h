@@ -47,6 +47,9 @@ struct ObservationSet {
 // observations.csv (docs/formats.md). InputError naming the file and line on bad content.
 void WriteObservations(const std::filesystem::path& path, const ObservationSet& set);
 ObservationSet ReadObservations(const std::filesystem::path& path);
+// Every observation's raw pixel value in every channel (Observation::value), one list: where
+// the data sit on the response's value range.
+std::vector<double> RawValuesOf(const ObservationSet& set);
 // Several files into one set; frame indices are offset so frames stay distinct.
 ObservationSet MergeObservations(const std::vector<ObservationSet>& sets);
 

@@ -170,11 +170,29 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
   return m;
 }
 
-// A field over the response's knots, `scale` times it added to `log_field`: per channel (the
-// first `channels`) linear between the knots (`knot_at(channel, k)`, k = 0, 1, ... every
-// `spacing` raw values) at each observation's raw
-// value, the mean over channels; less the same at the raw value V was measured from there (in every
-// channel), where known.
+// A field over raw values, `scale` times it added to `log_field`: `value_at(channel, z)` at each
+// observation's raw value in each of the first `channels`, the mean over channels, less the same
+// at the raw value V was measured from there (in every channel), where known: V divides the
+// observation and was read through the same response.
+template <typename ValueAt>
+void AddRawField(const RawValues& raw, size_t channels, double scale, ValueAt value_at,
+                 std::vector<double>* log_field) {
+  for (size_t k = 0; k < raw.observed.size(); ++k) {
+    const auto& value = raw.observed[k];
+    const double z_vignette = raw.vignette[k];
+    double sum = 0;
+    int n = 0;
+    for (size_t c = 0; c < std::min(value.size(), channels); ++c) {
+      if (!std::isfinite(value[c])) continue;
+      sum += value_at(c, value[c]) - (std::isfinite(z_vignette) ? value_at(c, z_vignette) : 0.0);
+      ++n;
+    }
+    if (n > 0) (*log_field)[k] += scale * sum / n;
+  }
+}
+
+// AddRawField of a field over the response's knots: per channel linear between the knots
+// (`knot_at(channel, k)`, k = 0, 1, ... every `spacing` raw values).
 template <typename KnotAt>
 void AddKnotField(const RawValues& raw, double spacing, size_t channels, double scale,
                   KnotAt knot_at, std::vector<double>* log_field) {
@@ -184,18 +202,7 @@ void AddKnotField(const RawValues& raw, double spacing, size_t channels, double 
     const double a = pos - j;
     return (1 - a) * knot_at(c, j) + a * knot_at(c, j + 1);
   };
-  for (size_t k = 0; k < raw.observed.size(); ++k) {
-    const auto& value = raw.observed[k];
-    const double z_vignette = raw.vignette[k];
-    double sum = 0;
-    int n = 0;
-    for (size_t c = 0; c < std::min(value.size(), channels); ++c) {
-      if (!std::isfinite(value[c])) continue;
-      sum += at(c, value[c]) - (std::isfinite(z_vignette) ? at(c, z_vignette) : 0.0);
-      ++n;
-    }
-    if (n > 0) (*log_field)[k] += scale * sum / n;
-  }
+  AddRawField(raw, channels, scale, at, log_field);
 }
 
 // One draw of the response's wiggles (calibration_error.h) at the observations in `modes`,
@@ -227,7 +234,7 @@ void AddPriorPart(const ErrorModes& modes, const CalibrationErrorModel& e, std::
   std::normal_distribution<double> normal(0.0, 1.0);
   double a[kHarmonics], b[kHarmonics];
   for (int h = 0; h < kHarmonics; ++h) a[h] = normal(*rng), b[h] = normal(*rng);
-  const auto field = [&](double z) {
+  const auto field = [&](size_t, double z) {
     const long band =
         static_cast<long>(std::floor((z - e.response_band_lo) / e.response_band_width));
     const double s = bands[std::clamp<long>(band, 0, static_cast<long>(bands.size()) - 1)];
@@ -239,17 +246,7 @@ void AddPriorPart(const ErrorModes& modes, const CalibrationErrorModel& e, std::
     }
     return s * sum / std::sqrt(static_cast<double>(kHarmonics));
   };
-  for (size_t k = 0; k < modes.raw.observed.size(); ++k) {
-    const double z_vignette = modes.raw.vignette[k];
-    double sum = 0;
-    int n = 0;
-    for (double z : modes.raw.observed[k]) {
-      if (!std::isfinite(z)) continue;
-      sum += field(z) - (std::isfinite(z_vignette) ? field(z_vignette) : 0.0);
-      ++n;
-    }
-    if (n > 0) (*log_field)[k] += sum / n;
-  }
+  AddRawField(modes.raw, SIZE_MAX, 1.0, field, log_field);
 }
 
 // Draw `draw` of the response's statistical error (calibration_error.h): its bootstrap refit
@@ -453,11 +450,8 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
   if (!accuracy) return e;  // the poses' error alone, the photometric fields zero
   const ResponseResult& response = photometric.response;
   // The response's error where the observations are: their raw values' bands.
-  std::vector<double> values;
-  for (const auto& obs : data.observations) {
-    values.insert(values.end(), obs.value.begin(), obs.value.end());
-  }
-  e.response_ratio_error = PhotometricCalibration::ResponseSlopeErrorAt(response, values);
+  e.response_ratio_error =
+      PhotometricCalibration::ResponseSlopeErrorAt(response, RawValuesOf(data));
   // Where the sweep's data thin out, the table's own error (response.h, ResponseEnd).
   e.response_ends = response.ends;
   // Its wiggles between knots: the smoothing sensitivity is the change under a prior
