@@ -220,8 +220,18 @@ void AddWiggles(const ErrorModes& modes, const CalibrationErrorModel& e, std::mt
   AddKnotField(modes.raw, e.response_knot_spacing, SIZE_MAX, e.response_wiggle, at, log_field);
 }
 
+// log2 of the inverse response at raw value z in channel c (the last table for channels beyond
+// it), interpolated; floored at a millionth of the table's top (it is 0 at and below black).
+double Log2Linear(const std::vector<std::vector<double>>& inverse, size_t c, double z) {
+  const auto& t = inverse[std::min(c, inverse.size() - 1)];
+  const double at = std::clamp(z, 0.0, static_cast<double>(t.size() - 1));
+  const size_t k = std::min(static_cast<size_t>(at), t.size() - 2);
+  const double x = t[k] + (at - k) * (t[k + 1] - t[k]);
+  return std::log2(std::max(x, 1e-6 * t.back()));
+}
+
 // One draw of the response's prior-held part (calibration_error.h) at the observations in
-// `modes`, added to `log_field`: one periodic function of log2(z - black) for every channel
+// `modes`, added to `log_field`: one periodic function of log2 X(z) for every channel
 // (the bands' figure is the largest over them), scaled by the band figure at z, less the same at
 // the raw value V was measured from.
 void AddPriorPart(const ErrorModes& modes, const CalibrationErrorModel& e, std::mt19937_64* rng,
@@ -234,12 +244,12 @@ void AddPriorPart(const ErrorModes& modes, const CalibrationErrorModel& e, std::
   std::normal_distribution<double> normal(0.0, 1.0);
   double a[kHarmonics], b[kHarmonics];
   for (int h = 0; h < kHarmonics; ++h) a[h] = normal(*rng), b[h] = normal(*rng);
-  const auto field = [&](size_t, double z) {
+  const auto field = [&](size_t c, double z) {
     const long band =
         static_cast<long>(std::floor((z - e.response_band_lo) / e.response_band_width));
     const double s = bands[std::clamp<long>(band, 0, static_cast<long>(bands.size()) - 1)];
-    const double phase = 2 * kPi * std::log2(std::max(z - e.response_prior_black, 1.0)) /
-                         e.response_prior_period_octaves;
+    const double phase =
+        2 * kPi * Log2Linear(e.response_prior_inverse, c, z) / e.response_prior_period_octaves;
     double sum = 0;
     for (int h = 0; h < kHarmonics; ++h) {
       sum += a[h] * std::sin((h + 1) * phase) + b[h] * std::cos((h + 1) * phase);
@@ -325,9 +335,15 @@ void CalibrationErrorModel::Check() const {
   }
   if (!response_prior_bands.empty() &&
       !(response_band_width > 0 && std::isfinite(response_band_lo) &&
-        response_prior_period_octaves > 0 && std::isfinite(response_prior_black))) {
+        response_prior_period_octaves > 0 && !response_prior_inverse.empty())) {
     throw InputError(
-        "calibration error: the response's prior part needs bands of width > 0 and a period > 0");
+        "calibration error: the response's prior part needs bands of width > 0, a period > 0 "
+        "and the inverse response");
+  }
+  for (const auto& t : response_prior_inverse) {
+    if (t.size() < 2 || !(t.back() > 0)) {
+      throw InputError("calibration error: an inverse response table needs 2 values, the last > 0");
+    }
   }
   for (const auto& refit : response_replicates) {
     for (const auto& d : refit) {
@@ -478,7 +494,7 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     }
     e.response_band_lo = c.range_lo;
     e.response_band_width = (c.range_hi - c.range_lo) / bands.size();
-    e.response_prior_black = response.black_level.empty() ? 0.0 : response.black_level[0];
+    e.response_prior_inverse = response.inverse_response;
     e.response_prior_period_octaves = PhotometricCalibration::ExposureStepOctaves(response);
   }
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part

@@ -40,9 +40,12 @@
 //             the curve is the smoothing prior's, and the bootstrap refits, made with the same
 //             prior, reproduce it. A sweep of few radiances in whole stops pins the curve only
 //             at each value's octave neighbours and leaves it 1-4 % off between them
-//             (docs/photometric.md "Smoothing sensitivity"). Exposures a ratio r apart only
-//             tie h(z r) - h(z) (z above black), so what they leave free is any function
-//             periodic in log2(z) with period log2(r): the error is drawn as such a function
+//             (docs/photometric.md "Smoothing sensitivity"). Exposures a ratio r apart see a
+//             point at linear values X and r X and tie only ln h(f(r X)) - ln h(f(X)) = ln r
+//             (h the inverse response, f the camera's), so what they leave free is any error
+//             periodic in log2 X = log2 h(z) with period log2(r): in log2(z - black) only for a
+//             linear camera (an sRGB camera's period in z is about 2.4 times shorter). The
+//             error is drawn as such a function
 //             (two harmonics, random amplitudes and phases) scaled at each value by the smoothing
 //             sensitivity of its band of the self-check's range (the change under a 4x stiffer
 //             prior): about the error where the prior holds the curve, three times the prior's
@@ -93,11 +96,13 @@ struct CalibrationErrorModel {
   // The response's part its sweep leaves to the smoothing prior: at raw value z a 1-sigma
   // relative error s(z) (ResponseResult::smoothing_sensitivity_bands, bands
   // `response_band_width` raw values wide from `response_band_lo`, the band z falls in) times a
-  // random function periodic in log2(z - response_prior_black) with period
-  // `response_prior_period_octaves` (the sweep's exposure step), of variance 1. Empty: none.
+  // random function periodic in log2 X(z) with period `response_prior_period_octaves` (the
+  // sweep's exposure step), of variance 1, where X is the inverse response: per channel its table
+  // by raw value `response_prior_inverse` (ResponseResult::inverse_response). Empty: none.
   std::vector<double> response_prior_bands;
   double response_band_lo = 0, response_band_width = 0;
-  double response_prior_black = 0, response_prior_period_octaves = 0;
+  double response_prior_period_octaves = 0;
+  std::vector<std::vector<double>> response_prior_inverse;
   // The response's pixel-bootstrap refits (ResponseResult::bootstrap_ln_change): per refit and
   // channel the change of ln X at every knot, `response_knot_spacing` raw values apart.
   std::vector<std::vector<std::vector<double>>> response_replicates;

@@ -223,6 +223,13 @@ TEST(CalibrationError, ResponseReplicatesSpreadAsTheTableErrorShifts) {
   EXPECT_GT(LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e)), 3.0);
 }
 
+// A linear camera's inverse response by raw value, black 0, up to `max_value`.
+std::vector<double> LinearTable(int max_value) {
+  std::vector<double> t(max_value + 1);
+  for (int z = 0; z <= max_value; ++z) t[z] = static_cast<double>(z) / max_value;
+  return t;
+}
+
 // The response's prior-held part (calibration_error.h): a whole-stop sweep of few radiances
 // leaves the curve between the octaves it pins to the prior, off in a scallop that repeats every
 // octave (here 2 % deep, zero at 1000 x 2^k) and that the bootstrap reproduces. Drawn per band
@@ -252,8 +259,8 @@ TEST(CalibrationError, APriorHeldScallopSpreadsAsItsBandsSay) {
   e.response_prior_bands = bands;
   e.response_band_lo = 0;
   e.response_band_width = width;
-  e.response_prior_black = 0;
-  e.response_prior_period_octaves = 1;  // whole stops
+  e.response_prior_inverse = {LinearTable(12800)};  // a linear camera, black 0
+  e.response_prior_period_octaves = 1;              // whole stops
   const double largest =
       LargestShiftInSd(bent.base, bent.fit, PropagateTen(bent.data, bent.fit, bent.options, e));
   EXPECT_LT(largest, 3.0);
@@ -262,6 +269,37 @@ TEST(CalibrationError, APriorHeldScallopSpreadsAsItsBandsSay) {
   EXPECT_GT(
       LargestShiftInSd(bent.base, bent.fit, PropagateTen(bent.data, bent.fit, bent.options, e)),
       3.0);
+}
+
+// The prior-held part is periodic in the linear value X, not in the raw value
+// (calibration_error.h): exposures a step apart see X and 2 X. On a 12-bit gamma-2.2 camera,
+// observations read at the raw values of X = 0.05, 0.1 and 0.2 (one octave apart) meet a whole-stop
+// sweep's field at the same phase: it is a constant there, which the lamp's intensity takes, and
+// moves nothing. The same draws with a period of 0.75 octave (not a divisor of the steps between
+// the values) move the fit; a field periodic in log2 z, one octave of X being 1 / 2.2 octave of z,
+// would too.
+TEST(CalibrationError, APriorHeldErrorRepeatsWithTheLinearValue) {
+  constexpr int kMax = 4095;
+  BentFits b = FitWithoutAndWith(std::vector<double>(400, 0.0));
+  for (size_t k = 0; k < b.data.observations.size(); ++k) {
+    b.data.observations[k].value = {kMax * std::pow(0.05 * std::exp2(k % 3), 1 / 2.2)};
+  }
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_prior_bands.assign(8, 0.01);
+  e.response_band_lo = 0;
+  e.response_band_width = kMax / 8.0;
+  e.response_prior_inverse = {std::vector<double>(kMax + 1)};
+  for (int z = 0; z <= kMax; ++z) {
+    e.response_prior_inverse[0][z] = std::pow(static_cast<double>(z) / kMax, 2.2);
+  }
+  e.response_prior_period_octaves = 1;
+  const CalibrationPropagation whole = PropagateTen(b.data, b.base, b.options, e);
+  e.response_prior_period_octaves = 0.75;
+  const CalibrationPropagation other = PropagateTen(b.data, b.base, b.options, e);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_GT(other.param_stddev[i], 0.1 * std::abs(b.base.material.stddev[i].value()));
+    EXPECT_LT(whole.param_stddev[i], 1e-3 * other.param_stddev[i]) << i;
+  }
 }
 
 // The vignetting measured through the same response (calibration_error.h): V's input read at
