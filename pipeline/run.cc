@@ -220,25 +220,11 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
 // bars draw that part (calibration_error.h), but it is the result's limit, 1-4 % of every
 // radiance, and the fix is the capture guide's third stops (docs/pipeline.md "Checks").
 void AddResponseWarning(const RunInputs& in, RunResult* r) {
-  const double moved = PhotometricCalibration::SmoothingSensitivityAt(in.photometric.response,
-                                                                      RawValuesOf(r->observations));
-  if (moved > 0) {
-    spdlog::info(
-        "response: {:.2f}% under a {:.0f}x stiffer prior where the sample's values are "
-        "(a warning above {:.1f}%)",
-        100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues);
-  }
-  if (!(moved > kPriorHeldLimitAtValues)) return;
-  r->warnings.push_back(
-      {WarningCause::kResponse,
-       fmt::format("the response calibration limits the result: where the sample's values are, "
-                   "its curve moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.1f}%), so "
-                   "between the sweep's exposures it is the prior's guess, an error every "
-                   "observation at a value shares (the error bars draw it from that figure); "
-                   "shoot the exposure sweep in third stops (docs/capture-guide.md)",
-                   100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues),
-       AllResults(r->fit.final_fit)});
-  spdlog::warn("{}", r->warnings.back().message);
+  const std::optional<std::string> warning = PhotometricCalibration::PriorHeldWarning(
+      in.photometric.response, RawValuesOf(r->observations));
+  if (!warning) return;
+  r->warnings.push_back({WarningCause::kResponse, *warning, AllResults(r->fit.final_fit)});
+  spdlog::warn("{}", *warning);
 }
 
 // The fit's own warnings, the response's, the residuals' structure and the checks' warnings.
@@ -301,6 +287,11 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
         MapsCalibration(in, o, fit_options, r);
     r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit,
                              maps_calibration ? &*maps_calibration : nullptr);
+    // The run's own response warning holds for the maps, read through the same response.
+    for (const RunWarning& w : r.warnings) {
+      if (w.cause == WarningCause::kResponse)
+        r.maps->warnings.insert(r.maps->warnings.begin(), w.message);
+    }
     AddMapsWarnings(*r.maps, &r.warnings);
     r.timings.maps_s = clock.Lap();
   }

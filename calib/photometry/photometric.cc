@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "common/error.h"
 #include "common/image_io.h"
@@ -149,6 +150,25 @@ double PhotometricCalibration::SmoothingSensitivityAt(const ResponseResult& resp
                                                       const std::vector<double>& values) {
   return BandRmsAt(response.consistency, response.smoothing_sensitivity_bands,
                    SmoothingError(response), values, SmoothingError(response));
+}
+
+std::optional<std::string> PhotometricCalibration::PriorHeldWarning(
+    const ResponseResult& response, const std::vector<double>& values) {
+  const double moved = SmoothingSensitivityAt(response, values);
+  if (moved > 0) {
+    spdlog::info(
+        "response: {:.2f}% under a {:.0f}x stiffer prior where the sample's values are "
+        "(a warning above {:.1f}%)",
+        100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues);
+  }
+  if (!(moved > kPriorHeldLimitAtValues)) return std::nullopt;
+  return fmt::format(
+      "the response calibration limits the result: where the sample's values are, its curve "
+      "moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.1f}%), so between the sweep's "
+      "exposures it is the prior's guess, an error every observation at a value shares (the "
+      "error bars draw it from that figure); shoot the exposure sweep in third stops "
+      "(docs/capture-guide.md)",
+      100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues);
 }
 
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {

@@ -72,6 +72,12 @@ struct PhotometricCalibration {
   // without a figure counts as the worst. Without bands or values: SmoothingError.
   static double SmoothingSensitivityAt(const ResponseResult& response,
                                        const std::vector<double>& values);
+  // Where a sample's raw `values` fall, the curve between the sweep's exposures is its smoothing
+  // prior's when SmoothingSensitivityAt passes kPriorHeldLimitAtValues (response.h): then the
+  // warning that the response limits the result, with the fix (third stops); else none. Logs
+  // the figure. Used by gonio run and gonio maps alike.
+  static std::optional<std::string> PriorHeldWarning(const ResponseResult& response,
+                                                     const std::vector<double>& values);
   // sqrt(response^2 + smoothing^2 + vignetting^2): ResponseAccuracy, SmoothingError and the
   // vignetting fit's RMS relative residual, as independent relative errors of a radiance.
   static double CombinedAccuracy(const ResponseResult& response, double vignette_rms_relative);

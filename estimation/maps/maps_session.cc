@@ -96,12 +96,14 @@ SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat
 
 // The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
 // With photometric.json's accuracy, the calibration's error is propagated through it as gonio
-// run does (pipeline/run.cc), into *calibration.
+// run does (pipeline/run.cc), into *calibration; the response's warning where the sample's
+// values are (PhotometricCalibration::PriorHeldWarning) into *warnings.
 JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
                           const std::vector<cv::Mat>& frames,
                           const std::vector<TexelSampler::Pose>& sampler_poses,
                           const std::vector<size_t>& frame_of,
-                          std::optional<CalibrationPropagation>* calibration) {
+                          std::optional<CalibrationPropagation>* calibration,
+                          std::vector<std::string>* warnings) {
   const Session& session = in.session;
   ExtractOptions eo;
   eo.patch = 4;
@@ -112,6 +114,11 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
                        session.FramePath(frame_of[k]).string());
   }
   ObservationSet obs = extractor.Finish(session.dir.string());
+  if (auto w =
+          PhotometricCalibration::PriorHeldWarning(in.photometric.response, RawValuesOf(obs))) {
+    spdlog::warn("{}", *w);
+    warnings->push_back(std::move(*w));
+  }
   JointFitOptions jo;
   jo.lamp_frame = o.lamp_frame;
   jo.white_albedo = o.white_albedo;
@@ -168,6 +175,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   lamp.white_albedo = o.white_albedo;
   std::optional<JointFitResult> uniform;
   std::optional<CalibrationPropagation> calibration;
+  std::vector<std::string> warnings;
   const auto t_fit = std::chrono::steady_clock::now();
   if (o.lamp) {
     lamp.position = *o.lamp;
@@ -175,7 +183,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
     uniform = *uniform_in;
     if (calibration_in) calibration = *calibration_in;
   } else {
-    uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration);
+    uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration, &warnings);
   }
   if (uniform) {
     lamp.position = uniform->lamp_position;
@@ -217,6 +225,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   for (const auto& s : poses.skipped) {
     r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));
   }
+  r.warnings.insert(r.warnings.begin(), warnings.begin(), warnings.end());
   return r;
 }
 

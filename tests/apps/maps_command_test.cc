@@ -177,6 +177,41 @@ TEST(MapsCli, RunWithMapsAndExportTextures) {
   }
 }
 
+// A response whose curve its sweep left to the smoothing prior where the sample's values are
+// (response.json's smoothing sensitivity 2 %, no bands: everywhere) limits the maps as it
+// limits gonio run's fit: `gonio maps` warns in maps.json and names the fix, and `gonio run
+// --maps` carries the run's warning into the maps. The renderer's own response: no warning.
+TEST(MapsCli, AResponseLeftToItsPriorWarnsInTheMaps) {
+  TempDir dir;
+  const fs::path session = RenderSession(dir, "textured", "session", 1);
+  const auto response_warnings = [](const nlohmann::json& warnings) {
+    int n = 0;
+    for (const auto& w : warnings) {
+      n += w.get<std::string>().find("third stops") != std::string::npos;
+    }
+    return n;
+  };
+  const auto maps = [&](const std::string& name) {
+    const fs::path out = dir.path() / name;
+    const auto r = RunGonio("maps --session " + session.string() + " --camera " +
+                            (session / "camera.cameramodel").string() +
+                            " --white-albedo 0.8 --texel 4 --out " + out.string());
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return ReadJsonFile(out / "maps.json")["warnings"];
+  };
+  EXPECT_EQ(response_warnings(maps("plain")), 0);
+  nlohmann::json photometric = ReadJsonFile(session / "photometric.json");
+  photometric["response"]["smoothing_sensitivity"] = 0.02;
+  std::ofstream(session / "photometric.json") << photometric.dump();
+  EXPECT_EQ(response_warnings(maps("limited")), 1);
+  const fs::path run = dir.path() / "run";
+  const auto r = RunGonio("run --session " + session.string() +
+                          " --white-albedo 0.8 --models oren-nayar --maps --maps-texel 4 --out " +
+                          run.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(response_warnings(ReadJsonFile(run / "maps" / "maps.json")["warnings"]), 1);
+}
+
 TEST(MapsCli, BadInputIsOneLineAndExitTwo) {
   TempDir dir;
   const fs::path rect = dir.path() / "rect";  // an empty folder: no views
