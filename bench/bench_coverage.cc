@@ -159,13 +159,24 @@ synth::Scene SameCamera(const std::string& preset, const synth::Scene& session) 
 
 // The exposure sweep: the exposure-sweep preset's whole stops (14 frames, 0.5 ms .. 4.1 s, what
 // a camera's auto-bracketing gives) or third stops over the same range (40 frames, as
-// docs/capture-guide.md asks).
-synth::Scene SweepScene(const std::string& sweep, const synth::Scene& session) {
+// docs/capture-guide.md asks). Seed 1 keeps those times; every later seed shifts them all by
+// a random fraction of a step, as two users' shutters differ: what a sweep leaves to the
+// response's prior repeats with the step in log2 of the exposure (docs/photometric.md
+// "Smoothing sensitivity"), and its phase follows the times, so shared times would draw that
+// error once per camera instead of once per run.
+synth::Scene SweepScene(const std::string& sweep, const synth::Scene& session, int seed) {
   synth::Scene s = SameCamera("exposure-sweep", session);
+  const double step = sweep == "third" ? 1.0 / 3.0 : 1.0;
+  double shift = 0;  // octaves
+  if (seed > 1) {
+    std::mt19937_64 rng(0xbf58476d1ce4e5b9ull * static_cast<uint64_t>(seed));
+    shift = step * std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+  }
   if (sweep == "third") {
     s.views.exposures_s.clear();
     for (int k = 0; k < 40; ++k) s.views.exposures_s.push_back(0.0005 * std::exp2(k / 3.0));
   }
+  for (double& t : s.views.exposures_s) t *= std::exp2(shift);
   return s;
 }
 
@@ -261,7 +272,7 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
               CoverageRun* r) {
   const fs::path sweep_dir = dir / ("sweep-" + r->sweep), sc = dir / ("cal-" + r->sweep);
   const fs::path out = dir / ("run-" + r->sweep);
-  chain->Render("sweep-" + r->sweep, SweepScene(r->sweep, s.scene), sweep_dir);
+  chain->Render("sweep-" + r->sweep, SweepScene(r->sweep, s.scene, r->seed), sweep_dir);
   EnsureDirectory(sc);
   chain->Step("response-" + r->sweep, {"photometric", "response", "--sweep", sweep_dir.string(),
                                        "--out", (sc / "response.json").string()});
