@@ -126,7 +126,10 @@ struct CalibrationErrorModel {
 };
 
 struct CalibrationPropagationOptions {
-  int draws = 10;  // refits; the spread's own relative error is about 1 / sqrt(2 draws)
+  // Refits; the spread's own relative error is about 1 / sqrt(2 draws): 16 % at 20. At 10 (until
+  // 2026-12-03) a bar came out at half its size in about 1 % of runs, and the coverage bench
+  // met such runs (docs/pipeline.md "Coverage of the error bars").
+  int draws = 20;
   std::uint64_t seed = 1;
   size_t max_observations = 3000;  // each refit uses a deterministic subsample
   void Check() const;
