@@ -151,6 +151,10 @@ struct ResponseEnd {
   double WeightAt(double z) const;
 };
 
+// An inverse response table by raw value (ResponseResult::inverse_response[channel]) at `value`:
+// linear between its entries, clamped to the table.
+double LinearizeTable(const std::vector<double>& table, double value);
+
 struct ResponseResult {
   int bit_depth = 8;
   int channels = 1;

@@ -181,12 +181,15 @@ int ResolveBitDepth(int stated, const std::string& stated_by, std::vector<Exposu
                                stated, stated_by));
 }
 
-double ResponseResult::Linearize(int channel, double value) const {
-  const auto& t = inverse_response.at(channel);
+double LinearizeTable(const std::vector<double>& t, double value) {
   const double z = std::clamp(value, 0.0, static_cast<double>(t.size() - 1));
   const size_t k = std::min(static_cast<size_t>(z), t.size() - 2);
   const double a = z - k;
   return (1 - a) * t[k] + a * t[k + 1];
+}
+
+double ResponseResult::Linearize(int channel, double value) const {
+  return LinearizeTable(inverse_response.at(channel), value);
 }
 
 double ResponseResult::Slope(int channel, double value) const {

@@ -224,10 +224,7 @@ void AddWiggles(const ErrorModes& modes, const CalibrationErrorModel& e, std::mt
 // it), interpolated; floored at a millionth of the table's top (it is 0 at and below black).
 double Log2Linear(const std::vector<std::vector<double>>& inverse, size_t c, double z) {
   const auto& t = inverse[std::min(c, inverse.size() - 1)];
-  const double at = std::clamp(z, 0.0, static_cast<double>(t.size() - 1));
-  const size_t k = std::min(static_cast<size_t>(at), t.size() - 2);
-  const double x = t[k] + (at - k) * (t[k + 1] - t[k]);
-  return std::log2(std::max(x, 1e-6 * t.back()));
+  return std::log2(std::max(LinearizeTable(t, z), 1e-6 * t.back()));
 }
 
 // One draw of the response's prior-held part (calibration_error.h) at the observations in

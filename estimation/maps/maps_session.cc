@@ -145,6 +145,22 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
   return fit;
 }
 
+// The located frames as the texel sampler takes them (pose, exposure, gain), and in *frame_of
+// each one's index in the session's frames.
+std::vector<TexelSampler::Pose> SamplerPoses(const Session& session, const SessionPoses& poses,
+                                             std::vector<size_t>* frame_of) {
+  std::vector<TexelSampler::Pose> sampler_poses;
+  for (const auto& f : poses.frames) {
+    for (size_t i = 0; i < session.frames.size(); ++i) {
+      if (session.frames[i].file != f.file) continue;
+      sampler_poses.push_back(
+          {f.file, f.pose.cam_from_board, session.frames[i].exposure_s, session.frames[i].gain});
+      frame_of->push_back(i);
+    }
+  }
+  return sampler_poses;
+}
+
 }  // namespace
 
 MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
@@ -158,16 +174,8 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   if (!poses_in) located = LocateFrames(in, frames);
   const SessionPoses& poses = poses_in ? *poses_in : located;
   if (poses.frames.empty()) throw InputError(session.dir.string() + ": the board is in no frame");
-  std::vector<TexelSampler::Pose> sampler_poses;
   std::vector<size_t> frame_of;
-  for (const auto& f : poses.frames) {
-    for (size_t i = 0; i < session.frames.size(); ++i) {
-      if (session.frames[i].file != f.file) continue;
-      sampler_poses.push_back(
-          {f.file, f.pose.cam_from_board, session.frames[i].exposure_s, session.frames[i].gain});
-      frame_of.push_back(i);
-    }
-  }
+  const std::vector<TexelSampler::Pose> sampler_poses = SamplerPoses(session, poses, &frame_of);
   const double read_s = SecondsSince(t0);
   MapsLamp lamp;
   lamp.frame =
