@@ -348,6 +348,37 @@ std::vector<ResponseEnd> EndsFromJson(const nlohmann::json& j, int channels,
   return out;
 }
 
+// The sweep's frames as ToJson writes them. Read back because what the sweep's exposure step
+// leaves to the smoothing prior repeats with that step (PhotometricCalibration::
+// ExposureStepOctaves, estimation/joint/calibration_error.h): until 2026-12-04 they were
+// dropped here, so every response read from a file had a step of one octave and a third-stop
+// sweep's prior-held error was drawn three times too long.
+std::vector<FrameExposureReport> FramesFromJson(const nlohmann::json& j,
+                                                const std::string& source) {
+  const std::string what = source + ": 'frames' ";
+  if (!j.is_array()) throw InputError(what + "must be a list");
+  std::vector<FrameExposureReport> out;
+  for (const auto& f : j) {
+    FrameExposureReport r;
+    try {
+      r.file = f.at("file").get<std::string>();
+      r.listed_s = f.at("listed_exposure_s").get<double>();
+      r.estimated_s = f.at("used_exposure_s").get<double>();
+      r.consistent = f.value("consistent", true);
+      r.used = f.value("used", true);
+      r.note = f.value("note", std::string());
+    } catch (const nlohmann::json::exception&) {
+      throw InputError(what + "needs file, listed_exposure_s and used_exposure_s in each entry");
+    }
+    if (!(r.listed_s >= 0 && r.estimated_s >= 0) || !std::isfinite(r.listed_s) ||
+        !std::isfinite(r.estimated_s)) {
+      throw InputError(what + "holds an exposure that is negative or not finite (" + r.file + ")");
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 }  // namespace
 
 nlohmann::json ResponseResult::ToJson() const {
@@ -425,6 +456,7 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
     r.smoothing_sensitivity_bands = BandsFromJson(j["smoothing_sensitivity_bands"], source);
   }
   if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
+  if (j.contains("frames")) r.frames = FramesFromJson(j["frames"], source);
   if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {
     const auto& v = j["knot_spacing"];
     if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {

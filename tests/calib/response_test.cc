@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/photometry/photometric.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "tests/calib/response_test_util.h"
@@ -241,6 +242,29 @@ TEST(ResponseJson, RoundTripAndValidation) {
   auto j = r.ToJson();
   j["inverse_response"][0][100] = -1.0;
   EXPECT_THROW(ResponseResult::FromJson(j, "r.json"), InputError);
+  j = r.ToJson();
+  j["frames"][1]["used_exposure_s"] = -1.0;
+  EXPECT_THROW(ResponseResult::FromJson(j, "r.json"), InputError);
+  j["frames"][1].erase("used_exposure_s");
+  EXPECT_THROW(ResponseResult::FromJson(j, "r.json"), InputError);
+}
+
+// The error a sweep leaves to the smoothing prior repeats with its exposure step
+// (estimation/joint/calibration_error.h), which gonio run reads from the file: a third-stop
+// sweep's step must survive it. Until 2026-12-04 the frames were not read back and every file
+// gave one octave.
+TEST(ResponseJson, TheExposureStepSurvivesTheFile) {
+  const auto sweep = MakeSweep(8, 0.0, 7);
+  ResponseResult r = CalibrateResponse(sweep.frames, {});
+  ASSERT_EQ(r.frames.size(), 7u);
+  EXPECT_NEAR(PhotometricCalibration::ExposureStepOctaves(r), 1.0, 0.02);
+  for (size_t j = 0; j < r.frames.size(); ++j) r.frames[j].estimated_s = std::exp2(j / 3.0);
+  r.frames[2].used = false;  // a frame left out does not count
+  const auto back = ResponseResult::FromJson(r.ToJson(), "r.json");
+  ASSERT_EQ(back.frames.size(), r.frames.size());
+  EXPECT_EQ(back.frames[4].file, r.frames[4].file);
+  EXPECT_FALSE(back.frames[2].used);
+  EXPECT_NEAR(PhotometricCalibration::ExposureStepOctaves(back), 1.0 / 3, 1e-9);
 }
 
 // Noise-free frames of a horizontal radiance ramp (one value per column, 1..top/2 per unit
