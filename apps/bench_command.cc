@@ -26,6 +26,7 @@ struct BenchArgs {
   bool plan = false, tags = false, coverage = false, maps = false, keep_work = false;
   std::string apriltag_ref;
   int threads = 0;
+  int seeds = 0, first_seed = 1;  // --coverage: 0 seeds = the size's default
 };
 
 // A bench that renders into OUT/work: run it there, write its outputs into OUT, remove the
@@ -112,7 +113,10 @@ void RunBench(const BenchArgs& args) {
     RunInWorkFolder(
         args.out, args.keep_work,
         [&](const auto& work) {
-          return bench::RunCoverageBench(opt, bench::CoveragePlanFor(opt), self, work);
+          bench::CoveragePlan plan = bench::CoveragePlanFor(opt);
+          if (args.seeds > 0) plan.seeds = args.seeds;
+          plan.first_seed = args.first_seed;
+          return bench::RunCoverageBench(opt, plan, self, work);
         },
         bench::WriteCoverageOutputs, /*runs_in_file_only=*/true);
   } else if (args.pipeline) {
@@ -171,6 +175,13 @@ void AddBenchCommand(CLI::App& app) {
                 "vignette, run); RMS of z = error / reported sd per parameter, with and without "
                 "warnings (coverage.json + chart)")
       ->excludes(stability);
+  cmd->add_option("--seeds", args->seeds,
+                  "--coverage: noise seeds per kind and sweep (default 4; 1 with --quick, --smoke)")
+      ->check(CLI::Range(1, 100));
+  cmd->add_option("--first-seed", args->first_seed,
+                  "--coverage: the first seed; 1 is the presets' capture, every later seed a "
+                  "capture of its own (5 with 4 seeds: a grid to check the default one against)")
+      ->check(CLI::Range(1, 100000));
   cmd->add_flag("--plan", args->plan,
                 "gonio plan's predicted scatter against the scatter measured on sessions "
                 "rendered from the plan and from the default orbit (plan_bench.json + chart)")

@@ -419,6 +419,7 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
   if (plan.kinds.empty() || plan.seeds < 1 || plan.sweeps.empty()) {
     throw InputError("coverage plan: no kinds, seeds or sweeps");
   }
+  if (plan.first_seed < 1) throw InputError("coverage plan: the first seed must be >= 1");
   for (const auto& s : plan.sweeps) {
     if (s != "third" && s != "whole") throw InputError("coverage plan: sweep '" + s + "'");
   }
@@ -429,7 +430,7 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
   const size_t total = plan.kinds.size() * plan.seeds * plan.sweeps.size();
   EnsureDirectory(work);
   for (const auto& kind : plan.kinds) {
-    for (int seed = 1; seed <= plan.seeds; ++seed) {
+    for (int seed = plan.first_seed; seed < plan.first_seed + plan.seeds; ++seed) {
       const fs::path dir = work / fmt::format("{}-seed{}", Slug(kind.name), seed);
       for (auto& r : RunKindSeed(kind, plan, seed, gonio_exe, dir, options.threads)) {
         rep.runs.push_back(r);

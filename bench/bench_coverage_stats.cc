@@ -161,6 +161,7 @@ json CoverageReport::ToJson() const {
   return {{"size", size},
           {"kinds", kinds},
           {"seeds", plan.seeds},
+          {"first_seed", plan.first_seed},
           {"sweeps", plan.sweeps},
           {"image", {plan.width, plan.height}},
           {"targets",
