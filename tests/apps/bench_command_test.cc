@@ -182,5 +182,16 @@ TEST(CoverageCli, SmokeRunsTheUsersChain) {
   EXPECT_NE(r.err.find("coverage 1/1"), std::string::npos) << r.err;  // progress on stderr
 }
 
+// --first-seed 0 names no capture (seed 1 is the presets'): a one-line error, exit 2, nothing
+// written.
+TEST(CoverageCli, AFirstSeedBelowOneIsAnInputError) {
+  testing::TempDir dir;
+  const auto out = dir.path() / "out";
+  const auto r = testing::RunGonio("bench --coverage --smoke --first-seed 0 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--first-seed"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out / "coverage.json"));
+}
+
 }  // namespace
 }  // namespace gonio
