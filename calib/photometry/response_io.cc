@@ -457,6 +457,17 @@ ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::stri
   }
   if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
   if (j.contains("frames")) r.frames = FramesFromJson(j["frames"], source);
+  // Figures of the fit, read back so that a response from its file reports as it did.
+  for (auto [key, value] :
+       {std::pair{"rms_log_residual", &r.rms_log_residual},
+        std::pair{"regional_mapping_difference", &r.regional_mapping_difference}}) {
+    if (!j.contains(key) || j[key].is_null()) continue;
+    if (!j[key].is_number() || !(j[key].get<double>() >= 0) ||
+        !std::isfinite(j[key].get<double>())) {
+      throw InputError(source + ": '" + key + "' must be a non-negative number");
+    }
+    *value = j[key].get<double>();
+  }
   if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {
     const auto& v = j["knot_spacing"];
     if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {

@@ -33,7 +33,9 @@ TEST(ResponseReal, DesktopSweepFlagsWrongExposuresAndLinearizesWithin3Percent) {
   }
   for (const char* right : {"DSC_0112.png", "DSC_0113.png", "DSC_0114.png", "DSC_0115.png"}) {
     for (const auto& f : r.frames) {
-      if (f.file == right) EXPECT_TRUE(f.consistent) << right;
+      if (f.file == right) {
+        EXPECT_TRUE(f.consistent) << right;
+      }
     }
   }
   for (const auto& t : r.inverse_response) {
@@ -263,6 +265,8 @@ TEST(ResponseJson, TheExposureStepSurvivesTheFile) {
   const auto back = ResponseResult::FromJson(r.ToJson(), "r.json");
   ASSERT_EQ(back.frames.size(), r.frames.size());
   EXPECT_EQ(back.frames[4].file, r.frames[4].file);
+  EXPECT_EQ(back.rms_log_residual, r.rms_log_residual);
+  EXPECT_EQ(back.regional_mapping_difference, r.regional_mapping_difference);
   EXPECT_FALSE(back.frames[2].used);
   EXPECT_NEAR(PhotometricCalibration::ExposureStepOctaves(back), 1.0 / 3, 1e-9);
 }
