@@ -286,7 +286,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
     const std::optional<CalibrationPropagation> maps_calibration =
         MapsCalibration(in, o, fit_options, r);
     r.maps = MapsFromSession(maps_in, mo, &r.poses, &r.fit.final_fit,
-                             maps_calibration ? &*maps_calibration : nullptr);
+                             maps_calibration ? &*maps_calibration : nullptr, &r.observations);
     // The run's own response warning holds for the maps, read through the same response.
     for (const RunWarning& w : r.warnings) {
       if (w.cause == WarningCause::kResponse)

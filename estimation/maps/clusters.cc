@@ -317,9 +317,26 @@ std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
   return best;
 }
 
-void JoinClusters(int keep, int gone, ClusterResult* c, std::vector<int>* texel_label) {
+void JoinClusters(int keep, int gone, ClusterResult* c, std::vector<int>* texel_label,
+                  bool drop_components) {
   if (keep == gone || keep < 0 || gone < 0 || keep >= c->k || gone >= c->k) {
     throw std::invalid_argument("JoinClusters: clusters out of range");
+  }
+  const size_t others = std::count_if(c->component_cluster.begin(), c->component_cluster.end(),
+                                      [&](int x) { return x != gone; });
+  if (drop_components && others > 0 && c->mix_weight.size() == c->component_cluster.size()) {
+    double left = 0;
+    for (size_t j = c->component_cluster.size(); j-- > 0;) {
+      if (c->component_cluster[j] != gone) {
+        left += c->mix_weight[j];
+        continue;
+      }
+      c->component_cluster.erase(c->component_cluster.begin() + j);
+      c->mix_weight.erase(c->mix_weight.begin() + j);
+      c->mix_mean.erase(c->mix_mean.begin() + j);
+      c->mix_cov.erase(c->mix_cov.begin() + j);
+    }
+    for (double& w : c->mix_weight) w /= left;
   }
   const auto renumber = [&](int x) {
     if (x == gone) x = keep;

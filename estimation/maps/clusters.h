@@ -72,7 +72,13 @@ std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
 // Cluster `gone` joined to `keep`: the mixture's components of `gone` assign to `keep`, the
 // clusters above `gone` are renumbered one down, in the result and in `texel_label` (per
 // texel, -1 for none; may be null); weights and means combined, `joined` counted.
-void JoinClusters(int keep, int gone, ClusterResult* clusters, std::vector<int>* texel_label);
+// drop_components: `gone` is no material (its texels all lie on material edges, so the data do
+// not reach its roughness): its components leave the mixture instead, so that Assign gives
+// every texel a material's own component. A component fitted to the edges' blends is broad,
+// and joined to a material it took that material's label to noisy texels of the others
+// (textured-3mat at full size: twice the edge texels, docs/maps.md "Full size").
+void JoinClusters(int keep, int gone, ClusterResult* clusters, std::vector<int>* texel_label,
+                  bool drop_components = false);
 
 // The texels whose samples mix two materials: a fitted texel (label >= 0, row-major grid of
 // `width` x `height`) with a texel of another cluster whose centre is nearer than `reach` +

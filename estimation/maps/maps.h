@@ -3,7 +3,8 @@
 // (docs/maps.md).
 //
 //   LoadMapsSessionInputs  session.json, board, camera model, photometric calibration
-//   MapsFromSession        frames -> board poses (unless given) -> the lamp from a uniform fit
+//   MapsFromSession        frames -> board poses (unless given) -> the lamp from the white
+//                          reference and a uniform fit
 //                          (unless --lamp) -> texel samples -> SolveMaps
 //   MapsFromRectified      MaterialGAN's rectified layout (NN.png, camera_pos.txt,
 //                          light_pos.txt, image_size.txt) -> texel samples -> SolveMaps
@@ -54,8 +55,8 @@ struct MapsOptions {
   TexelSolveOptions solve;  // its model is set from ResolvedModel
   ClusterOptions clusters;
   RoughnessChoice roughness = RoughnessChoice::kAuto;
-  // --lamp: the lamp's position in lamp_frame, held fixed; none: from a uniform fit of the
-  // session, refined with the maps.
+  // --lamp: the lamp's position in lamp_frame, held fixed; none: placed by the board's white
+  // reference (else a uniform fit of the session), refined with the maps.
   std::optional<Eigen::Vector3d> lamp;
   LampFrame lamp_frame = LampFrame::kBoard;
   std::optional<double> white_albedo;  // known albedo of the white reference
@@ -171,11 +172,14 @@ MapsSessionInputs LoadMapsSessionInputs(const std::filesystem::path& session_dir
 // poses: the board poses already located (gonio run), else located here; uniform: the
 // joint fit's result to take the lamp from (gonio run), else fitted here unless options.lamp;
 // calibration: the calibration error propagated through that fit (gonio run), else
-// propagated here through the uniform fit (options.calibration_error).
+// propagated here through the uniform fit (options.calibration_error); observations: that
+// fit's observations (gonio run), whose white reference places the maps' starting lamp
+// (estimation/joint/white_lamp.h), else the uniform fit's lamp starts them.
 MapsResult MapsFromSession(const MapsSessionInputs& inputs, const MapsOptions& options,
                            const SessionPoses* poses = nullptr,
                            const JointFitResult* uniform = nullptr,
-                           const CalibrationPropagation* calibration = nullptr);
+                           const CalibrationPropagation* calibration = nullptr,
+                           const ObservationSet* observations = nullptr);
 
 // Adds the calibration part (the uniform fit's refits) in quadrature to the maps' standard
 // deviations: the roughness's (shared, per cluster and per texel) when the uniform model has

@@ -89,7 +89,10 @@ TexelFit FirstFit(TexelData* data, const MapsLamp& lamp, const MapsOptions& o,
                   const TexelSolveOptions& so, MapsResult* r) {
   const NoiseModel noise;  // a 1% relative start until the residuals say what the noise is
   spdlog::info("maps: one roughness for the sample, noise model from its residuals");
-  TexelFit first = FitTexels(*data, RoughnessMode::kSample, {}, 0, lamp, noise, nullptr, so);
+  // One roughness for several materials would move a lamp placed without the sample: held.
+  MapsLamp first_lamp = lamp;
+  if (lamp.from_reference) first_lamp.refine_position = false;
+  TexelFit first = FitTexels(*data, RoughnessMode::kSample, {}, 0, first_lamp, noise, nullptr, so);
   r->registration.assign(data->views.size(), ViewRegistration());
   for (int round = 0; round < o.registration_rounds; ++round) {
     spdlog::info("maps: registering the views against the maps (round {})", round + 1);
@@ -158,9 +161,16 @@ bool JoinAlikePair(const TexelData& data, const TexelFit& fit, const TexelFit& f
     return std::isfinite(sd) ? fmt::format("{:.4f} +- {:.4f}", fit.cluster_r[k], sd)
                              : fmt::format("{:.4f}, no texel of it shares it", fit.cluster_r[k]);
   };
-  spdlog::info("maps: clusters {} and {} alike in roughness ({}; {}): joined", pair[0], pair[1],
-               value(pair[0]), value(pair[1]));
-  JoinClusters(pair[0], pair[1], &r->clusters, label);
+  // A cluster the data do not reach is the edges' blends, no material: its components leave.
+  int keep = pair[0], gone = pair[1];
+  if (std::isnan(fit.cluster_r_sd[keep]) && !std::isnan(fit.cluster_r_sd[gone])) {
+    std::swap(keep, gone);
+  }
+  const bool unreached = std::isnan(fit.cluster_r_sd[gone]);
+  spdlog::info("maps: clusters {} and {} alike in roughness ({}; {}): {}", pair[0], pair[1],
+               value(pair[0]), value(pair[1]),
+               unreached ? fmt::format("{} left out (no material)", gone) : "joined");
+  JoinClusters(keep, gone, &r->clusters, label, unreached);
   *edge = EdgesOf(data, features, *label, r->clusters.k);
   return true;
 }
@@ -281,8 +291,10 @@ void FitHypotheses(TexelData* data_in, const MapsLamp& lamp, const MapsOptions& 
     m = SearchMaterials(data, held, want_texel, m.texel, first, m.noise, o, so, r);
     clusters.reset();
   }
-  // Without a per-cluster fit of several clusters the sample's hypothesis places the lamp.
-  hypothesis_lamp.refine_position = !clusters && lamp.refine_position && r->clusters.k > 1;
+  // Without a per-cluster fit of several clusters the sample's hypothesis places the lamp (one
+  // material: when the first maps held it).
+  hypothesis_lamp.refine_position =
+      !clusters && lamp.refine_position && (r->clusters.k > 1 || lamp.from_reference);
   auto fit = [&](RoughnessMode mode, const TexelFit* start) {
     TexelFit f = FitTexels(data, mode, {}, 0, hypothesis_lamp, m.noise, start, so, m.edge);
     hypothesis_lamp = f.lamp;

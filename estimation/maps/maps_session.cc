@@ -14,6 +14,7 @@
 #include "common/session_frames.h"
 #include "common/stopwatch.h"
 #include "estimation/extract/extract.h"
+#include "estimation/joint/white_lamp.h"
 #include "estimation/maps/maps.h"
 
 namespace fs = std::filesystem;
@@ -94,8 +95,31 @@ SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat
   return LocateObservations(in.camera, in.board, detections, PoseOptions());
 }
 
-// The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches.
-// With photometric.json's accuracy, the calibration's error is propagated through it as gonio
+// The options of the maps' uniform fit and of the white reference's lamp.
+JointFitOptions UniformFitOptions(const MapsOptions& o) {
+  JointFitOptions jo;
+  jo.lamp_frame = o.lamp_frame;
+  jo.white_albedo = o.white_albedo;
+  jo.threads = o.threads;
+  return jo;
+}
+
+// The lamp placed by the white reference alone (estimation/joint/white_lamp.h), logged.
+std::optional<JointFitResult> WhiteLamp(const ObservationSet& obs, const MapsOptions& o) {
+  std::optional<JointFitResult> white = FitWhiteReferenceLamp(obs, UniformFitOptions(o));
+  if (white) {
+    const Eigen::Vector3d& p = white->lamp_position;
+    spdlog::info("maps: the white reference places the lamp at ({:.4f}, {:.4f}, {:.4f}) m", p.x(),
+                 p.y(), p.z());
+  } else {
+    spdlog::info("maps: no white reference to place the lamp: the uniform fit places it");
+  }
+  return white;
+}
+
+// The lamp from a uniform fit of the same frames (estimation/joint/joint_fit.h), 4x4 patches,
+// started from the white reference's lamp (*white) when the board has one. With
+// photometric.json's accuracy, the calibration's error is propagated through it as gonio
 // run does (pipeline/run.cc), into *calibration; the response's warning where the sample's
 // values are (PhotometricCalibration::PriorHeldWarning) into *warnings.
 JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
@@ -103,6 +127,7 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
                           const std::vector<TexelSampler::Pose>& sampler_poses,
                           const std::vector<size_t>& frame_of,
                           std::optional<CalibrationPropagation>* calibration,
+                          std::optional<JointFitResult>* white,
                           std::vector<std::string>* warnings) {
   const Session& session = in.session;
   ExtractOptions eo;
@@ -119,10 +144,8 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
     spdlog::warn("{}", *w);
     warnings->push_back(std::move(*w));
   }
-  JointFitOptions jo;
-  jo.lamp_frame = o.lamp_frame;
-  jo.white_albedo = o.white_albedo;
-  jo.threads = o.threads;
+  const JointFitOptions jo = UniformFitOptions(o);
+  *white = WhiteLamp(obs, o);
   // A deterministic subsample, as the joint fit's final fit takes (30000 observations).
   const size_t stride = std::max<size_t>(1, obs.observations.size() / 30000);
   std::vector<Observation> kept;
@@ -133,7 +156,8 @@ JointFitResult UniformFit(const MapsSessionInputs& in, const MapsOptions& o,
       maps_model == MapsModel::kDiffuseGgx ? "oren-nayar" : ToString(maps_model);
   spdlog::info("maps: the lamp from a uniform {} fit of {} observations", model,
                obs.observations.size());
-  JointFitResult fit = FitJoint(model, obs, InitialLamp(obs, jo), jo);
+  JointFitResult fit =
+      FitJoint(model, obs, *white ? (*white)->lamp_position : InitialLamp(obs, jo), jo);
   if (o.calibration_error.draws == 0 || !fit.material.converged) return fit;
   const std::optional<CalibrationErrorModel> e =
       CalibrationErrorModelAt(in.photometric, obs, in.camera);
@@ -161,11 +185,32 @@ std::vector<TexelSampler::Pose> SamplerPoses(const Session& session, const Sessi
   return sampler_poses;
 }
 
+// The maps' lamp against the white reference's (white_lamp.h): the paper places it whatever the
+// sample is, so a lamp the maps moved beyond kShiftInSd of the two bars combined is one their
+// model does not hold (textured-3mat without --white-albedo: oren-nayar-qualitative, one
+// roughness for three materials, the lamp 14 cm off the paper's with chi2 per residual 1.03).
+std::optional<std::string> LampAgainstWhite(const JointFitResult& white, const MapsLamp& lamp) {
+  if (!white.lamp_stddev || !lamp.position_sd) return std::nullopt;
+  const Eigen::Vector3d shift = lamp.position - white.lamp_position;
+  const Eigen::Vector3d sd =
+      (white.lamp_stddev->cwiseAbs2() + lamp.position_sd->cwiseAbs2()).cwiseSqrt();
+  const double in_sd = UnresolvedNuisance::ShiftInSd(shift, sd);
+  if (!(in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
+  return fmt::format(
+      "lamp: the maps place it {:.1f} mm from where the white reference places it ({:.1f} "
+      "standard deviations): the maps' model does not hold the sample, and their lamp, "
+      "roughness and albedo follow that misfit; give --white-albedo (an absolute model), or "
+      "--lamp {:.4f},{:.4f},{:.4f} (the white reference's lamp, held)",
+      1e3 * shift.norm(), in_sd, white.lamp_position.x(), white.lamp_position.y(),
+      white.lamp_position.z());
+}
+
 }  // namespace
 
 MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
                            const SessionPoses* poses_in, const JointFitResult* uniform_in,
-                           const CalibrationPropagation* calibration_in) {
+                           const CalibrationPropagation* calibration_in,
+                           const ObservationSet* observations_in) {
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
   const Session& session = in.session;
@@ -183,6 +228,7 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   lamp.white_albedo = o.white_albedo;
   std::optional<JointFitResult> uniform;
   std::optional<CalibrationPropagation> calibration;
+  std::optional<JointFitResult> white;
   std::vector<std::string> warnings;
   const auto t_fit = std::chrono::steady_clock::now();
   if (o.lamp) {
@@ -190,13 +236,17 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   } else if (uniform_in) {
     uniform = *uniform_in;
     if (calibration_in) calibration = *calibration_in;
+    if (observations_in) white = WhiteLamp(*observations_in, o);
   } else {
-    uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration, &warnings);
+    uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration, &white, &warnings);
   }
   if (uniform) {
-    lamp.position = uniform->lamp_position;
+    // A textured sample's uniform fit places the lamp only as well as one material holds it;
+    // the white reference's lamp does not depend on the sample (white_lamp.h).
+    lamp.position = white ? white->lamp_position : uniform->lamp_position;
     lamp.intensity = uniform->intensity;
     lamp.refine_position = lamp.position_fitted = true;
+    lamp.from_reference = white.has_value();
   }
   const double fit_s = SecondsSince(t_fit);
   const auto t_sample = std::chrono::steady_clock::now();
@@ -224,11 +274,18 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   r.uniform_fit_s = fit_s;
   r.uniform_fit = uniform;
   if (calibration && uniform) AddMapsCalibrationUncertainty(*calibration, *uniform, &r);
+  if (white && !o.lamp) {
+    if (auto w = LampAgainstWhite(*white, r.fit.lamp)) {
+      spdlog::warn("maps: {}", *w);
+      warnings.push_back(std::move(*w));
+    }
+  }
   r.input = session.dir.string();
-  r.lamp_source = o.lamp ? "--lamp (held fixed)"
-                         : fmt::format("uniform {} fit{}, refined with the maps",
-                                       uniform ? uniform->material.model : "",
-                                       uniform_in ? " of gonio run" : "");
+  r.lamp_source = o.lamp  ? "--lamp (held fixed)"
+                  : white ? "the white reference (lambert), refined with the maps"
+                          : fmt::format("uniform {} fit{}, refined with the maps",
+                                        uniform ? uniform->material.model : "",
+                                        uniform_in ? " of gonio run" : "");
   for (const auto& a : in.assumptions) r.assumptions.insert(r.assumptions.begin(), a);
   for (const auto& s : poses.skipped) {
     r.warnings.push_back(fmt::format("frame {} skipped: {}", s.file, s.reason));

@@ -183,6 +183,9 @@ void TexelSolveOptions::Check() const {
     throw InputError("maps: iteration counts must be >= 1");
   }
   if (min_views < 1) throw InputError("maps: min_views must be >= 1");
+  if (!(shared_step_sd > 0 && shared_step_sd <= 1)) {
+    throw InputError("maps: the shared values' step tolerance must be in (0, 1] sd");
+  }
 }
 
 namespace {
@@ -225,11 +228,18 @@ class SharedFit {
   }
 
   // Gauss-Newton on the shared values, the texels re-solved after each step; done when the
-  // step is below a tenth of the shared values' standard deviation (delta' H delta < 0.01).
+  // step is below a tenth of the shared values' standard deviation as Uncertainty reports it:
+  // the model's (H^-1), widened by the views' scatter (ViewScatter) as measured at the first
+  // step. The model's alone is up to ten times narrower on a full-size session (the views'
+  // registration and exposure errors), and steps of a tenth of it took 12 texel passes of
+  // 4-5 s each where the lamp moved 0.1 mm against a reported 3 mm (docs/maps.md "Speed").
   void UpdateShared() {
+    Eigen::VectorXd widen;  // per shared value: the views' scatter's widening of its sd
     for (int it = 0; HasShared() && it < o_.outer_iterations; ++it) {
       // A held lamp's columns are left out of the step below: no need of their derivatives.
-      Reduced(nullptr, nullptr, !s_.lamp_held);
+      std::vector<Eigen::VectorXd> scores;
+      Reduced(it == 0 ? &scores : nullptr, nullptr, !s_.lamp_held);
+      if (it == 0) widen = SdFactors(scores, PseudoInverse(H_), false);
       Eigen::MatrixXd A = H_;
       Eigen::VectorXd g = g_;
       for (int k = 0; k < A.rows(); ++k) A(k, k) += 1e-9 * A(k, k) + 1e-12;
@@ -240,7 +250,9 @@ class SharedFit {
         g.segment(il_, 3).setZero();
       }
       const Eigen::VectorXd delta = A.ldlt().solve(-g);
-      if (!delta.allFinite() || delta.dot(H_ * delta) < 0.01) break;
+      const Eigen::VectorXd scaled = delta.cwiseQuotient(widen);
+      const double tolerance = o_.shared_step_sd * o_.shared_step_sd;
+      if (!delta.allFinite() || scaled.dot(H_ * scaled) < tolerance) break;
       const bool moved = TryStep(delta);
       spdlog::debug("maps: shared step {}: cost {:.6g}, lamp ({:.4f}, {:.4f}, {:.4f}), {}", it,
                     cost_, lamp_.position.x(), lamp_.position.y(), lamp_.position.z(),
@@ -364,7 +376,17 @@ class SharedFit {
   // the two, its correlations kept (cov -> D cov D, D diagonal, >= 1). fit_->shared_sd_factor
   // holds D. docs/maps.md "Standard deviations".
   void ViewScatter(const std::vector<Eigen::VectorXd>& scores, Eigen::MatrixXd* cov) {
-    const int G = static_cast<int>(cov->rows());
+    const Eigen::VectorXd d = SdFactors(scores, *cov, true);
+    fit_->shared_sd_factor.assign(d.data(), d.data() + d.size());
+    *cov = d.asDiagonal() * (*cov) * d.asDiagonal();
+  }
+
+  // Per shared value, the factor (>= 1) by which the views' scatter widens its standard
+  // deviation under `cov` (ViewScatter); all 1 with fewer than two views.
+  Eigen::VectorXd SdFactors(const std::vector<Eigen::VectorXd>& scores, const Eigen::MatrixXd& cov,
+                            bool log) {
+    const int G = static_cast<int>(cov.rows());
+    Eigen::VectorXd factor = Eigen::VectorXd::Ones(G);
     Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(G, G);
     Eigen::VectorXd gw = Eigen::VectorXd::Zero(G);
     WhiteSystem(s_, lamp_, il_, ii_, &meat, &gw);
@@ -375,19 +397,29 @@ class SharedFit {
       outer += psi * psi.transpose();
       ++views;
     }
-    fit_->shared_sd_factor.assign(G, 1.0);
-    if (views < 2) return;
+    if (views < 2) return factor;
     meat += outer * (static_cast<double>(views) / (views - 1));
-    const Eigen::MatrixXd robust = (*cov) * meat * (*cov);
+    const Eigen::MatrixXd robust = cov * meat * cov;
     for (int k = 0; k < G; ++k) {
-      spdlog::debug("maps: shared value {}: sd {:.4g}, from the views' scatter {:.4g} ({} views)",
-                    k, std::sqrt((*cov)(k, k)), std::sqrt(robust(k, k)), views);
-      if ((*cov)(k, k) > 0 && robust(k, k) > (*cov)(k, k)) {
-        fit_->shared_sd_factor[k] = std::sqrt(robust(k, k) / (*cov)(k, k));
+      if (log) {
+        spdlog::debug("maps: shared value {}: sd {:.4g}, from the views' scatter {:.4g} ({} views)",
+                      k, std::sqrt(cov(k, k)), std::sqrt(robust(k, k)), views);
       }
+      if (cov(k, k) > 0 && robust(k, k) > cov(k, k))
+        factor(k) = std::sqrt(robust(k, k) / cov(k, k));
     }
-    const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(fit_->shared_sd_factor.data(), G);
-    *cov = d.asDiagonal() * (*cov) * d.asDiagonal();
+    return factor;
+  }
+
+  // The pseudo-inverse of the symmetric `H`: directions below 1e-12 of its largest eigenvalue
+  // get no variance.
+  static Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& H) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
+    Eigen::VectorXd inv = eig.eigenvalues();
+    for (int k = 0; k < inv.size(); ++k) {
+      inv(k) = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff() ? 1.0 / inv(k) : 0.0;
+    }
+    return eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
   }
 
   // The reduced shared system into H_ and g_ (ReducedSystem), each view's reduced gradient
@@ -409,6 +441,7 @@ class SharedFit {
     const std::vector<double> r_old = s_.cluster_r;
     const MapsLamp lamp_old = lamp_;
     const std::vector<State> x_old = x_;
+    const std::vector<uint8_t> fitted_old = fit_->fitted;
     for (double step : {1.0, 0.25}) {
       for (int k = 0; k < K_; ++k) {
         s_.cluster_r[k] =
@@ -425,11 +458,13 @@ class SharedFit {
         return true;
       }
     }
-    s_.cluster_r = r_old;  // no gain along the step: keep the old shared values
+    // No gain along the step: the old shared values and the texels solved for them (no pass
+    // again: it took a whole texel pass, 5-7 s at 512 x 512).
+    s_.cluster_r = r_old;
     lamp_ = lamp_old;
     SetLamp(data_, lamp_, &s_);
     x_ = x_old;
-    TexelPass();
+    fit_->fitted = fitted_old;
     return false;
   }
 

@@ -43,6 +43,10 @@ struct MapsLamp {
   // columns stay in that fit's shared system, so the shared values' standard deviations carry
   // its uncertainty (texel_solver.cc UpdateShared; docs/maps.md "Standard deviations").
   bool position_fitted = false;
+  // Placed by the board's white reference (estimation/joint/white_lamp.h), not by a fit of the
+  // sample: the first maps (one roughness, before the materials are known) hold it, and the
+  // first hypothesis that can hold the sample's materials refines it (maps_hypotheses.cc).
+  bool from_reference = false;
   // A white reference of known albedo fixes the intensity (and the albedo's absolute scale);
   // without one the intensity stays as given and the albedo is relative.
   std::optional<double> white_albedo;
@@ -70,7 +74,10 @@ struct TexelSolveOptions {
   double huber_k = 3;
   int max_texel_iterations = 12;
   int outer_iterations = 12;  // shared-parameter updates per fit
-  size_t min_views = 4;       // a texel seen in fewer views is not fitted
+  // The shared values' updates stop once a step is below this many of their standard
+  // deviations as reported (widened by the views' scatter; texel_solver.cc UpdateShared).
+  double shared_step_sd = 0.1;
+  size_t min_views = 4;  // a texel seen in fewer views is not fitted
   int threads = 0;
   void Check() const;  // InputError naming the option
 };

@@ -107,6 +107,31 @@ TEST(MapsCli, ThreeMaterialsGetOneRoughnessEach) {
   // Edges: a band of about the samples' reach each side (2.8 mm here), not the sample.
   EXPECT_LT(c.edge, c.interior / 2);
   EXPECT_LT(c.edge_albedo_rms_z, 1.6);  // their scaled standard deviations hold their error
+  // The white reference placed the lamp the maps started from (estimation/joint/white_lamp.h).
+  EXPECT_EQ(maps["lamp"]["source"], "the white reference (lambert), refined with the maps");
+}
+
+// Without --white-albedo the maps' model is oren-nayar-qualitative, which cannot hold the
+// three oren-nayar materials: the maps drag the lamp away from where the white reference
+// places it, and say so (docs/maps.md "Checks"), though their chi2 per residual looks fine.
+TEST(MapsCli, AMapsLampOffTheWhiteReferencesWarns) {
+  TempDir dir;
+  const fs::path session = RenderSession(dir, "textured-3mat", "session");
+  const fs::path out = dir.path() / "maps";
+  const auto r =
+      RunGonio("maps --session " + session.string() + " --camera " +
+               (session / "camera.cameramodel").string() + " --texel 1.2 --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::printf("%s\n", r.out.c_str());
+  const nlohmann::json maps = ReadJsonFile(out / "maps.json");
+  EXPECT_EQ(maps["model"], "oren-nayar-qualitative");
+  bool warned = false;
+  for (const auto& w : maps["warnings"]) {
+    warned |=
+        w.get<std::string>().find("from where the white reference places it") != std::string::npos;
+  }
+  EXPECT_TRUE(warned) << maps["warnings"].dump();
+  EXPECT_NE(r.out.find("WARNING: lamp: the maps place it"), std::string::npos);
 }
 
 // MaterialGAN's rectified layout rendered from the textured sample under a flash beside the
