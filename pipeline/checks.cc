@@ -385,8 +385,8 @@ std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit) const {
          fmt::format(
              "no candidate explains these data: the selected model's residuals are {:.1f} times "
              "what pixel noise and the calibration floor explain; the parameters are the best of "
-             "the candidates, not a measurement (a material outside the candidate set, or a "
-             "calibration error?)",
+             "the candidates, not a measurement (a material outside the candidate set, a "
+             "sample that is not one material: gonio maps, or a calibration error?)",
              rms_sigma),
          all});
   }
