@@ -19,6 +19,15 @@ inline const Eigen::Vector3d kSampleCentre(0.155, 0.095, 0.0);
 inline const Eigen::Vector3d kLamp =
     kSampleCentre + 0.5 * Eigen::Vector3d(-std::sin(DegToRad(35)), 0.0, -std::cos(DegToRad(35)));
 
+// Camera f of `views`, 0.45 m from the sample centre on rings 15, 32, 48 and 62 deg off its
+// normal, going round it.
+inline Eigen::Vector3d RingCamera(int f, int views) {
+  const double rings[] = {15, 32, 48, 62};
+  const double polar = DegToRad(rings[f % 4]), az = 2 * kPi * f / views + 0.3;
+  return kSampleCentre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
+                                                std::sin(polar) * std::sin(az), -std::cos(polar));
+}
+
 // Oren-Nayar (sigma 30 deg, albedo 0.6 / 0.5 / 0.4 per channel) seen from `views` cameras on
 // rings around the sample, relative noise `noise`; the three left columns of each frame are white
 // reference (albedo 0.8) when `with_white`.
@@ -28,12 +37,8 @@ inline ObservationSet Synthesize(int views, int channels, bool with_white, doubl
   std::normal_distribution<double> gauss(0, 1);
   ObservationSet set;
   set.channels = channels;
-  const double rings[] = {15, 32, 48, 62};
   for (int f = 0; f < views; ++f) {
-    const double polar = DegToRad(rings[f % 4]), az = 2 * kPi * f / views + 0.3;
-    const Eigen::Vector3d cam =
-        kSampleCentre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
-                                               std::sin(polar) * std::sin(az), -std::cos(polar));
+    const Eigen::Vector3d cam = RingCamera(f, views);
     set.frame_files.push_back(fmt::format("view_{}", f));
     for (int iy = 0; iy < 5; ++iy) {
       for (int ix = 0; ix < 10; ++ix) {

@@ -28,12 +28,9 @@ ObservationSet TexturedBoard(int views) {
   std::normal_distribution<double> gauss(0, 1);
   ObservationSet set;
   set.channels = 1;
-  const double rings[] = {15, 32, 48, 62}, noise = 0.01;
+  const double noise = 0.01;
   for (int f = 0; f < views; ++f) {
-    const double polar = DegToRad(rings[f % 4]), az = 2 * kPi * f / views + 0.3;
-    const Eigen::Vector3d cam =
-        kSampleCentre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
-                                               std::sin(polar) * std::sin(az), -std::cos(polar));
+    const Eigen::Vector3d cam = testing_obs::RingCamera(f, views);
     set.frame_files.push_back(fmt::format("view_{}", f));
     for (int iy = -12; iy <= 12; ++iy) {
       for (int ix = -12; ix <= 12; ++ix) {
