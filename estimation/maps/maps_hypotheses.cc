@@ -363,11 +363,14 @@ void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptio
   std::vector<int> label(data.grid.size(), 0);
   if (info.has_roughness && (search.mode != RoughnessMode::kSample || r->clusters.k > 1)) {
     const TexelFit seed = RoughnessSeed(data, {mean_r});
-    // Per-texel roughness for the clusters' features and the final fit's start, the lamp
-    // refined on every texel. Held at the search's lamp it took 105 s instead of 134 s on
-    // full-size textured-3mat but doubled the texels marked as edges (51,320 for 27,752:
-    // scattered mislabelled texels, albedo z 3.2 on them; docs/maps.md "Full size").
-    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, search.lamp, search.noise, &seed, so);
+    // Per-texel roughness for the clusters' features and the final fit's start. The lamp is
+    // refined here only when these are the final maps: otherwise the chosen hypothesis's fit
+    // below refines it. (Held, this pass had doubled the edge texels on full-size
+    // textured-3mat until a cluster of no material left the mixture: JoinAlikePair; with it
+    // 27,761 edges held and 27,759 refined, the same roughness and lamp; docs/maps.md "Lamp".)
+    MapsLamp texel_lamp = search.lamp;
+    if (search.mode != RoughnessMode::kTexel) texel_lamp.refine_position = false;
+    texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, texel_lamp, search.noise, &seed, so);
     std::vector<size_t> texels;
     const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(texel, &texels));
     for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
