@@ -205,6 +205,49 @@ std::optional<std::string> LampAgainstWhite(const JointFitResult& white, const M
       white.lamp_position.z());
 }
 
+// The maps' starting lamp (MapsFromSession) and what placed it.
+struct LampPlacement {
+  MapsLamp lamp;
+  std::optional<JointFitResult> uniform;  // the uniform fit (none with --lamp)
+  std::optional<CalibrationPropagation> calibration;
+  std::optional<JointFitResult> white;  // the white reference's lamp (white_lamp.h)
+  std::vector<std::string> warnings;
+};
+
+// --lamp held; else the white reference's lamp when the board has one, the uniform fit's
+// otherwise, with the uniform fit (gonio run's, or fitted here) for the intensity.
+LampPlacement PlaceLamp(const MapsSessionInputs& in, const MapsOptions& o,
+                        const std::vector<cv::Mat>& frames,
+                        const std::vector<TexelSampler::Pose>& sampler_poses,
+                        const std::vector<size_t>& frame_of, const JointFitResult* uniform_in,
+                        const CalibrationPropagation* calibration_in,
+                        const ObservationSet* observations_in) {
+  LampPlacement p;
+  MapsLamp& lamp = p.lamp;
+  lamp.frame =
+      o.lamp_frame == LampFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
+  lamp.white_albedo = o.white_albedo;
+  if (o.lamp) {
+    lamp.position = *o.lamp;
+  } else if (uniform_in) {
+    p.uniform = *uniform_in;
+    if (calibration_in) p.calibration = *calibration_in;
+    if (observations_in) p.white = WhiteLamp(*observations_in, o);
+  } else {
+    p.uniform =
+        UniformFit(in, o, frames, sampler_poses, frame_of, &p.calibration, &p.white, &p.warnings);
+  }
+  if (p.uniform) {
+    // A textured sample's uniform fit places the lamp only as well as one material holds it;
+    // the white reference's lamp does not depend on the sample (white_lamp.h).
+    lamp.position = p.white ? p.white->lamp_position : p.uniform->lamp_position;
+    lamp.intensity = p.uniform->intensity;
+    lamp.refine_position = lamp.position_fitted = true;
+    lamp.from_reference = p.white.has_value();
+  }
+  return p;
+}
+
 }  // namespace
 
 MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
@@ -222,32 +265,13 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   std::vector<size_t> frame_of;
   const std::vector<TexelSampler::Pose> sampler_poses = SamplerPoses(session, poses, &frame_of);
   const double read_s = SecondsSince(t0);
-  MapsLamp lamp;
-  lamp.frame =
-      o.lamp_frame == LampFrame::kCamera ? MapsLamp::Frame::kCamera : MapsLamp::Frame::kBoard;
-  lamp.white_albedo = o.white_albedo;
-  std::optional<JointFitResult> uniform;
-  std::optional<CalibrationPropagation> calibration;
-  std::optional<JointFitResult> white;
-  std::vector<std::string> warnings;
   const auto t_fit = std::chrono::steady_clock::now();
-  if (o.lamp) {
-    lamp.position = *o.lamp;
-  } else if (uniform_in) {
-    uniform = *uniform_in;
-    if (calibration_in) calibration = *calibration_in;
-    if (observations_in) white = WhiteLamp(*observations_in, o);
-  } else {
-    uniform = UniformFit(in, o, frames, sampler_poses, frame_of, &calibration, &white, &warnings);
-  }
-  if (uniform) {
-    // A textured sample's uniform fit places the lamp only as well as one material holds it;
-    // the white reference's lamp does not depend on the sample (white_lamp.h).
-    lamp.position = white ? white->lamp_position : uniform->lamp_position;
-    lamp.intensity = uniform->intensity;
-    lamp.refine_position = lamp.position_fitted = true;
-    lamp.from_reference = white.has_value();
-  }
+  LampPlacement placed = PlaceLamp(in, o, frames, sampler_poses, frame_of, uniform_in,
+                                   calibration_in, observations_in);
+  const MapsLamp& lamp = placed.lamp;
+  const std::optional<JointFitResult>& uniform = placed.uniform;
+  const std::optional<JointFitResult>& white = placed.white;
+  std::vector<std::string>& warnings = placed.warnings;
   const double fit_s = SecondsSince(t_fit);
   const auto t_sample = std::chrono::steady_clock::now();
   // The frames stay decoded until the maps are fitted: a large grid samples them again with
@@ -273,8 +297,10 @@ MapsResult MapsFromSession(const MapsSessionInputs& in, const MapsOptions& o,
   r.sample_s = sample_s;
   r.uniform_fit_s = fit_s;
   r.uniform_fit = uniform;
-  if (calibration && uniform) AddMapsCalibrationUncertainty(*calibration, *uniform, &r);
-  if (white && !o.lamp) {
+  if (placed.calibration && uniform) {
+    AddMapsCalibrationUncertainty(*placed.calibration, *uniform, &r);
+  }
+  if (white) {
     if (auto w = LampAgainstWhite(*white, r.fit.lamp)) {
       spdlog::warn("maps: {}", *w);
       warnings.push_back(std::move(*w));

@@ -271,17 +271,10 @@ class SharedFit {
     TexelBlocks blocks;
     Reduced(HasShared() ? &scores : nullptr, &blocks);
     if (HasShared()) {
-      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H_);
-      Eigen::VectorXd inv = eig.eigenvalues();
       // A shared value in a direction the data do not reach (a cluster whose texels all lie
       // on material edges) has no standard deviation: the pseudo-inverse would give it 0.
-      Eigen::VectorXd unreached = Eigen::VectorXd::Zero(inv.size());
-      for (int k = 0; k < inv.size(); ++k) {
-        const bool reached = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff();
-        inv(k) = reached ? 1.0 / inv(k) : 0.0;
-        if (!reached) unreached += eig.eigenvectors().col(k).cwiseAbs2();
-      }
-      cov = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+      Eigen::VectorXd unreached;
+      cov = PseudoInverse(H_, &unreached);
       ViewScatter(scores, &cov);
       fit_->cluster_r_sd.assign(K_, 0.0);
       for (int k = 0; k < K_; ++k) {
@@ -412,12 +405,16 @@ class SharedFit {
   }
 
   // The pseudo-inverse of the symmetric `H`: directions below 1e-12 of its largest eigenvalue
-  // get no variance.
-  static Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& H) {
+  // get no variance; with `unreached`, per value the share of it in those directions.
+  static Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& H,
+                                       Eigen::VectorXd* unreached = nullptr) {
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
     Eigen::VectorXd inv = eig.eigenvalues();
+    if (unreached) unreached->setZero(inv.size());
     for (int k = 0; k < inv.size(); ++k) {
-      inv(k) = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff() ? 1.0 / inv(k) : 0.0;
+      const bool reached = inv(k) > 1e-12 * eig.eigenvalues().maxCoeff();
+      inv(k) = reached ? 1.0 / inv(k) : 0.0;
+      if (!reached && unreached) *unreached += eig.eigenvectors().col(k).cwiseAbs2();
     }
     return eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
   }
