@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
+#include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "common/math.h"
@@ -360,30 +361,29 @@ void JoinClusters(int keep, int gone, ClusterResult* c, std::vector<int>* texel_
   c->joined += 1;
 }
 
-std::vector<uint8_t> MaterialEdges(const std::vector<int>& label, int width, int height,
-                                   double reach) {
-  std::vector<uint8_t> edge(label.size(), 0);
-  const double r = reach + 0.5;
-  const int ri = static_cast<int>(std::ceil(r));
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const int own = label[static_cast<size_t>(y) * width + x];
-      if (own < 0) continue;
-      bool mixed = false;
-      for (int dy = -ri; dy <= ri && !mixed; ++dy) {
-        for (int dx = -ri; dx <= ri && !mixed; ++dx) {
-          const int xx = x + dx, yy = y + dy;
-          if (xx < 0 || yy < 0 || xx >= width || yy >= height || dx * dx + dy * dy >= r * r) {
-            continue;
-          }
-          const int other = label[static_cast<size_t>(yy) * width + xx];
-          mixed = other >= 0 && other != own;
-        }
-      }
-      edge[static_cast<size_t>(y) * width + x] = mixed;
+std::vector<float> MaterialEdgeDistance(const std::vector<int>& label, int width, int height) {
+  std::vector<float> distance(label.size(), std::numeric_limits<float>::infinity());
+  if (label.size() != static_cast<size_t>(width) * height) {
+    throw std::invalid_argument("MaterialEdgeDistance: labels do not fill the grid");
+  }
+  const int k = label.empty() ? 0 : *std::max_element(label.begin(), label.end()) + 1;
+  cv::Mat other(height, width, CV_8U), to_other;
+  for (int own = 0; own < k; ++own) {
+    // distanceTransform measures to the nearest zero: the texels of the other clusters.
+    bool any = false;
+    for (size_t t = 0; t < label.size(); ++t) {
+      const bool is_other = label[t] >= 0 && label[t] != own;
+      other.data[t] = is_other ? 0 : 1;
+      any = any || is_other;
+    }
+    if (!any) continue;
+    cv::distanceTransform(other, to_other, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+    const float* d = to_other.ptr<float>();
+    for (size_t t = 0; t < label.size(); ++t) {
+      if (label[t] == own) distance[t] = d[t];
     }
   }
-  return edge;
+  return distance;
 }
 
 }  // namespace gonio

@@ -80,11 +80,11 @@ std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
 void JoinClusters(int keep, int gone, ClusterResult* clusters, std::vector<int>* texel_label,
                   bool drop_components = false);
 
-// The texels whose samples mix two materials: a fitted texel (label >= 0, row-major grid of
-// `width` x `height`) with a texel of another cluster whose centre is nearer than `reach` +
-// half a texel (in texels; the material edge lies between the two centres, at least half a
-// texel from the other's). 1 where mixed.
-std::vector<uint8_t> MaterialEdges(const std::vector<int>& label, int width, int height,
-                                   double reach);
+// Per texel, the distance (in texels, centre to centre) to the nearest texel of another
+// cluster, +inf where there is none or the texel has no cluster (label < 0; row-major grid of
+// `width` x `height`). A sample of the texel mixes two materials where it reaches that far
+// less half a texel: the material edge lies between the two centres, at least half a texel
+// from the other's (TexelData::SampleReach, docs/maps.md "Material edges").
+std::vector<float> MaterialEdgeDistance(const std::vector<int>& label, int width, int height);
 
 }  // namespace gonio

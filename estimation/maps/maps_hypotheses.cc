@@ -50,19 +50,6 @@ Eigen::MatrixXd ClusterFeatures(const TexelFit& f, std::vector<size_t>* texels) 
   return X;
 }
 
-// The texels whose samples mix materials (clusters.h MaterialEdges) under `label`, among the
-// texels `fit` fitted; empty with one cluster.
-std::vector<uint8_t> EdgesOf(const TexelData& data, const TexelFit& fit,
-                             const std::vector<int>& label, int k) {
-  if (k < 2) return {};
-  std::vector<int> fitted_label(label.size(), -1);
-  for (size_t t = 0; t < label.size(); ++t) {
-    if (fit.fitted[t]) fitted_label[t] = label[t];
-  }
-  return MaterialEdges(fitted_label, data.grid.width, data.grid.height,
-                       data.reach_m / data.grid.texel);
-}
-
 // The fit of lowest BIC (or the one asked for), its clusters, and why.
 void ChooseHypothesis(const std::vector<TexelFit>& fits, const std::vector<int>& label,
                       const MapsOptions& o, MapsResult* r) {
@@ -112,7 +99,7 @@ TexelFit FirstFit(TexelData* data, const MapsLamp& lamp, const MapsOptions& o,
 // Texels on an edge take values between their materials' and would make clusters of their
 // own: the mixture is fitted again without them and they are assigned to its clusters.
 void FindMaterials(const TexelData& data, const TexelFit& fit, const ClusterOptions& co,
-                   MapsResult* r, std::vector<int>* label, std::vector<uint8_t>* edge) {
+                   MapsResult* r, std::vector<int>* label, TexelEdges* edge) {
   std::vector<size_t> texels;
   const Eigen::MatrixXd X = ClusterFeatures(fit, &texels);
   auto cluster = [&](const std::vector<size_t>& rows) {
@@ -136,7 +123,7 @@ void FindMaterials(const TexelData& data, const TexelFit& fit, const ClusterOpti
   if (edge->empty()) return;
   std::vector<size_t> inner;
   for (size_t i = 0; i < texels.size(); ++i) {
-    if (!(*edge)[texels[i]]) inner.push_back(i);
+    if (!edge->edge[texels[i]]) inner.push_back(i);
   }
   const ClusterResult with_edges = r->clusters;
   cluster(inner);
@@ -153,7 +140,7 @@ void FindMaterials(const TexelData& data, const TexelFit& fit, const ClusterOpti
 // roughness: albedo and normal are per texel, so to the maps they are one material
 // (docs/maps.md "Roughness by evidence").
 bool JoinAlikePair(const TexelData& data, const TexelFit& fit, const TexelFit& features,
-                   MapsResult* r, std::vector<int>* label, std::vector<uint8_t>* edge) {
+                   MapsResult* r, std::vector<int>* label, TexelEdges* edge) {
   const std::array<int, 2> pair = AlikeClusters(fit.cluster_r, fit.cluster_r_sd, fit.residuals);
   if (pair[0] < 0) return false;
   const auto value = [&](int k) {
@@ -178,10 +165,11 @@ bool JoinAlikePair(const TexelData& data, const TexelFit& fit, const TexelFit& f
 // The noise model measured on `features` without the texels on material edges: they fit no
 // one material.
 NoiseModel NoiseWithoutEdges(const TexelData& data, const TexelFit& features,
-                             const std::vector<uint8_t>& edge, const MapsOptions& o,
+                             const TexelEdges& edges, const MapsOptions& o,
                              const TexelSolveOptions& so) {
   TexelFit inner = features;
-  inner.edge = edge;
+  inner.edge = edges.edge;
+  inner.edge_distance = edges.distance;
   return EstimateNoise(data, inner, o.relative_noise_floor, so);
 }
 
@@ -198,7 +186,7 @@ TexelFit RoughnessSeed(const TexelData& d, const std::vector<double>& roughness)
 struct MaterialSearch {
   TexelFit texel;  // the per-texel roughness maps (no texel fitted when not wanted)
   std::vector<int> label;
-  std::vector<uint8_t> edge;
+  TexelEdges edge;
   NoiseModel noise;
 };
 
@@ -375,8 +363,8 @@ void FinalFit(const TexelData& data, const MapsOptions& o, const TexelSolveOptio
     const std::vector<int> assigned = r->clusters.Assign(ClusterFeatures(texel, &texels));
     for (size_t i = 0; i < texels.size(); ++i) label[texels[i]] = assigned[i];
   }
-  const std::vector<uint8_t> edge =
-      texel.fitted.empty() ? std::vector<uint8_t>() : EdgesOf(data, texel, label, r->clusters.k);
+  const TexelEdges edge =
+      texel.fitted.empty() ? TexelEdges() : EdgesOf(data, texel, label, r->clusters.k);
   switch (search.mode) {
     case RoughnessMode::kTexel:
       r->fit = edge.empty() ? texel

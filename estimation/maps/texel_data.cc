@@ -126,6 +126,13 @@ void TexelSamplingOptions::Check() const {
   }
 }
 
+double TexelData::SampleReach(size_t v, const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d to_cam = views[v].camera_in_board - p;
+  const double stretched =
+      views[v].support_rad * to_cam.squaredNorm() / std::max(std::abs(to_cam.z()), 1e-9);
+  return std::max(reach_m, stretched + 0.5 * grid.texel);
+}
+
 TexelSampler::TexelSampler(const CameraModel& camera, const Board& board,
                            const PhotometricCalibration& photometric,
                            const std::vector<Pose>& poses, const TexelSamplingOptions& options)
@@ -165,6 +172,7 @@ TexelSampler::TexelSampler(const CameraModel& camera, const Board& board,
   }
   data_.views.resize(poses.size());
   data_.samples.resize(poses.size());
+  for (auto& view : data_.views) view.support_rad = options.edge_margin_px / camera.intrinsics[0];
 }
 
 void TexelSampler::AddFrame(

@@ -54,6 +54,10 @@ struct TexelView {
   Eigen::Vector3d camera_in_board = Eigen::Vector3d::Zero();
   Rigid3d board_from_cam;                                   // a lamp fixed to the camera moves
   Eigen::Vector3d lamp_in_board = Eigen::Vector3d::Zero();  // set from the lamp before a solve
+  // The interpolation's support in this view as an angle (edge_margin_px over the focal
+  // length): TexelData::SampleReach stretches it by the view's obliquity. 0: none beyond the
+  // data's reach_m (a rectified view).
+  double support_rad = 0;
 };
 
 // One view's samples, texel-major: value[texel * channels + c].
@@ -78,12 +82,16 @@ struct TexelData {
   std::vector<TexelView> views;
   std::vector<ViewSamples> samples;  // per view
   std::vector<WhiteSample> white;
-  // How far from a texel's centre its samples reach on the sample (the interpolation's support
-  // in pixels at the median view and half a texel): a texel nearer than this to another
-  // material mixes both (MaterialEdges), as a texel nearer to the region's edge would mix
-  // sample and paper.
+  // How far from a texel's centre its samples reach on the sample at least (the
+  // interpolation's support in pixels at the median view and half a texel): the region's
+  // margin, so that no texel mixes sample and paper.
   double reach_m = 0;
   size_t masked_texels() const;
+  // How far on the sample view v's sample of the point p reaches (metres): the support across
+  // a pixel's footprint, stretched along the view's tilt by 1 / cos(view angle), plus half a
+  // texel; at least reach_m. A sample nearer than this to another material mixes both
+  // (docs/maps.md "Material edges"): at 62 deg the reach is twice the head-on one.
+  double SampleReach(size_t v, const Eigen::Vector3d& p) const;
 };
 
 struct TexelSamplingOptions {

@@ -502,7 +502,7 @@ void RunFit(const TexelData& data, Pass& s, const TexelFit* start, const MapsLam
 
 TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<int>& clusters,
                    int k, const MapsLamp& lamp, const NoiseModel& noise, const TexelFit* start,
-                   const TexelSolveOptions& o, const std::vector<uint8_t>& edge) {
+                   const TexelSolveOptions& o, const TexelEdges& edges) {
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
   TexelFit fit;
@@ -527,8 +527,10 @@ TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<
   s.cluster = use_clusters ? &clusters : &one;
   fit.clusters = use_clusters ? k : 1;
   fit.cluster = *s.cluster;
-  fit.edge = edge;
+  fit.edge = edges.edge;
+  fit.edge_distance = edges.distance;
   s.edge = &fit.edge;
+  s.edge_distance = &fit.edge_distance;
   const int n_r = fit.clusters;
   s.cluster_r.assign(n_r, s.info.roughness_start);
   if (start && static_cast<int>(start->cluster_r.size()) == n_r &&

@@ -14,6 +14,8 @@
 #pragma once
 
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -92,11 +94,14 @@ struct TexelFit {
   std::vector<uint8_t> fitted;
   std::vector<int> cluster;  // per texel (0 .. clusters-1), -1 where not fitted
   int clusters = 1;
-  // Per texel (empty: none): 1 where the texel's samples mix two materials (MaterialEdges).
-  // Such a texel is solved given the shared values but enters neither their system, the
-  // noise model, chi2 nor the BIC; its standard deviations are scaled by the square root of
-  // its own chi2 per degree of freedom where that exceeds 1.
+  // Per texel (empty: none): 1 where every view's sample of the texel mixes two materials
+  // (TexelEdges). Such a texel is solved from all its samples given the shared values but
+  // enters neither their system, the noise model, chi2 nor the BIC; its standard deviations
+  // are scaled by the square root of its own chi2 per degree of freedom where that exceeds 1.
   std::vector<uint8_t> edge;
+  // Per texel (empty: none): MaterialEdgeDistance. Any other texel leaves out the views whose
+  // samples of it mix materials (SampleUsed).
+  std::vector<float> edge_distance;
   std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters; sd NaN: data never reach it
   // Per shared value (cluster roughness, lamp x y z, intensity, as fitted): the factor by which
   // the views' scatter widened its standard deviation (texel_solver.cc ViewScatter; 1: not).
@@ -115,17 +120,42 @@ struct TexelFit {
   double seconds = 0;
 };
 
+// The texels and samples that mix two materials under a fit's clusters (docs/maps.md "Material
+// edges"); empty with one material.
+struct TexelEdges {
+  std::vector<float> distance;  // per texel: MaterialEdgeDistance (texels)
+  std::vector<uint8_t> edge;    // per texel: every view's sample of it mixes (TexelFit::edge)
+  bool empty() const { return edge.empty(); }
+};
+
+// Whether view v's sample of texel t enters a fit with these edges (TexelFit::edge and
+// edge_distance): not where it reaches another material (TexelData::SampleReach against the
+// distance less half a texel), unless every view's does (an edge texel, fitted from all).
+inline bool SampleUsed(const TexelData& data, const std::vector<uint8_t>& edge,
+                       const std::vector<float>& edge_distance, size_t t, size_t v) {
+  if (edge_distance.empty() || edge[t] || !std::isfinite(edge_distance[t])) return true;
+  const double texel = data.grid.texel;
+  return (edge_distance[t] - 0.5) * texel >= data.SampleReach(v, data.grid.Centre(t));
+}
+
+// The texels and samples that mix materials under `label` (per texel, clusters 0 .. k-1), among
+// the texels `fit` fitted; empty with fewer than two clusters. An edge texel: no view that sees
+// it has a sample of it clear of the other material (SampleUsed).
+TexelEdges EdgesOf(const TexelData& data, const TexelFit& fit, const std::vector<int>& label,
+                   int k);
+
 // The fit of every texel in `mode` (kClusters: `clusters` per texel in [0, k)), from `start`
 // (its per-texel values and lamp) when given, else from a flat sample at the model's start
 // roughness and the given lamp. The shared parameters are updated `outer_iterations` times.
-// edge: per texel (empty: none), the texels whose samples mix materials (TexelFit::edge).
+// edges: the texels and samples that mix materials (TexelFit::edge, edge_distance).
 TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<int>& clusters,
                    int k, const MapsLamp& lamp, const NoiseModel& noise, const TexelFit* start,
-                   const TexelSolveOptions& options, const std::vector<uint8_t>& edge = {});
+                   const TexelSolveOptions& options, const TexelEdges& edges = {});
 
 // The noise model fitted to the fit's residuals (per channel, read and shot scales by
 // weighted least squares on the squared residuals, corrected for the parameters each texel
-// fits; residuals beyond 4 sigma and the fit's edge texels left out).
+// fits; residuals beyond 4 sigma, the fit's edge texels and the samples that mix materials
+// left out).
 NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floor,
                          const TexelSolveOptions& options);
 

@@ -42,7 +42,8 @@ struct Pass {
   double intensity = 1;
   NoiseModel noise;
   const std::vector<int>* cluster = nullptr;
-  const std::vector<uint8_t>* edge = nullptr;  // per texel, or empty: TexelFit::edge
+  const std::vector<uint8_t>* edge = nullptr;         // per texel, or empty: TexelFit::edge
+  const std::vector<float>* edge_distance = nullptr;  // per texel, or empty: its edge_distance
   std::vector<double> cluster_r;
   bool lamp_cols = false, intensity_col = false;  // shared columns besides a shared roughness
   bool lamp_held = false;  // lamp columns for the uncertainty only: the lamp does not move
@@ -56,6 +57,11 @@ struct Pass {
   int GlobalShared() const { return K() + (lamp_cols ? 3 : 0) + (intensity_col ? 1 : 0); }
   // Whether texel t enters the shared parameters' system, chi2 and the BIC (not an edge).
   bool Shares(size_t t) const { return !edge || edge->empty() || !(*edge)[t]; }
+  // Whether view v's sample of texel t enters the pass (SampleUsed: it mixes no materials).
+  bool Uses(size_t t, size_t v) const {
+    return !edge_distance || edge_distance->empty() ||
+           SampleUsed(*data, *edge, *edge_distance, t, v);
+  }
   double RoughnessOf(size_t t, const State& x) const {
     if (!info.has_roughness) return 0.0;
     return per_texel_r() ? x.r : cluster_r[(*cluster)[t]];
@@ -107,7 +113,7 @@ double TexelCost(const Pass& s, size_t t, const State& x, size_t* n_res) {
   size_t n = 0;
   for (size_t v = 0; v < d.views.size(); ++v) {
     const ViewSamples& vs = d.samples[v];
-    if (vs.valid.empty() || !vs.valid[t]) continue;
+    if (vs.valid.empty() || !vs.valid[t] || !s.Uses(t, v)) continue;
     double E, B[m], Q[m];
     if (!Observation<Basis>(pt, d.views[v].camera_in_board, Vec3<double>(s.lamp[v]), x.p, x.q, r,
                             &E, B, Q)) {
@@ -169,7 +175,7 @@ double TexelSystem(const Pass& s, size_t t, const State& x, bool shared, LocalMa
   size_t count = 0;
   for (size_t v = 0; v < d.views.size(); ++v) {
     const ViewSamples& vs = d.samples[v];
-    if (vs.valid.empty() || !vs.valid[t]) continue;
+    if (vs.valid.empty() || !vs.valid[t] || !s.Uses(t, v)) continue;
     Vec3<J> lamp = s.lamp[v].cast<J>();
     if constexpr (D >= 6) {
       for (int a = 0; a < 3; ++a) {
@@ -294,7 +300,7 @@ State StartState(const Pass& s, size_t t, double r) {
   double num[3] = {0, 0, 0}, den[3] = {0, 0, 0};
   for (size_t v = 0; v < d.views.size(); ++v) {
     const ViewSamples& vs = d.samples[v];
-    if (vs.valid.empty() || !vs.valid[t]) continue;
+    if (vs.valid.empty() || !vs.valid[t] || !s.Uses(t, v)) continue;
     double E, B[m], Q[m];
     if (!Observation<Basis>(pt, d.views[v].camera_in_board, Vec3<double>(s.lamp[v]), 0.0, 0.0, r,
                             &E, B, Q)) {

@@ -1,5 +1,5 @@
-// The noise model fitted to a fit's residuals, the per-view systems the registration solves
-// and the views the maps predict (texel_solver.h).
+// The material edges of a fit's clusters, the noise model fitted to its residuals, the
+// per-view systems the registration solves and the views the maps predict (texel_solver.h).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -8,11 +8,35 @@
 #include <Eigen/Cholesky>
 
 #include "common/parallel.h"
+#include "estimation/maps/clusters.h"
 #include "estimation/maps/texel_system.h"
 
 namespace gonio {
 
 using namespace texel_internal;
+
+TexelEdges EdgesOf(const TexelData& data, const TexelFit& fit, const std::vector<int>& label,
+                   int k) {
+  TexelEdges edges;
+  if (k < 2) return edges;
+  std::vector<int> fitted_label(label.size(), -1);
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (fit.fitted[t]) fitted_label[t] = label[t];
+  }
+  edges.distance = MaterialEdgeDistance(fitted_label, data.grid.width, data.grid.height);
+  edges.edge.assign(label.size(), 0);
+  const std::vector<uint8_t> none(label.size(), 0);
+  for (size_t t = 0; t < label.size(); ++t) {
+    if (fitted_label[t] < 0 || !std::isfinite(edges.distance[t])) continue;
+    bool clear = false;
+    for (size_t v = 0; v < data.views.size() && !clear; ++v) {
+      const ViewSamples& vs = data.samples[v];
+      clear = !vs.valid.empty() && vs.valid[t] && SampleUsed(data, none, edges.distance, t, v);
+    }
+    edges.edge[t] = !clear;
+  }
+  return edges;
+}
 
 NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floor,
                          const TexelSolveOptions& options) {
@@ -30,6 +54,7 @@ NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floo
       const std::vector<float> pred = PredictView(data, fit, v);
       for (size_t t = 0; t < data.grid.size(); ++t) {
         if (!vs.valid[t] || !fit.fitted[t] || (!fit.edge.empty() && fit.edge[t])) continue;
+        if (!SampleUsed(data, fit.edge, fit.edge_distance, t, v)) continue;
         for (int c = 0; c < C; ++c) {
           const size_t i = t * C + c;
           if (!(pred[i] > 0)) continue;
