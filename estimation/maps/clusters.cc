@@ -361,15 +361,42 @@ void JoinClusters(int keep, int gone, ClusterResult* c, std::vector<int>* texel_
   c->joined += 1;
 }
 
-std::vector<float> MaterialEdgeDistance(const std::vector<int>& label, int width, int height) {
-  std::vector<float> distance(label.size(), std::numeric_limits<float>::infinity());
-  if (label.size() != static_cast<size_t>(width) * height) {
-    throw std::invalid_argument("MaterialEdgeDistance: labels do not fill the grid");
+namespace {
+
+// The offset from texel (x, y) to the nearest texel of another cluster within `radius` (the
+// exact distance from the transform); +inf where none is found.
+Eigen::Vector2f NearestOther(const std::vector<int>& label, int width, int height, int x, int y,
+                             int radius) {
+  const int own = label[static_cast<size_t>(y) * width + x];
+  Eigen::Vector2f best = Eigen::Vector2f::Constant(std::numeric_limits<float>::infinity());
+  int best_d2 = std::numeric_limits<int>::max();
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      const int xx = x + dx, yy = y + dy, d2 = dx * dx + dy * dy;
+      if (xx < 0 || yy < 0 || xx >= width || yy >= height || d2 >= best_d2) continue;
+      const int other = label[static_cast<size_t>(yy) * width + xx];
+      if (other < 0 || other == own) continue;
+      best_d2 = d2;
+      best = Eigen::Vector2f(static_cast<float>(dx), static_cast<float>(dy));
+    }
   }
+  return best;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector2f> MaterialEdgeOffsets(const std::vector<int>& label, int width,
+                                                 int height, double max_texels) {
+  if (label.size() != static_cast<size_t>(width) * height) {
+    throw std::invalid_argument("MaterialEdgeOffsets: labels do not fill the grid");
+  }
+  std::vector<Eigen::Vector2f> offset(
+      label.size(), Eigen::Vector2f::Constant(std::numeric_limits<float>::infinity()));
   const int k = label.empty() ? 0 : *std::max_element(label.begin(), label.end()) + 1;
   cv::Mat other(height, width, CV_8U), to_other;
   for (int own = 0; own < k; ++own) {
-    // distanceTransform measures to the nearest zero: the texels of the other clusters.
+    // distanceTransform measures to the nearest zero: the texels of the other clusters. Only the
+    // texels it finds within reach are searched for the direction.
     bool any = false;
     for (size_t t = 0; t < label.size(); ++t) {
       const bool is_other = label[t] >= 0 && label[t] != own;
@@ -380,10 +407,12 @@ std::vector<float> MaterialEdgeDistance(const std::vector<int>& label, int width
     cv::distanceTransform(other, to_other, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
     const float* d = to_other.ptr<float>();
     for (size_t t = 0; t < label.size(); ++t) {
-      if (label[t] == own) distance[t] = d[t];
+      if (label[t] != own || !(d[t] <= max_texels)) continue;
+      const int x = static_cast<int>(t % width), y = static_cast<int>(t / width);
+      offset[t] = NearestOther(label, width, height, x, y, static_cast<int>(std::ceil(d[t])));
     }
   }
-  return distance;
+  return offset;
 }
 
 }  // namespace gonio

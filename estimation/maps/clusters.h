@@ -80,11 +80,13 @@ std::array<int, 2> AlikeClusters(const std::vector<double>& roughness,
 void JoinClusters(int keep, int gone, ClusterResult* clusters, std::vector<int>* texel_label,
                   bool drop_components = false);
 
-// Per texel, the distance (in texels, centre to centre) to the nearest texel of another
-// cluster, +inf where there is none or the texel has no cluster (label < 0; row-major grid of
-// `width` x `height`). A sample of the texel mixes two materials where it reaches that far
-// less half a texel: the material edge lies between the two centres, at least half a texel
-// from the other's (TexelData::SampleReach, docs/maps.md "Material edges").
-std::vector<float> MaterialEdgeDistance(const std::vector<int>& label, int width, int height);
+// Per texel, the offset (in texels, from its centre to the other's centre) of the nearest
+// texel of another cluster, where that lies within `max_texels`; +inf where there is none that
+// near or the texel has no cluster (label < 0; row-major grid of `width` x `height`). A sample
+// of the texel mixes two materials where it reaches that far, less half a texel, in that
+// direction: the material edge lies between the two centres (TexelData::SampleReach,
+// docs/maps.md "Material edges").
+std::vector<Eigen::Vector2f> MaterialEdgeOffsets(const std::vector<int>& label, int width,
+                                                 int height, double max_texels);
 
 }  // namespace gonio

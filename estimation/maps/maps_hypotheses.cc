@@ -169,7 +169,7 @@ NoiseModel NoiseWithoutEdges(const TexelData& data, const TexelFit& features,
                              const TexelSolveOptions& so) {
   TexelFit inner = features;
   inner.edge = edges.edge;
-  inner.edge_distance = edges.distance;
+  inner.edge_offset = edges.offset;
   return EstimateNoise(data, inner, o.relative_noise_floor, so);
 }
 

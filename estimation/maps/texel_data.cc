@@ -126,11 +126,44 @@ void TexelSamplingOptions::Check() const {
   }
 }
 
+double TexelData::SampleReach(size_t v, const Eigen::Vector3d& p,
+                              const Eigen::Vector2d& towards) const {
+  const Eigen::Vector3d to_cam = views[v].camera_in_board - p;
+  // Along `towards` the ellipse reaches a sqrt(1 + tan^2(theta) (towards . tilt)^2), tilt the
+  // unit direction of to_cam in the plane: (towards . to_cam_xy / to_cam_z)^2 under the root.
+  const double along = towards.dot(to_cam.head<2>()) / std::max(std::abs(to_cam.z()), 1e-9);
+  const double extent = views[v].support_rad * to_cam.norm() * std::sqrt(1 + along * along);
+  return std::max(reach_m, extent + 0.5 * grid.texel);
+}
+
 double TexelData::SampleReach(size_t v, const Eigen::Vector3d& p) const {
   const Eigen::Vector3d to_cam = views[v].camera_in_board - p;
   const double stretched =
       views[v].support_rad * to_cam.squaredNorm() / std::max(std::abs(to_cam.z()), 1e-9);
   return std::max(reach_m, stretched + 0.5 * grid.texel);
+}
+
+// Per texel of `grid`, how far inside `region` its centre lies and the direction to the
+// region's edge (down the distance's gradient, by central differences).
+std::vector<TexelSampler::Inside> TexelSampler::InsideOf(const std::vector<Eigen::Vector2d>& region,
+                                                         const TexelGrid& grid) {
+  std::vector<Inside> inside(grid.size());
+  const double h = 1e-3 * grid.texel;
+  for (size_t t = 0; t < grid.size(); ++t) {
+    const Eigen::Vector2d c = grid.Centre(t).head<2>();
+    const double d = SignedDistanceInPolygon(region, c);
+    const Eigen::Vector2d gradient(SignedDistanceInPolygon(region, c + Eigen::Vector2d(h, 0)) -
+                                       SignedDistanceInPolygon(region, c - Eigen::Vector2d(h, 0)),
+                                   SignedDistanceInPolygon(region, c + Eigen::Vector2d(0, h)) -
+                                       SignedDistanceInPolygon(region, c - Eigen::Vector2d(0, h)));
+    inside[t].distance_m = static_cast<float>(d);
+    if (gradient.norm() > 0) inside[t].towards_edge = (-gradient.normalized()).cast<float>();
+  }
+  return inside;
+}
+
+bool TexelSampler::Clear(const Inside& in, size_t view, const Eigen::Vector3d& p) const {
+  return in.distance_m >= data_.SampleReach(view, p, in.towards_edge.cast<double>());
 }
 
 TexelSampler::TexelSampler(const CameraModel& camera, const Board& board,
@@ -161,6 +194,7 @@ TexelSampler::TexelSampler(const CameraModel& camera, const Board& board,
   const double margin = options.edge_margin_px * footprint + 0.5 * texel;
   data_.grid = GridOver(region, texel, plane_z, margin, &data_.mask);
   data_.reach_m = margin;
+  inside_ = InsideOf(region, data_.grid);
   data_.channels = photometric.response.channels;
   if (data_.channels != 1 && data_.channels != 3) {
     throw InputError("maps: the photometric calibration has " + std::to_string(data_.channels) +
@@ -169,6 +203,7 @@ TexelSampler::TexelSampler(const CameraModel& camera, const Board& board,
   if (board.white_region().size() >= 3) {
     white_grid_ =
         GridOver(board.white_region(), options.white_spacing_m, 0.0, margin, &white_mask_);
+    white_inside_ = InsideOf(board.white_region(), white_grid_);
   }
   data_.views.resize(poses.size());
   data_.samples.resize(poses.size());
@@ -211,7 +246,7 @@ void TexelSampler::AddFrame(
       if (!data_.mask[t]) continue;
       Eigen::Vector3d p = data_.grid.Centre(t);
       if (displacement) p.head<2>() += (*displacement)(p);
-      if (!project(p, &px)) continue;
+      if (!Clear(inside_[t], k, p) || !project(p, &px)) continue;
       s.valid[t] = Interpolate(im, px.x(), px.y(), &s.radiance[t * C], &s.var_read[t * C],
                                &s.var_shot[t * C]);
     }
@@ -221,7 +256,7 @@ void TexelSampler::AddFrame(
     Eigen::Vector2d px;
     const Eigen::Vector3d p = white_grid_.Centre(t);
     WhiteSample w;
-    if (!white_mask_[t] || !project(p, &px)) continue;
+    if (!white_mask_[t] || !Clear(white_inside_[t], k, p) || !project(p, &px)) continue;
     if (!Interpolate(im, px.x(), px.y(), w.radiance.data(), w.var_read.data(), w.var_shot.data())) {
       continue;
     }

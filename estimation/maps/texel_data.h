@@ -87,10 +87,14 @@ struct TexelData {
   // margin, so that no texel mixes sample and paper.
   double reach_m = 0;
   size_t masked_texels() const;
-  // How far on the sample view v's sample of the point p reaches (metres): the support across
-  // a pixel's footprint, stretched along the view's tilt by 1 / cos(view angle), plus half a
-  // texel; at least reach_m. A sample nearer than this to another material mixes both
-  // (docs/maps.md "Material edges"): at 62 deg the reach is twice the head-on one.
+  // How far on the sample view v's sample of the point p reaches (metres) towards the unit
+  // in-plane direction `towards`: the interpolation's support projected on the sample, an
+  // ellipse whose half-width support_rad D across the view's tilt is stretched along it by
+  // 1 / cos(view angle), plus half a texel; at least reach_m. A sample nearer than this to
+  // another material or the region's edge in that direction mixes what lies beyond
+  // (docs/maps.md "Material edges"): at 62 deg, towards the view, twice the head-on reach.
+  double SampleReach(size_t v, const Eigen::Vector3d& p, const Eigen::Vector2d& towards) const;
+  // The same in the direction it reaches farthest (along the view's tilt).
   double SampleReach(size_t v, const Eigen::Vector3d& p) const;
 };
 
@@ -136,6 +140,17 @@ class TexelSampler {
   TexelData data_;
   TexelGrid white_grid_;
   std::vector<uint8_t> white_mask_;
+  // Per texel of the grid and of the white grid: how far inside its region its centre lies
+  // (metres) and the unit direction to the nearest point of the region's edge. A view's sample
+  // that reaches the edge (TexelData::SampleReach) mixes what lies beyond: not taken.
+  struct Inside {
+    float distance_m = 0;
+    Eigen::Vector2f towards_edge = Eigen::Vector2f::Zero();
+  };
+  std::vector<Inside> inside_, white_inside_;
+  static std::vector<Inside> InsideOf(const std::vector<Eigen::Vector2d>& region,
+                                      const TexelGrid& grid);
+  bool Clear(const Inside& in, size_t view, const Eigen::Vector3d& p) const;
 };
 
 }  // namespace gonio

@@ -528,9 +528,9 @@ TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<
   fit.clusters = use_clusters ? k : 1;
   fit.cluster = *s.cluster;
   fit.edge = edges.edge;
-  fit.edge_distance = edges.distance;
+  fit.edge_offset = edges.offset;
   s.edge = &fit.edge;
-  s.edge_distance = &fit.edge_distance;
+  s.edge_offset = &fit.edge_offset;
   const int n_r = fit.clusters;
   s.cluster_r.assign(n_r, s.info.roughness_start);
   if (start && static_cast<int>(start->cluster_r.size()) == n_r &&

@@ -99,9 +99,9 @@ struct TexelFit {
   // enters neither their system, the noise model, chi2 nor the BIC; its standard deviations
   // are scaled by the square root of its own chi2 per degree of freedom where that exceeds 1.
   std::vector<uint8_t> edge;
-  // Per texel (empty: none): MaterialEdgeDistance. Any other texel leaves out the views whose
+  // Per texel (empty: none): MaterialEdgeOffsets. Any other texel leaves out the views whose
   // samples of it mix materials (SampleUsed).
-  std::vector<float> edge_distance;
+  std::vector<Eigen::Vector2f> edge_offset;
   std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters; sd NaN: data never reach it
   // Per shared value (cluster roughness, lamp x y z, intensity, as fitted): the factor by which
   // the views' scatter widened its standard deviation (texel_solver.cc ViewScatter; 1: not).
@@ -123,19 +123,21 @@ struct TexelFit {
 // The texels and samples that mix two materials under a fit's clusters (docs/maps.md "Material
 // edges"); empty with one material.
 struct TexelEdges {
-  std::vector<float> distance;  // per texel: MaterialEdgeDistance (texels)
-  std::vector<uint8_t> edge;    // per texel: every view's sample of it mixes (TexelFit::edge)
+  std::vector<Eigen::Vector2f> offset;  // per texel: MaterialEdgeOffsets (texels)
+  std::vector<uint8_t> edge;  // per texel: every view's sample of it mixes (TexelFit::edge)
   bool empty() const { return edge.empty(); }
 };
 
 // Whether view v's sample of texel t enters a fit with these edges (TexelFit::edge and
-// edge_distance): not where it reaches another material (TexelData::SampleReach against the
-// distance less half a texel), unless every view's does (an edge texel, fitted from all).
+// edge_offset): not where it reaches the nearest texel of another material (TexelData::
+// SampleReach towards it, against its distance less half a texel), unless every view's does (an
+// edge texel, fitted from all).
 inline bool SampleUsed(const TexelData& data, const std::vector<uint8_t>& edge,
-                       const std::vector<float>& edge_distance, size_t t, size_t v) {
-  if (edge_distance.empty() || edge[t] || !std::isfinite(edge_distance[t])) return true;
-  const double texel = data.grid.texel;
-  return (edge_distance[t] - 0.5) * texel >= data.SampleReach(v, data.grid.Centre(t));
+                       const std::vector<Eigen::Vector2f>& edge_offset, size_t t, size_t v) {
+  if (edge_offset.empty() || edge[t] || !std::isfinite(edge_offset[t].x())) return true;
+  const Eigen::Vector2d offset = edge_offset[t].cast<double>();
+  const double d = offset.norm();
+  return (d - 0.5) * data.grid.texel >= data.SampleReach(v, data.grid.Centre(t), offset / d);
 }
 
 // The texels and samples that mix materials under `label` (per texel, clusters 0 .. k-1), among

@@ -84,7 +84,7 @@ Pass PassOf(const TexelData& data, const TexelFit& fit, const TexelSolveOptions&
   s.inv_r_var = 1.0 / (o.roughness_prior * o.roughness_prior);
   s.cluster = &fit.cluster;
   s.edge = &fit.edge;
-  s.edge_distance = &fit.edge_distance;
+  s.edge_offset = &fit.edge_offset;
   s.cluster_r = fit.cluster_r;
   SetLamp(data, fit.lamp, &s);
   return s;

@@ -42,8 +42,9 @@ struct Pass {
   double intensity = 1;
   NoiseModel noise;
   const std::vector<int>* cluster = nullptr;
-  const std::vector<uint8_t>* edge = nullptr;         // per texel, or empty: TexelFit::edge
-  const std::vector<float>* edge_distance = nullptr;  // per texel, or empty: its edge_distance
+  const std::vector<uint8_t>* edge = nullptr;  // per texel, or empty: TexelFit::edge
+  const std::vector<Eigen::Vector2f>* edge_offset =
+      nullptr;  // per texel, or empty: its edge_offset
   std::vector<double> cluster_r;
   bool lamp_cols = false, intensity_col = false;  // shared columns besides a shared roughness
   bool lamp_held = false;  // lamp columns for the uncertainty only: the lamp does not move
@@ -59,8 +60,7 @@ struct Pass {
   bool Shares(size_t t) const { return !edge || edge->empty() || !(*edge)[t]; }
   // Whether view v's sample of texel t enters the pass (SampleUsed: it mixes no materials).
   bool Uses(size_t t, size_t v) const {
-    return !edge_distance || edge_distance->empty() ||
-           SampleUsed(*data, *edge, *edge_distance, t, v);
+    return !edge_offset || edge_offset->empty() || SampleUsed(*data, *edge, *edge_offset, t, v);
   }
   double RoughnessOf(size_t t, const State& x) const {
     if (!info.has_roughness) return 0.0;

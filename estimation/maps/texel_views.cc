@@ -23,15 +23,25 @@ TexelEdges EdgesOf(const TexelData& data, const TexelFit& fit, const std::vector
   for (size_t t = 0; t < label.size(); ++t) {
     if (fit.fitted[t]) fitted_label[t] = label[t];
   }
-  edges.distance = MaterialEdgeDistance(fitted_label, data.grid.width, data.grid.height);
+  // No sample reaches farther than the farthest view's reach at the grid's corners (the
+  // distance to the camera and its obliquity grow outward): the texels' search stops there.
+  double farthest = 0;
+  const size_t corners[] = {0, static_cast<size_t>(data.grid.width) - 1,
+                            data.grid.size() - data.grid.width, data.grid.size() - 1};
+  for (size_t v = 0; v < data.views.size(); ++v) {
+    for (size_t c : corners)
+      farthest = std::max(farthest, data.SampleReach(v, data.grid.Centre(c)));
+  }
+  edges.offset = MaterialEdgeOffsets(fitted_label, data.grid.width, data.grid.height,
+                                     farthest / data.grid.texel + 1.0);
   edges.edge.assign(label.size(), 0);
   const std::vector<uint8_t> none(label.size(), 0);
   for (size_t t = 0; t < label.size(); ++t) {
-    if (fitted_label[t] < 0 || !std::isfinite(edges.distance[t])) continue;
+    if (fitted_label[t] < 0 || !std::isfinite(edges.offset[t].x())) continue;
     bool clear = false;
     for (size_t v = 0; v < data.views.size() && !clear; ++v) {
       const ViewSamples& vs = data.samples[v];
-      clear = !vs.valid.empty() && vs.valid[t] && SampleUsed(data, none, edges.distance, t, v);
+      clear = !vs.valid.empty() && vs.valid[t] && SampleUsed(data, none, edges.offset, t, v);
     }
     edges.edge[t] = !clear;
   }
@@ -54,7 +64,7 @@ NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floo
       const std::vector<float> pred = PredictView(data, fit, v);
       for (size_t t = 0; t < data.grid.size(); ++t) {
         if (!vs.valid[t] || !fit.fitted[t] || (!fit.edge.empty() && fit.edge[t])) continue;
-        if (!SampleUsed(data, fit.edge, fit.edge_distance, t, v)) continue;
+        if (!SampleUsed(data, fit.edge, fit.edge_offset, t, v)) continue;
         for (int c = 0; c < C; ++c) {
           const size_t i = t * C + c;
           if (!(pred[i] > 0)) continue;

@@ -20,7 +20,7 @@
 namespace gonio {
 namespace {
 
-TEST(MaterialEdges, DistanceIsEuclideanToTheNearestTexelOfAnotherMaterial) {
+TEST(MaterialEdges, OffsetsPointToTheNearestTexelOfAnotherMaterial) {
   // 5 x 4 texels: columns 0-1 material 0, columns 2-4 material 1; texel (row 0, column 2) has
   // none, so (row 0, column 1) is sqrt(2) from material 1 (at row 1, column 2).
   const int w = 5, h = 4;
@@ -29,16 +29,18 @@ TEST(MaterialEdges, DistanceIsEuclideanToTheNearestTexelOfAnotherMaterial) {
     for (int x = 0; x < w; ++x) label[y * w + x] = x < 2 ? 0 : 1;
   }
   label[2] = -1;
-  const std::vector<float> d = MaterialEdgeDistance(label, w, h);
-  EXPECT_NEAR(d[1 * w + 1], 1.0, 1e-5);
-  EXPECT_NEAR(d[1 * w + 0], 2.0, 1e-5);
-  EXPECT_NEAR(d[2 * w + 4], 3.0, 1e-5);
-  EXPECT_NEAR(d[0 * w + 1], std::sqrt(2.0), 1e-5);
-  EXPECT_NEAR(d[0 * w + 3], 2.0, 1e-5);  // to (row 0, column 1)
-  EXPECT_TRUE(std::isinf(d[2]));         // no material of its own
-  const std::vector<float> one = MaterialEdgeDistance(std::vector<int>(w * h, 0), w, h);
-  for (float v : one) EXPECT_TRUE(std::isinf(v));
-  EXPECT_THROW(MaterialEdgeDistance(label, w, h + 1), std::invalid_argument);
+  const std::vector<Eigen::Vector2f> o = MaterialEdgeOffsets(label, w, h, 10.0);
+  EXPECT_EQ(o[1 * w + 1], Eigen::Vector2f(1, 0));
+  EXPECT_EQ(o[1 * w + 0], Eigen::Vector2f(2, 0));
+  EXPECT_EQ(o[2 * w + 4], Eigen::Vector2f(-3, 0));
+  EXPECT_EQ(o[0 * w + 1], Eigen::Vector2f(1, 1));
+  EXPECT_EQ(o[0 * w + 3], Eigen::Vector2f(-2, 0));  // to (row 0, column 1)
+  EXPECT_TRUE(std::isinf(o[2].x()));                // no material of its own
+  // Beyond the search's reach: none.
+  EXPECT_TRUE(std::isinf(MaterialEdgeOffsets(label, w, h, 2.5)[2 * w + 4].x()));
+  const auto one = MaterialEdgeOffsets(std::vector<int>(w * h, 0), w, h, 10.0);
+  for (const auto& v : one) EXPECT_TRUE(std::isinf(v.x()));
+  EXPECT_THROW(MaterialEdgeOffsets(label, w, h + 1, 10.0), std::invalid_argument);
 }
 
 TEST(MaterialEdges, ASamplesReachStretchesWithTheViewAngle) {
@@ -54,25 +56,45 @@ TEST(MaterialEdges, ASamplesReachStretchesWithTheViewAngle) {
   // The support on the sample: 0.004 x 0.5 m head on, twice that at 60 deg; half a texel more.
   EXPECT_NEAR(d.SampleReach(0, p), 0.002 + 0.0005, 1e-12);
   EXPECT_NEAR(d.SampleReach(1, p), 0.004 + 0.0005, 1e-12);
+  // Towards the tilted view the same; across its tilt no farther than head on; at 45 deg
+  // between, sqrt(1 + tan^2(60 deg) / 2) = sqrt(2.5) times.
+  EXPECT_NEAR(d.SampleReach(1, p, {1, 0}), 0.004 + 0.0005, 1e-12);
+  EXPECT_NEAR(d.SampleReach(1, p, {0, 1}), 0.002 + 0.0005, 1e-12);
+  EXPECT_NEAR(d.SampleReach(1, p, Eigen::Vector2d(1, 1).normalized()),
+              0.002 * std::sqrt(2.5) + 0.0005, 1e-12);
+  EXPECT_NEAR(d.SampleReach(0, p, {1, 0}), 0.002 + 0.0005, 1e-12);
   d.views[0].support_rad = 0;  // a rectified view: the data's own reach
   EXPECT_NEAR(d.SampleReach(0, p), 0.0008, 1e-12);
 }
 
 constexpr int kWidth = 24;          // texels of 1 mm; materials left and right of the middle
 constexpr double kSupport = 0.005;  // 2 px at a focal length of 400 px
+constexpr double kAlbedo[2][3] = {{0.7, 0.55, 0.35}, {0.3, 0.4, 0.6}};
 
-// The geometry's own measure of how much of material `other` a view's sample of the point at
-// `d_edge` metres from the edge holds: the support projected on the sample (half-width R along
-// the view's tilt) as a box, R = support D / cos(theta).
-double OtherShare(const Eigen::Vector3d& camera, const Eigen::Vector3d& pt, double d_edge) {
-  const Eigen::Vector3d to_cam = camera - pt;
-  const double R = kSupport * to_cam.norm() / (std::abs(to_cam.z()) / to_cam.norm());
-  return std::clamp((R - d_edge) / (2 * R), 0.0, 0.5);
+// The share of the other material in a view's sample of the point pt, from the geometry alone:
+// the rays of a disk of kSupport radians about the ray to pt, each met with the sample's plane
+// (z = 0), counted where they land past the edge (x = edge_x) on the far side from pt.
+double OtherShare(const Eigen::Vector3d& camera, const Eigen::Vector3d& pt, double edge_x) {
+  const Eigen::Vector3d ray = (pt - camera).normalized();
+  const Eigen::Vector3d u1 = ray.cross(Eigen::Vector3d::UnitY()).normalized();
+  const Eigen::Vector3d u2 = ray.cross(u1);
+  const int n = 12;
+  int inside = 0, beyond = 0;
+  for (int i = -n; i <= n; ++i) {
+    for (int j = -n; j <= n; ++j) {
+      if (i * i + j * j > n * n) continue;
+      const Eigen::Vector3d d = (ray + kSupport / n * (i * u1 + j * u2)).normalized();
+      const Eigen::Vector3d hit = camera - camera.z() / d.z() * d;
+      ++inside;
+      beyond += (hit.x() - edge_x) * (pt.x() - edge_x) < 0;
+    }
+  }
+  return static_cast<double>(beyond) / inside;
 }
 
 // Two flat materials (sigma 15 and 40 deg, distinct colours) under a lamp 0.5 m away 35 deg off
 // the normal, 16 views on rings at 15, 32, 48 and 62 deg; each sample blended with the other
-// material as its projected support says; read + shot noise.
+// material by the share of its footprint beyond the edge; read + shot noise.
 TexelData SynthesizeEdge(std::vector<int>* material, Eigen::Vector3d* lamp) {
   TexelData d;
   d.channels = 3;
@@ -83,7 +105,6 @@ TexelData SynthesizeEdge(std::vector<int>* material, Eigen::Vector3d* lamp) {
   d.reach_m = 0.5 * d.grid.texel;
   const Eigen::Vector3d centre(0.14, 0.095, 0);
   *lamp = centre + 0.5 * Eigen::Vector3d(-std::sin(DegToRad(35)), 0, -std::cos(DegToRad(35)));
-  const double albedo[2][3] = {{0.7, 0.55, 0.35}, {0.3, 0.4, 0.6}};
   const double sigma[2] = {DegToRad(15), DegToRad(40)};
   const size_t n = d.grid.size();
   material->resize(n);
@@ -114,12 +135,11 @@ TexelData SynthesizeEdge(std::vector<int>* material, Eigen::Vector3d* lamp) {
       const Angles<double> a = AnglesFromDirections(ll, cc);
       const double cos_i = normal.dot(l);
       const int own = (*material)[t];
-      const double d_edge = std::abs(pt.x() - centre.x());
-      const double share = OtherShare(view.camera_in_board, pt, d_edge);
+      const double share = OtherShare(view.camera_in_board, pt, centre.x());
       for (int ch = 0; ch < 3; ++ch) {
         double L[2];
         for (int m = 0; m < 2; ++m) {
-          const double params[2] = {albedo[m][ch], sigma[m]};
+          const double params[2] = {kAlbedo[m][ch], sigma[m]};
           L[m] = cos_i / to_lamp.squaredNorm() * OrenNayar::Evaluate(params, a);
         }
         const double mixed = (1 - share) * L[own] + share * L[1 - own];
@@ -151,11 +171,40 @@ TexelFit FitWithEdges(const TexelData& data, const std::vector<int>& material,
   return FitTexels(data, RoughnessMode::kClusters, material, 2, lamp, noise, &first, o, edges);
 }
 
-// The views at 48 and 62 deg blend the other material into texels that the head-on views see
-// clear. Those samples left out, each material's roughness is within 3 of its standard
-// deviations (measured: z -0.69 and -0.49); kept (the texels' edges alone, as before the
-// samples' reach was per view), the materials read 6.2 and 3.9 sd off (13.48 and 44.04 deg).
-TEST(MaterialEdges, ObliqueViewsBlendsStayOutOfTheRoughness) {
+// How far the band's albedo errors stand from those of the texels clear in every view (Welch's
+// t per material and channel; the largest magnitude). The shared roughness's error moves both
+// alike; a blend moves only the band.
+double BandBias(const TexelFit& fit, const std::vector<int>& material,
+                const std::vector<uint8_t>& in_band) {
+  double worst = 0;
+  for (int m = 0; m < 2; ++m) {
+    for (int c = 0; c < 3; ++c) {
+      double sum[2] = {0, 0}, sum2[2] = {0, 0}, n[2] = {0, 0};
+      for (size_t t = 0; t < material.size(); ++t) {
+        if (material[t] != m || fit.edge[t]) continue;
+        const double e = fit.w[t * 3 + c] / kAlbedo[m][c] - 1;
+        const int g = in_band[t];
+        sum[g] += e, sum2[g] += e * e, n[g] += 1;
+      }
+      double var_of_mean[2];
+      for (int g = 0; g < 2; ++g) {
+        const double mean = sum[g] / n[g];
+        var_of_mean[g] = (sum2[g] / n[g] - mean * mean) / (n[g] - 1);
+      }
+      const double t = (sum[1] / n[1] - sum[0] / n[0]) / std::sqrt(var_of_mean[0] + var_of_mean[1]);
+      worst = std::max(worst, std::abs(t));
+    }
+  }
+  return worst;
+}
+
+// The oblique views blend the other material into texels that the head-on views see clear
+// (the band). Those samples left out, the band's albedo stands t = 3.05 from the clear texels'
+// (measured; they keep fewer views, so the shared roughness's error moves them differently)
+// and each material's roughness is within 3 of its standard deviations (z -1.26, -1.03). Kept
+// (the texels' edges alone, as before the samples' reach was per view), t = 7.8 and the
+// roughness z -2.04 and 0.34.
+TEST(MaterialEdges, ObliqueViewsBlendsStayOutOfTheMaps) {
   std::vector<int> material;
   Eigen::Vector3d lamp;
   const TexelData data = SynthesizeEdge(&material, &lamp);
@@ -169,9 +218,22 @@ TEST(MaterialEdges, ObliqueViewsBlendsStayOutOfTheRoughness) {
   const double truth[2] = {15, 40};
   const TexelFit fit = FitWithEdges(data, material, lamp, edges);
   TexelEdges texels_only = edges;
-  texels_only.distance.clear();
+  texels_only.offset.clear();
   const TexelFit blended = FitWithEdges(data, material, lamp, texels_only);
-  double worst_blended = 0;
+  std::vector<uint8_t> in_band(data.grid.size(), 0);
+  for (size_t t = 0; t < data.grid.size(); ++t) {
+    for (size_t v = 0; v < data.views.size(); ++v) {
+      in_band[t] = in_band[t] || !SampleUsed(data, edges.edge, edges.offset, t, v);
+    }
+  }
+  // Two columns each side: between the head-on reach and the 62 deg views' towards the edge.
+  EXPECT_EQ(std::count(in_band.begin(), in_band.end(), 1), 4 * kWidth);
+  const double bias = BandBias(fit, material, in_band);
+  const double bias_blended = BandBias(blended, material, in_band);
+  std::printf("band: albedo off the clear texels' by t = %.2f; blends kept %.2f\n", bias,
+              bias_blended);
+  EXPECT_LT(bias, 4.5);
+  EXPECT_GT(bias_blended, 6.0);  // the synthesis's blends are there to be left out
   for (int k = 0; k < 2; ++k) {
     const double z = (RadToDeg(fit.cluster_r[k]) - truth[k]) / RadToDeg(fit.cluster_r_sd[k]);
     const double zb =
@@ -180,9 +242,7 @@ TEST(MaterialEdges, ObliqueViewsBlendsStayOutOfTheRoughness) {
                 RadToDeg(fit.cluster_r[k]), RadToDeg(fit.cluster_r_sd[k]), z,
                 RadToDeg(blended.cluster_r[k]), zb);
     EXPECT_LT(std::abs(z), 3.0);
-    worst_blended = std::max(worst_blended, std::abs(zb));
   }
-  EXPECT_GT(worst_blended, 5.0);  // the synthesis's blends are there to be left out
 }
 
 }  // namespace
