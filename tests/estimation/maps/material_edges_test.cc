@@ -16,6 +16,7 @@
 #include "estimation/maps/clusters.h"
 #include "estimation/maps/texel_solver.h"
 #include "reflectance/oren_nayar.h"
+#include "tests/estimation/maps/texel_views_synthesis.h"
 
 namespace gonio {
 namespace {
@@ -96,36 +97,20 @@ double OtherShare(const Eigen::Vector3d& camera, const Eigen::Vector3d& pt, doub
 // the normal, 16 views on rings at 15, 32, 48 and 62 deg; each sample blended with the other
 // material by the share of its footprint beyond the edge; read + shot noise.
 TexelData SynthesizeEdge(std::vector<int>* material, Eigen::Vector3d* lamp) {
-  TexelData d;
-  d.channels = 3;
-  d.grid.width = d.grid.height = kWidth;
-  d.grid.texel = 0.001;
-  d.grid.origin = {0.14 - 0.0005 * (kWidth - 1), 0.095 - 0.0005 * (kWidth - 1)};
-  d.mask.assign(d.grid.size(), 1);
+  TexelData d = testing::SquareGrid(kWidth, lamp);
   d.reach_m = 0.5 * d.grid.texel;
-  const Eigen::Vector3d centre(0.14, 0.095, 0);
-  *lamp = centre + 0.5 * Eigen::Vector3d(-std::sin(DegToRad(35)), 0, -std::cos(DegToRad(35)));
+  const Eigen::Vector3d& centre = testing::kSampleCentre;
   const double sigma[2] = {DegToRad(15), DegToRad(40)};
   const size_t n = d.grid.size();
   material->resize(n);
   for (size_t t = 0; t < n; ++t) (*material)[t] = static_cast<int>(t % kWidth) < kWidth / 2 ? 0 : 1;
   std::mt19937 rng(5);
   std::normal_distribution<double> gauss(0, 1);
-  const double rings[] = {15, 32, 48, 62};
   const Eigen::Vector3d normal(0, 0, -1);
-  for (int v = 0; v < 16; ++v) {
-    const double polar = DegToRad(rings[v % 4]), az = 2 * kPi * v / 16 + 0.2;
-    TexelView view;
-    view.name = "view" + std::to_string(v);
-    view.camera_in_board =
-        centre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
-                                        std::sin(polar) * std::sin(az), -std::cos(polar));
+  for (int v = 0; v < testing::kRingViews; ++v) {
+    TexelView view = testing::RingView(v, centre);
     view.support_rad = kSupport;
-    ViewSamples s;
-    s.radiance.assign(n * 3, 0.f);
-    s.var_read.assign(n * 3, 0.f);
-    s.var_shot.assign(n * 3, 0.f);
-    s.valid.assign(n, 1);
+    ViewSamples s = testing::EmptySamples(n, 3);
     for (size_t t = 0; t < n; ++t) {
       const Eigen::Vector3d pt = d.grid.Centre(t);
       const Eigen::Vector3d to_lamp = *lamp - pt;
@@ -150,7 +135,6 @@ TexelData SynthesizeEdge(std::vector<int>* material, Eigen::Vector3d* lamp) {
         s.var_shot[t * 3 + ch] = static_cast<float>(var_shot);
       }
     }
-    s.count = n;
     d.views.push_back(view);
     d.samples.push_back(s);
   }

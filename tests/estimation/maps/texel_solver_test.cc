@@ -18,6 +18,7 @@
 #include "estimation/maps/texel_model.h"
 #include "estimation/maps/texel_solver.h"
 #include "reflectance/oren_nayar.h"
+#include "tests/estimation/maps/texel_views_synthesis.h"
 
 namespace gonio {
 namespace {
@@ -45,14 +46,8 @@ struct Truth {
 // views on four rings; two materials (left and right half) with sigma_left / sigma_right.
 TexelData Synthesize(int w, double sigma_left, double sigma_right, Truth* truth,
                      Eigen::Vector3d* lamp, uint64_t seed = 3) {
-  TexelData d;
-  d.channels = 3;
-  d.grid.width = d.grid.height = w;
-  d.grid.texel = 0.001;
-  d.grid.origin = {0.14 - 0.0005 * (w - 1), 0.095 - 0.0005 * (w - 1)};
-  d.mask.assign(d.grid.size(), 1);
-  const Eigen::Vector3d centre(0.14, 0.095, 0);
-  *lamp = centre + 0.5 * Eigen::Vector3d(-std::sin(DegToRad(35)), 0, -std::cos(DegToRad(35)));
+  TexelData d = testing::SquareGrid(w, lamp);
+  const Eigen::Vector3d& centre = testing::kSampleCentre;
   const size_t n = d.grid.size();
   truth->albedo.resize(n);
   truth->p.resize(n);
@@ -73,19 +68,9 @@ TexelData Synthesize(int w, double sigma_left, double sigma_right, Truth* truth,
   }
   std::mt19937 rng(seed);
   std::normal_distribution<double> gauss(0, 1);
-  const double rings[] = {15, 32, 48, 62};
-  for (int v = 0; v < 16; ++v) {
-    const double polar = DegToRad(rings[v % 4]), az = 2 * kPi * v / 16 + 0.2;
-    TexelView view;
-    view.name = "view" + std::to_string(v);
-    view.camera_in_board =
-        centre + 0.45 * Eigen::Vector3d(std::sin(polar) * std::cos(az),
-                                        std::sin(polar) * std::sin(az), -std::cos(polar));
-    ViewSamples s;
-    s.radiance.assign(n * 3, 0.f);
-    s.var_read.assign(n * 3, 0.f);
-    s.var_shot.assign(n * 3, 0.f);
-    s.valid.assign(n, 1);
+  for (int v = 0; v < testing::kRingViews; ++v) {
+    TexelView view = testing::RingView(v, centre);
+    ViewSamples s = testing::EmptySamples(n, 3);
     for (size_t t = 0; t < n; ++t) {
       const Eigen::Vector3d pt = d.grid.Centre(t);
       const Eigen::Vector3d nrm = Eigen::Vector3d(-truth->p[t], -truth->q[t], -1).normalized();
@@ -104,7 +89,6 @@ TexelData Synthesize(int w, double sigma_left, double sigma_right, Truth* truth,
         s.var_shot[t * 3 + c] = static_cast<float>(L / 1.0 * 2.5e-5);
       }
     }
-    s.count = n;
     d.views.push_back(view);
     d.samples.push_back(s);
   }
