@@ -109,6 +109,7 @@ void MapsOptions::Check() const {
   sampling.Check();
   solve.Check();
   clusters.Check();
+  incidental_bias.Check();
   if (calibration_error.draws != 0) calibration_error.Check();
   if (lamp && (!lamp->allFinite() || lamp->norm() > kMaxLampDistance)) {
     throw InputError("--lamp: not a finite position within 1000 m");
@@ -170,6 +171,7 @@ MapsResult SolveMaps(TexelData data, const MapsLamp& lamp_start, const MapsOptio
     if (o.hold_out) std::swap(held, data.samples[*o.hold_out]);
     FinalFit(data, o, so, &r);
   }
+  CorrectIncidentalBias(data, so, o.incidental_bias, &r.fit);
   r.height = IntegrateSlopes(r.fit.p, r.fit.q, r.fit.fitted, data.grid.width, data.grid.height,
                              data.grid.texel);
   r.views = ViewResiduals(data, r.fit);

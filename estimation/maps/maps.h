@@ -32,6 +32,7 @@
 #include "estimation/joint/calibration_error.h"
 #include "estimation/joint/joint_fit.h"
 #include "estimation/maps/clusters.h"
+#include "estimation/maps/incidental_bias.h"
 #include "estimation/maps/registration.h"
 #include "estimation/maps/texel_data.h"
 #include "estimation/maps/texel_solver.h"
@@ -73,6 +74,8 @@ struct MapsOptions {
   // and roughness hypothesis are found on blocks of about this many texels, the chosen maps
   // then fitted on all (docs/maps.md "Speed").
   size_t search_texels = 25000;
+  // The shared roughness's incidental bias, measured and subtracted (incidental_bias.h).
+  IncidentalBiasOptions incidental_bias;
   // One round brings the noise-free textured preset at 640x480 from 0.52% / 1.10 deg (albedo /
   // normal, RMS) to 0.15% / 0.13 deg; with the renderer's own poses 0.03% / 0.05 deg.
   int registration_rounds = 1;

@@ -150,7 +150,13 @@ json MapsResult::ToJson() const {
        {{"parameter", info.has_roughness ? json(info.roughness_name) : json()},
         {"unit", info.has_roughness ? json(info.roughness_unit) : json()},
         {"mode", ToString(fit.mode)},
-        {"selection", selection_reason}}},
+        {"selection", selection_reason},
+        {"incidental_bias",
+         {{"per_value", fit.cluster_r_bias},
+          {"method",
+           "measured by an antithetic parametric bootstrap on a subsample of the sharing texels "
+           "and subtracted from the shared roughness (docs/maps.md \"Standard deviations\"); "
+           "empty: not corrected"}}}}},
       {"candidates", CandidatesJson(*this)},
       {"clusters", ClustersJson(*this)},
       {"lamp", LampJson(fit.lamp, lamp_source)},
@@ -218,12 +224,16 @@ std::string MapsResult::Report() const {
                          info.roughness_unit);
         continue;
       }
+      const double bias = k < fit.cluster_r_bias.size() ? fit.cluster_r_bias[k] : 0.0;
+      const bool deg = info.roughness_unit == "rad";
       s += fmt::format(
-          "  {} {:.4f} +- {:.4f} {}{}\n", info.roughness_name, fit.cluster_r[k], sd,
+          "  {} {:.4f} +- {:.4f} {}{}{}\n", info.roughness_name, fit.cluster_r[k], sd,
           info.roughness_unit,
-          info.roughness_unit == "rad"
-              ? fmt::format(" ({:.2f} +- {:.2f} deg)", RadToDeg(fit.cluster_r[k]), RadToDeg(sd))
-              : std::string());
+          deg ? fmt::format(" ({:.2f} +- {:.2f} deg)", RadToDeg(fit.cluster_r[k]), RadToDeg(sd))
+              : std::string(),
+          bias != 0 ? fmt::format(", the per-texel fits' bias {:+.2g}{} taken off",
+                                  deg ? RadToDeg(bias) : bias, deg ? " deg" : "")
+                    : std::string());
     }
   }
   if (fit.lamp.frame != MapsLamp::Frame::kPerView) {

@@ -103,6 +103,9 @@ struct TexelFit {
   // samples of it mix materials (SampleUsed).
   std::vector<Eigen::Vector2f> edge_offset;
   std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters; sd NaN: data never reach it
+  // Per shared roughness value, the incidental parameters' bias measured and subtracted from
+  // cluster_r (incidental_bias.h); empty: not corrected.
+  std::vector<double> cluster_r_bias;
   // Per shared value (cluster roughness, lamp x y z, intensity, as fitted): the factor by which
   // the views' scatter widened its standard deviation (texel_solver.cc ViewScatter; 1: not).
   std::vector<double> shared_sd_factor;
