@@ -286,23 +286,37 @@ TexelSolveOptions Options() {
   return o;
 }
 
-TEST(TexelSolver, RecoversMapsWithHonestErrorBars) {
-  Truth truth;
+// The synthesis of one material (sigma 30 deg) on w x w texels, and its lamp, known.
+TexelData OneMaterial(int w, Truth* truth, MapsLamp* lamp, uint64_t seed = 3) {
   Eigen::Vector3d lamp_position;
-  const TexelData data = Synthesize(24, DegToRad(30), DegToRad(30), &truth, &lamp_position);
-  MapsLamp lamp;
-  lamp.position = lamp_position;
-  TexelSolveOptions o = Options();
+  TexelData data = Synthesize(w, DegToRad(30), DegToRad(30), truth, &lamp_position, seed);
+  lamp->position = lamp_position;
+  return data;
+}
+
+// One roughness for the sample: a first fit from a 1% noise model, the noise model measured on
+// its residuals (into `noise`), then the fit again with it.
+TexelFit FitWithItsNoise(const TexelData& data, const MapsLamp& lamp, const TexelSolveOptions& o,
+                         NoiseModel* noise) {
   const TexelFit first =
       FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, NoiseModel(), nullptr, o);
-  const NoiseModel noise = EstimateNoise(data, first, 0.0, o);
+  *noise = EstimateNoise(data, first, 0.0, o);
+  return FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, *noise, &first, o);
+}
+
+TEST(TexelSolver, RecoversMapsWithHonestErrorBars) {
+  Truth truth;
+  MapsLamp lamp;
+  const TexelData data = OneMaterial(24, &truth, &lamp);
+  TexelSolveOptions o = Options();
+  NoiseModel noise;
+  const TexelFit fit = FitWithItsNoise(data, lamp, o, &noise);
   // The noise model's sigma at a typical radiance: the synthesis's own within 10%.
   for (int c = 0; c < 3; ++c) {
     const double L = 0.5, truth = std::sqrt(4e-6 + 2.5e-5 * L);
     EXPECT_NEAR(std::sqrt(noise.Variance(c, 4e-6, 2.5e-5 * L, L)) / truth, 1.0, 0.1)
         << "read " << noise.read[c] << " shot " << noise.shot[c];
   }
-  const TexelFit fit = FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, noise, &first, o);
   const Errors e = Judge(fit, truth);
   // Measured: albedo 0.39%, normal 1.4 deg, sigma 0.05 deg; z 1.0, 1.0.
   EXPECT_LT(e.albedo_rel_rms, 0.01);
@@ -484,8 +498,8 @@ TEST(IncidentalBias, TheBootstrapTakesOffTheRoughnessBiasOfNoisyTexels) {
   const int seeds = 8;
   for (int seed = 0; seed < seeds; ++seed) {
     Truth truth;
-    Eigen::Vector3d lamp_position;
-    TexelData data = Synthesize(120, DegToRad(30), DegToRad(30), &truth, &lamp_position, 20 + seed);
+    MapsLamp lamp;
+    TexelData data = OneMaterial(120, &truth, &lamp, 20 + seed);
     std::mt19937 rng(40 + seed);
     std::normal_distribution<double> gauss(0, 1);
     for (auto& s : data.samples) {
@@ -495,13 +509,9 @@ TEST(IncidentalBias, TheBootstrapTakesOffTheRoughnessBiasOfNoisyTexels) {
         s.var_read[i] = static_cast<float>(s.var_read[i] + extra);
       }
     }
-    MapsLamp lamp;
-    lamp.position = lamp_position;
     TexelSolveOptions o = Options();
-    const TexelFit first =
-        FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, NoiseModel(), nullptr, o);
-    const NoiseModel noise = EstimateNoise(data, first, 0.0, o);
-    TexelFit fit = FitTexels(data, RoughnessMode::kSample, {}, 0, lamp, noise, &first, o);
+    NoiseModel noise;
+    TexelFit fit = FitWithItsNoise(data, lamp, o, &noise);
     const double fitted = RadToDeg(fit.cluster_r[0]) - 30;
     CorrectIncidentalBias(data, o, IncidentalBiasOptions(), &fit);
     ASSERT_EQ(fit.cluster_r_bias.size(), 1u);
@@ -522,10 +532,8 @@ TEST(IncidentalBias, TheBootstrapTakesOffTheRoughnessBiasOfNoisyTexels) {
 
 TEST(IncidentalBias, NothingWithoutASharedRoughnessOrWhenOff) {
   Truth truth;
-  Eigen::Vector3d lamp_position;
-  const TexelData data = Synthesize(12, DegToRad(30), DegToRad(30), &truth, &lamp_position);
   MapsLamp lamp;
-  lamp.position = lamp_position;
+  const TexelData data = OneMaterial(12, &truth, &lamp);
   const TexelSolveOptions o = Options();
   TexelFit texel = FitTexels(data, RoughnessMode::kTexel, {}, 0, lamp, NoiseModel(), nullptr, o);
   EXPECT_TRUE(IncidentalRoughnessBias(data, texel, o, IncidentalBiasOptions()).empty());
