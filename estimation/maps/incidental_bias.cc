@@ -24,12 +24,12 @@ std::vector<uint8_t> Subsample(const TexelFit& fit, size_t wanted) {
   std::vector<uint8_t> keep(fit.fitted.size(), 0);
   size_t sharing = 0;
   for (size_t t = 0; t < fit.fitted.size(); ++t) {
-    sharing += fit.fitted[t] && (fit.edge.empty() || !fit.edge[t]);
+    sharing += fit.fitted[t] && !fit.edges.Edge(t);
   }
   const size_t step = std::max<size_t>(1, sharing / std::max<size_t>(1, wanted));
   size_t i = 0;
   for (size_t t = 0; t < fit.fitted.size(); ++t) {
-    if (fit.fitted[t] && (fit.edge.empty() || !fit.edge[t])) keep[t] = i++ % step == 0;
+    if (fit.fitted[t] && !fit.edges.Edge(t)) keep[t] = i++ % step == 0;
   }
   return keep;
 }
@@ -46,42 +46,36 @@ std::vector<double> IncidentalRoughnessBias(const TexelData& data, const TexelFi
   TexelData sub = data;
   sub.mask = start.fitted;
   const int C = data.channels;
-  // Per view the prediction and one standard normal draw per kept sample.
-  std::vector<std::vector<float>> predicted(data.views.size()), draw(data.views.size());
-  std::mt19937_64 rng(options.seed);
-  std::normal_distribution<double> gauss(0, 1);
   for (size_t v = 0; v < data.views.size(); ++v) {
-    if (data.samples[v].valid.empty()) continue;
-    predicted[v] = PredictView(data, start, v);
-    draw[v].assign(predicted[v].size(), 0.f);
-    for (size_t t = 0; t < data.grid.size(); ++t) {
-      sub.samples[v].valid[t] = sub.samples[v].valid[t] && start.fitted[t];
-      for (int c = 0; c < C && sub.samples[v].valid[t]; ++c) {
-        draw[v][t * C + c] = static_cast<float>(gauss(rng));
-      }
-    }
+    std::vector<uint8_t>& valid = sub.samples[v].valid;
+    for (size_t t = 0; t < valid.size(); ++t) valid[t] = valid[t] && start.fitted[t];
   }
   MapsLamp lamp = fit.lamp;
   lamp.refine_position = false;
   TexelSolveOptions refit_options = solve;
   refit_options.shared_step_sd = std::min(solve.shared_step_sd, 0.02);
-  const TexelEdges edges{fit.edge_offset, fit.edge};
   std::vector<double> bias(fit.cluster_r.size(), 0.0);
   for (double sign : {1.0, -1.0}) {
+    // The same draws for both signs: the generator restarted from the seed.
+    std::mt19937_64 rng(options.seed);
+    std::normal_distribution<double> gauss(0, 1);
     for (size_t v = 0; v < data.views.size(); ++v) {
       ViewSamples& s = sub.samples[v];
-      for (size_t t = 0; t < data.grid.size() && !s.valid.empty(); ++t) {
+      if (s.valid.empty()) continue;
+      const std::vector<float> predicted = PredictView(data, start, v);
+      for (size_t t = 0; t < data.grid.size(); ++t) {
         for (int c = 0; c < C && s.valid[t]; ++c) {
           const size_t i = t * C + c;
-          const double L = predicted[v][i];
+          const double L = predicted[i];
           const double sd =
               std::sqrt(std::max(0.0, fit.noise.Variance(c, s.var_read[i], s.var_shot[i], L)));
-          s.radiance[i] = static_cast<float>(L + sign * sd * draw[v][i]);
+          const float draw = static_cast<float>(gauss(rng));
+          s.radiance[i] = static_cast<float>(L + sign * sd * draw);
         }
       }
     }
     const TexelFit refit = FitTexels(sub, fit.mode, fit.cluster, fit.clusters, lamp, fit.noise,
-                                     &start, refit_options, edges);
+                                     &start, refit_options, fit.edges);
     for (size_t k = 0; k < bias.size(); ++k) bias[k] += 0.5 * refit.cluster_r[k];
   }
   for (size_t k = 0; k < bias.size(); ++k) bias[k] -= fit.cluster_r[k];

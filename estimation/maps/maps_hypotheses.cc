@@ -168,8 +168,7 @@ NoiseModel NoiseWithoutEdges(const TexelData& data, const TexelFit& features,
                              const TexelEdges& edges, const MapsOptions& o,
                              const TexelSolveOptions& so) {
   TexelFit inner = features;
-  inner.edge = edges.edge;
-  inner.edge_offset = edges.offset;
+  inner.edges = edges;
   return EstimateNoise(data, inner, o.relative_noise_floor, so);
 }
 

@@ -109,8 +109,8 @@ void WriteMaterials(const fs::path& dir, const MapsResult& r) {
   WriteAtomically(dir / "mask.png",
                   [&](const fs::path& tmp) { return cv::imwrite(tmp.string(), mask); });
   cv::Mat edges(d.grid.height, d.grid.width, CV_8U, cv::Scalar(0));
-  for (size_t t = 0; t < r.fit.edge.size(); ++t) {
-    if (r.fit.fitted[t] && r.fit.edge[t])
+  for (size_t t = 0; t < r.fit.edges.edge.size(); ++t) {
+    if (r.fit.fitted[t] && r.fit.edges.edge[t])
       edges.at<uint8_t>(static_cast<int>(t / d.grid.width), t % d.grid.width) = 255;
   }
   WriteAtomically(dir / "edges.png",

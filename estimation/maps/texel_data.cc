@@ -137,10 +137,8 @@ double TexelData::SampleReach(size_t v, const Eigen::Vector3d& p,
 }
 
 double TexelData::SampleReach(size_t v, const Eigen::Vector3d& p) const {
-  const Eigen::Vector3d to_cam = views[v].camera_in_board - p;
-  const double stretched =
-      views[v].support_rad * to_cam.squaredNorm() / std::max(std::abs(to_cam.z()), 1e-9);
-  return std::max(reach_m, stretched + 0.5 * grid.texel);
+  const Eigen::Vector2d tilt = (views[v].camera_in_board - p).head<2>();
+  return SampleReach(v, p, tilt.norm() > 0 ? tilt.normalized() : Eigen::Vector2d::UnitX());
 }
 
 // Per texel of `grid`, how far inside `region` its centre lies and the direction to the

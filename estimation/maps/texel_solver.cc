@@ -527,10 +527,8 @@ TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<
   s.cluster = use_clusters ? &clusters : &one;
   fit.clusters = use_clusters ? k : 1;
   fit.cluster = *s.cluster;
-  fit.edge = edges.edge;
-  fit.edge_offset = edges.offset;
-  s.edge = &fit.edge;
-  s.edge_offset = &fit.edge_offset;
+  fit.edges = edges;
+  s.edges = &fit.edges;
   const int n_r = fit.clusters;
   s.cluster_r.assign(n_r, s.info.roughness_start);
   if (start && static_cast<int>(start->cluster_r.size()) == n_r &&

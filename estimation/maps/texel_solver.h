@@ -85,6 +85,34 @@ struct TexelSolveOptions {
 };
 
 // One set of maps and what it cost.
+// The texels and samples that mix two materials under a fit's clusters (docs/maps.md "Material
+// edges"); empty with one material.
+struct TexelEdges {
+  // Per texel: 1 where every view's sample of it mixes two materials. Such an edge texel is
+  // solved from all its samples given the shared values but enters neither their system, the
+  // noise model, chi2 nor the BIC; its standard deviations are scaled by the square root of its
+  // own chi2 per degree of freedom where that exceeds 1.
+  std::vector<uint8_t> edge;
+  // Per texel: MaterialEdgeOffsets (texels). Any other texel leaves out the views whose samples
+  // of it mix materials (Uses).
+  std::vector<Eigen::Vector2f> offset;
+  bool empty() const { return edge.empty(); }
+  bool Edge(size_t t) const { return !edge.empty() && edge[t]; }
+  // Whether view v's sample of texel t reaches the nearest texel of another material
+  // (TexelData::SampleReach towards it, against its distance less half a texel).
+  bool Mixes(const TexelData& data, size_t t, size_t v) const {
+    if (offset.empty() || !std::isfinite(offset[t].x())) return false;
+    const Eigen::Vector2d to_other = offset[t].cast<double>();
+    const double d = to_other.norm();
+    return (d - 0.5) * data.grid.texel < data.SampleReach(v, data.grid.Centre(t), to_other / d);
+  }
+  // Whether view v's sample of texel t enters a fit: not where it mixes, unless every view's
+  // does (an edge texel, fitted from all).
+  bool Uses(const TexelData& data, size_t t, size_t v) const {
+    return Edge(t) || !Mixes(data, t, v);
+  }
+};
+
 struct TexelFit {
   RoughnessMode mode = RoughnessMode::kSample;
   MapsModel model = MapsModel::kOrenNayar;
@@ -94,14 +122,7 @@ struct TexelFit {
   std::vector<uint8_t> fitted;
   std::vector<int> cluster;  // per texel (0 .. clusters-1), -1 where not fitted
   int clusters = 1;
-  // Per texel (empty: none): 1 where every view's sample of the texel mixes two materials
-  // (TexelEdges). Such a texel is solved from all its samples given the shared values but
-  // enters neither their system, the noise model, chi2 nor the BIC; its standard deviations
-  // are scaled by the square root of its own chi2 per degree of freedom where that exceeds 1.
-  std::vector<uint8_t> edge;
-  // Per texel (empty: none): MaterialEdgeOffsets. Any other texel leaves out the views whose
-  // samples of it mix materials (SampleUsed).
-  std::vector<Eigen::Vector2f> edge_offset;
+  TexelEdges edges;                             // empty: none
   std::vector<double> cluster_r, cluster_r_sd;  // kSample / kClusters; sd NaN: data never reach it
   // Per shared roughness value, the incidental parameters' bias measured and subtracted from
   // cluster_r (incidental_bias.h); empty: not corrected.
@@ -123,36 +144,16 @@ struct TexelFit {
   double seconds = 0;
 };
 
-// The texels and samples that mix two materials under a fit's clusters (docs/maps.md "Material
-// edges"); empty with one material.
-struct TexelEdges {
-  std::vector<Eigen::Vector2f> offset;  // per texel: MaterialEdgeOffsets (texels)
-  std::vector<uint8_t> edge;  // per texel: every view's sample of it mixes (TexelFit::edge)
-  bool empty() const { return edge.empty(); }
-};
-
-// Whether view v's sample of texel t enters a fit with these edges (TexelFit::edge and
-// edge_offset): not where it reaches the nearest texel of another material (TexelData::
-// SampleReach towards it, against its distance less half a texel), unless every view's does (an
-// edge texel, fitted from all).
-inline bool SampleUsed(const TexelData& data, const std::vector<uint8_t>& edge,
-                       const std::vector<Eigen::Vector2f>& edge_offset, size_t t, size_t v) {
-  if (edge_offset.empty() || edge[t] || !std::isfinite(edge_offset[t].x())) return true;
-  const Eigen::Vector2d offset = edge_offset[t].cast<double>();
-  const double d = offset.norm();
-  return (d - 0.5) * data.grid.texel >= data.SampleReach(v, data.grid.Centre(t), offset / d);
-}
-
 // The texels and samples that mix materials under `label` (per texel, clusters 0 .. k-1), among
 // the texels `fit` fitted; empty with fewer than two clusters. An edge texel: no view that sees
-// it has a sample of it clear of the other material (SampleUsed).
+// it has a sample of it clear of the other material (TexelEdges::Mixes).
 TexelEdges EdgesOf(const TexelData& data, const TexelFit& fit, const std::vector<int>& label,
                    int k);
 
 // The fit of every texel in `mode` (kClusters: `clusters` per texel in [0, k)), from `start`
 // (its per-texel values and lamp) when given, else from a flat sample at the model's start
 // roughness and the given lamp. The shared parameters are updated `outer_iterations` times.
-// edges: the texels and samples that mix materials (TexelFit::edge, edge_distance).
+// edges: the texels and samples that mix materials (TexelFit::edges).
 TexelFit FitTexels(const TexelData& data, RoughnessMode mode, const std::vector<int>& clusters,
                    int k, const MapsLamp& lamp, const NoiseModel& noise, const TexelFit* start,
                    const TexelSolveOptions& options, const TexelEdges& edges = {});

@@ -83,8 +83,7 @@ Pass PassOf(const TexelData& data, const TexelFit& fit, const TexelSolveOptions&
   s.inv_slope_var = 1.0 / std::pow(std::tan(DegToRad(o.normal_prior_deg)), 2);
   s.inv_r_var = 1.0 / (o.roughness_prior * o.roughness_prior);
   s.cluster = &fit.cluster;
-  s.edge = &fit.edge;
-  s.edge_offset = &fit.edge_offset;
+  s.edges = &fit.edges;
   s.cluster_r = fit.cluster_r;
   SetLamp(data, fit.lamp, &s);
   return s;

@@ -42,9 +42,7 @@ struct Pass {
   double intensity = 1;
   NoiseModel noise;
   const std::vector<int>* cluster = nullptr;
-  const std::vector<uint8_t>* edge = nullptr;  // per texel, or empty: TexelFit::edge
-  const std::vector<Eigen::Vector2f>* edge_offset =
-      nullptr;  // per texel, or empty: its edge_offset
+  const TexelEdges* edges = nullptr;  // TexelFit::edges
   std::vector<double> cluster_r;
   bool lamp_cols = false, intensity_col = false;  // shared columns besides a shared roughness
   bool lamp_held = false;  // lamp columns for the uncertainty only: the lamp does not move
@@ -57,11 +55,9 @@ struct Pass {
   int K() const { return shared_r() ? static_cast<int>(cluster_r.size()) : 0; }
   int GlobalShared() const { return K() + (lamp_cols ? 3 : 0) + (intensity_col ? 1 : 0); }
   // Whether texel t enters the shared parameters' system, chi2 and the BIC (not an edge).
-  bool Shares(size_t t) const { return !edge || edge->empty() || !(*edge)[t]; }
-  // Whether view v's sample of texel t enters the pass (SampleUsed: it mixes no materials).
-  bool Uses(size_t t, size_t v) const {
-    return !edge_offset || edge_offset->empty() || SampleUsed(*data, *edge, *edge_offset, t, v);
-  }
+  bool Shares(size_t t) const { return !edges || !edges->Edge(t); }
+  // Whether view v's sample of texel t enters the pass (TexelEdges::Uses).
+  bool Uses(size_t t, size_t v) const { return !edges || edges->Uses(*data, t, v); }
   double RoughnessOf(size_t t, const State& x) const {
     if (!info.has_roughness) return 0.0;
     return per_texel_r() ? x.r : cluster_r[(*cluster)[t]];

@@ -35,13 +35,12 @@ TexelEdges EdgesOf(const TexelData& data, const TexelFit& fit, const std::vector
   edges.offset = MaterialEdgeOffsets(fitted_label, data.grid.width, data.grid.height,
                                      farthest / data.grid.texel + 1.0);
   edges.edge.assign(label.size(), 0);
-  const std::vector<uint8_t> none(label.size(), 0);
   for (size_t t = 0; t < label.size(); ++t) {
     if (fitted_label[t] < 0 || !std::isfinite(edges.offset[t].x())) continue;
     bool clear = false;
     for (size_t v = 0; v < data.views.size() && !clear; ++v) {
       const ViewSamples& vs = data.samples[v];
-      clear = !vs.valid.empty() && vs.valid[t] && SampleUsed(data, none, edges.offset, t, v);
+      clear = !vs.valid.empty() && vs.valid[t] && !edges.Mixes(data, t, v);
     }
     edges.edge[t] = !clear;
   }
@@ -63,8 +62,8 @@ NoiseModel EstimateNoise(const TexelData& data, const TexelFit& fit, double floo
       if (vs.valid.empty()) continue;
       const std::vector<float> pred = PredictView(data, fit, v);
       for (size_t t = 0; t < data.grid.size(); ++t) {
-        if (!vs.valid[t] || !fit.fitted[t] || (!fit.edge.empty() && fit.edge[t])) continue;
-        if (!SampleUsed(data, fit.edge, fit.edge_offset, t, v)) continue;
+        if (!vs.valid[t] || !fit.fitted[t] || fit.edges.Edge(t)) continue;
+        if (fit.edges.Mixes(data, t, v)) continue;
         for (int c = 0; c < C; ++c) {
           const size_t i = t * C + c;
           if (!(pred[i] > 0)) continue;

@@ -165,7 +165,7 @@ double BandBias(const TexelFit& fit, const std::vector<int>& material,
     for (int c = 0; c < 3; ++c) {
       double sum[2] = {0, 0}, sum2[2] = {0, 0}, n[2] = {0, 0};
       for (size_t t = 0; t < material.size(); ++t) {
-        if (material[t] != m || fit.edge[t]) continue;
+        if (material[t] != m || fit.edges.Edge(t)) continue;
         const double e = fit.w[t * 3 + c] / kAlbedo[m][c] - 1;
         const int g = in_band[t];
         sum[g] += e, sum2[g] += e * e, n[g] += 1;
@@ -207,7 +207,7 @@ TEST(MaterialEdges, ObliqueViewsBlendsStayOutOfTheMaps) {
   std::vector<uint8_t> in_band(data.grid.size(), 0);
   for (size_t t = 0; t < data.grid.size(); ++t) {
     for (size_t v = 0; v < data.views.size(); ++v) {
-      in_band[t] = in_band[t] || !SampleUsed(data, edges.edge, edges.offset, t, v);
+      in_band[t] = in_band[t] || !edges.Uses(data, t, v);
     }
   }
   // Two columns each side: between the head-on reach and the 62 deg views' towards the edge.
