@@ -16,12 +16,56 @@
 #include <cmath>
 #include <string>
 
+#include <Eigen/Core>
+
 #include "common/math.h"
 #include "reflectance/angles.h"
 #include "reflectance/lambert.h"
 #include "reflectance/oren_nayar.h"
 
 namespace gonio {
+
+// One observation's directions about the relief's unit normal n, to unit l (lamp) and v
+// (camera), as the terms of sfs_internal::AnglesOf (estimation/sfs/sfs_costs.h) before its
+// arctangents: theta_i = atan2(si, ci), theta_r = atan2(so, co), phi = atan2(phi_y, phi_x).
+// The bases take their trigonometric values from these directly: an angle's sine and cosine
+// are y / hypot(x, y) and x / hypot(x, y) of its atan2's arguments, the same values as
+// sin(atan2(y, x)) and cos(atan2(y, x)) to rounding and with the same derivatives, at a
+// fraction of the cost (the three atan2 and the sines, cosines and tangents of them were a
+// third of `gonio maps`'s time; docs/maps.md "Speed").
+template <typename T>
+struct ShadingGeometry {
+  T ci, si, co, so;  // cos and sin of theta_i, theta_r (si, so carry AnglesOf's 1e-14)
+  T phi_x, phi_y;    // l_t . v_t and |l_t x v_t| of the tangential projections
+  static ShadingGeometry FromDirections(const Eigen::Matrix<T, 3, 1>& n,
+                                        const Eigen::Matrix<T, 3, 1>& l,
+                                        const Eigen::Matrix<T, 3, 1>& v) {
+    using std::sqrt;
+    ShadingGeometry g;
+    g.ci = n.dot(l);
+    g.co = n.dot(v);
+    const Eigen::Matrix<T, 3, 1> lt = l - g.ci * n, vt = v - g.co * n;
+    g.si = sqrt(lt.squaredNorm() + T(1e-14));
+    g.so = sqrt(vt.squaredNorm() + T(1e-14));
+    g.phi_x = lt.dot(vt);
+    g.phi_y = sqrt(lt.cross(vt).squaredNorm() + T(1e-14));
+    return g;
+  }
+  // From angles (tests and tables): the same terms with hypot 1.
+  static ShadingGeometry FromAngles(const Angles<T>& a) {
+    using std::cos;
+    using std::sin;
+    return {cos(a.theta_i), sin(a.theta_i), cos(a.theta_r), sin(a.theta_r), cos(a.phi), sin(a.phi)};
+  }
+  Angles<T> ToAngles() const {
+    using std::atan2;
+    return {atan2(si, ci), atan2(so, co), atan2(phi_y, phi_x)};
+  }
+  T CosPhi() const {
+    using std::sqrt;
+    return phi_x / sqrt(phi_x * phi_x + phi_y * phi_y);
+  }
+};
 
 enum class MapsModel { kLambert, kOrenNayarQualitative, kOrenNayar, kDiffuseGgx };
 
@@ -56,7 +100,8 @@ template <typename M>
 struct RegistryBasis {
   static constexpr int kChannelParams = 1;
   template <typename T>
-  static void Eval(const Angles<T>& a, const T& r, T* B, T* Q) {
+  static void Eval(const ShadingGeometry<T>& g, const T& r, T* B, T* Q) {
+    const Angles<T> a = g.ToAngles();
     if constexpr (M::kNumParams == 1) {
       const T one[1] = {T(1)};
       B[0] = M::Evaluate(one, a);
@@ -69,20 +114,28 @@ struct RegistryBasis {
 };
 
 // oren-nayar's two evaluations share their angles' trigonometry: the same read-off through
-// OrenNayar::FromTrig, with alpha, beta and their sines and tangents computed once (the same
-// operations as OrenNayar::Evaluate, so the same values).
+// OrenNayar::FromTrig, with alpha = max(theta_i, theta_r) and beta = min as OrenNayar::Evaluate
+// takes them, their sines, cosines and tangents from the geometry's terms (ShadingGeometry) and
+// tan((alpha + beta) / 2) = (sin alpha + sin beta) / (cos alpha + cos beta).
 template <>
 struct RegistryBasis<OrenNayar> {
   static constexpr int kChannelParams = 1;
   template <typename T>
-  static void Eval(const Angles<T>& a, const T& r, T* B, T* Q) {
-    using std::cos;
-    using std::sin;
-    using std::tan;
-    T alpha, beta;
-    oren_nayar_internal::AlphaBeta(a, &alpha, &beta);
-    const T cos_phi = cos(a.phi), sin_alpha = sin(alpha), tan_beta = tan(beta);
-    const T tan_half_sum = tan(T(0.5) * (alpha + beta));
+  static void Eval(const ShadingGeometry<T>& g, const T& r, T* B, T* Q) {
+    using std::atan2;
+    using std::sqrt;
+    const T theta_i = atan2(g.si, g.ci), theta_r = atan2(g.so, g.co);
+    const bool i_is_alpha = theta_i >= theta_r;  // oren_nayar_internal::AlphaBeta
+    const T& alpha = i_is_alpha ? theta_i : theta_r;
+    const T& beta = i_is_alpha ? theta_r : theta_i;
+    const T hi = sqrt(g.ci * g.ci + g.si * g.si), ho = sqrt(g.co * g.co + g.so * g.so);
+    const T sin_i = g.si / hi, cos_i = g.ci / hi, sin_o = g.so / ho, cos_o = g.co / ho;
+    const T& sin_alpha = i_is_alpha ? sin_i : sin_o;
+    const T& cos_alpha = i_is_alpha ? cos_i : cos_o;
+    const T& sin_beta = i_is_alpha ? sin_o : sin_i;
+    const T& cos_beta = i_is_alpha ? cos_o : cos_i;
+    const T cos_phi = g.CosPhi(), tan_beta = sin_beta / cos_beta;
+    const T tan_half_sum = (sin_alpha + sin_beta) / (cos_alpha + cos_beta);
     QuadraticReadOff(
         r,
         [&](const T* p) {
@@ -98,14 +151,13 @@ struct RegistryBasis<OrenNayar> {
 struct DiffuseGgxBasis {
   static constexpr int kChannelParams = 2;
   template <typename T>
-  static void Eval(const Angles<T>& a, const T& alpha, T* B, T* Q) {
-    using std::cos;
-    using std::sin;
+  static void Eval(const ShadingGeometry<T>& g, const T& alpha, T* B, T* Q) {
     using std::sqrt;
-    const T ci = cos(a.theta_i), si = sin(a.theta_i);
-    const T co = cos(a.theta_r), so = sin(a.theta_r);
+    const T hi = sqrt(g.ci * g.ci + g.si * g.si), ho = sqrt(g.co * g.co + g.so * g.so);
+    const T hp = sqrt(g.phi_x * g.phi_x + g.phi_y * g.phi_y);
+    const T ci = g.ci / hi, si = g.si / hi, co = g.co / ho, so = g.so / ho;
     // l = (si, 0, ci), v = (so cos phi, so sin phi, co): phi = 0 is backscatter.
-    const T hx = si + so * cos(a.phi), hy = so * sin(a.phi), hz = ci + co;
+    const T hx = si + so * g.phi_x / hp, hy = so * g.phi_y / hp, hz = ci + co;
     const T h2 = hx * hx + hy * hy + hz * hz;
     const T a2 = alpha * alpha;
     const T c2 = hz * hz / h2;  // cos^2 theta_h

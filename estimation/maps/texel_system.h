@@ -82,8 +82,7 @@ bool Observation(const Eigen::Vector3d& pt, const Eigen::Vector3d& camera, const
   const Vec3<T> v = (camera - pt).normalized().cast<T>();
   const T ci = n.dot(l), co = n.dot(v);
   if (!(ci > T(kMinCos)) || !(co > T(kMinCos))) return false;
-  const Angles<T> a = sfs_internal::AnglesOf(n, l, v);
-  Basis::Eval(a, r, B, Q);
+  Basis::Eval(ShadingGeometry<T>::FromDirections(n, l, v), r, B, Q);
   *E = ci / d2;
   return true;
 }

@@ -8,6 +8,7 @@
 #include <random>
 #include <stdexcept>
 
+#include <ceres/jet.h>
 #include <gtest/gtest.h>
 
 #include "common/error.h"
@@ -18,6 +19,7 @@
 #include "estimation/maps/maps.h"
 #include "estimation/maps/texel_model.h"
 #include "estimation/maps/texel_solver.h"
+#include "estimation/sfs/sfs_costs.h"
 #include "reflectance/oren_nayar.h"
 #include "tests/estimation/maps/texel_views_synthesis.h"
 
@@ -128,17 +130,41 @@ Errors Judge(const TexelFit& f, const Truth& truth) {
 }
 
 TEST(TexelModel, RegistryBasisIsTheRegistryModel) {
-  // f(rho) = B rho + Q rho^2 must reproduce oren-nayar's value at any albedo.
+  // f(rho) = B rho + Q rho^2 from the geometry's terms must reproduce oren-nayar's value at any
+  // albedo, with the angles as sfs_internal::AnglesOf takes them from the same directions, and
+  // the same derivatives (a Jet along the normal's tilt and the roughness).
+  using J = ceres::Jet<double, 2>;
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(0, 1);
-  for (int k = 0; k < 200; ++k) {
-    const Angles<double> a{1.4 * u(rng), 1.4 * u(rng), kPi * u(rng)};
+  auto direction = [&](double max_theta) {
+    const double th = max_theta * u(rng), ph = 2 * kPi * u(rng);
+    return Eigen::Vector3d(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+  };
+  for (int k = 0; k < 400; ++k) {
+    // k < 20: the camera on the lamp (phi undefined) and at the normal.
+    const Eigen::Vector3d l = direction(1.5);
+    const Eigen::Vector3d v = k < 10 ? l : k < 20 ? Eigen::Vector3d(0, 0, 1) : direction(1.5);
+    const double tilt = 0.3 * (u(rng) - 0.5);
     const double rho = u(rng), sigma = 0.9 * u(rng);
-    double B[1], Q[1];
-    RegistryBasis<OrenNayar>::Eval(a, sigma, B, Q);
-    const double params[2] = {rho, sigma};
-    EXPECT_NEAR(B[0] * rho + Q[0] * rho * rho, OrenNayar::Evaluate(params, a),
-                1e-12 * (1 + OrenNayar::Evaluate(params, a)));
+    const J jt(tilt, 0), js(sigma, 1);
+    const Eigen::Matrix<J, 3, 1> n(sin(jt), J(0), cos(jt));
+    const Eigen::Matrix<J, 3, 1> lj = l.cast<J>(), vj = v.cast<J>();
+    J B[1], Q[1];
+    RegistryBasis<OrenNayar>::Eval(ShadingGeometry<J>::FromDirections(n, lj, vj), js, B, Q);
+    const J params[2] = {J(rho), js};
+    const J want = OrenNayar::Evaluate(params, sfs_internal::AnglesOf(n, lj, vj));
+    const J got = B[0] * rho + Q[0] * rho * rho;
+    const double scale = 1 + std::abs(want.a);
+    EXPECT_NEAR(got.a, want.a, 1e-12 * scale) << k;
+    EXPECT_NEAR(got.v[0], want.v[0], 1e-9 * (1 + std::abs(want.v[0]))) << k;
+    EXPECT_NEAR(got.v[1], want.v[1], 1e-9 * (1 + std::abs(want.v[1]))) << k;
+    // diffuse-ggx: the geometry's terms against the same angles' sines and cosines.
+    const Eigen::Vector3d nd(std::sin(tilt), 0, std::cos(tilt));
+    double Bg[2], Qg[2], Ba[2], Qa[2];
+    DiffuseGgxBasis::Eval(ShadingGeometry<double>::FromDirections(nd, l, v), sigma, Bg, Qg);
+    DiffuseGgxBasis::Eval(ShadingGeometry<double>::FromAngles(sfs_internal::AnglesOf(nd, l, v)),
+                          sigma, Ba, Qa);
+    EXPECT_NEAR(Bg[1], Ba[1], 1e-9 * (1 + Ba[1])) << k;
   }
 }
 
@@ -152,7 +178,7 @@ TEST(TexelModel, GgxDistributionIsNormalised) {
     for (int i = 0; i < n; ++i) {
       const double th = (i + 0.5) / n * 0.5 * kPi;
       double B[2], Q[2];
-      DiffuseGgxBasis::Eval(Angles<double>{th, th, 0.0}, alpha, B, Q);
+      DiffuseGgxBasis::Eval(ShadingGeometry<double>::FromAngles({th, th, 0.0}), alpha, B, Q);
       const double t2 = std::tan(th) * std::tan(th);
       const double g1 = 2 / (1 + std::sqrt(1 + alpha * alpha * t2));
       const double D = 4 * std::cos(th) * std::cos(th) * B[1] / (g1 * g1);
