@@ -103,8 +103,8 @@ void CorrectIncidentalBias(const TexelData& data, const TexelSolveOptions& solve
     const size_t k = one ? 0 : static_cast<size_t>(std::max(0, fit->cluster[t]));
     if (k < fit->cluster_r.size()) fit->r[t] = static_cast<float>(fit->cluster_r[k]);
   }
-  spdlog::info("maps: the shared roughness less the per-texel fits' bias ({})",
-               fmt::join(fit->cluster_r_bias, ", "));
+  spdlog::info("maps: the shared roughness less the per-texel fits' bias ({:+.2g} {})",
+               fmt::join(fit->cluster_r_bias, ", "), InfoOf(fit->model).roughness_unit);
 }
 
 }  // namespace gonio

@@ -253,10 +253,21 @@ class SharedFit {
       const Eigen::VectorXd scaled = delta.cwiseQuotient(widen);
       const double tolerance = o_.shared_step_sd * o_.shared_step_sd;
       if (!delta.allFinite() || scaled.dot(H_ * scaled) < tolerance) break;
-      const bool moved = TryStep(delta);
+      // The step's gain as the reduced system predicts it, against what the texel passes can
+      // resolve: each texel stops where its own step would gain less than kTolerance, so a
+      // shared step worth less than that over the texels moves few of them and the pass's
+      // cost cannot confirm it (textured-3mat's final fit: 0.3 predicted against 250, two
+      // passes of 2 s each and "no gain"). Such a step is within the texels' convergence of
+      // the optimum: taken as Gauss-Newton gives it, unverified, and the steps go on until one
+      // is below the tolerance (the bias bootstrap's refits need them: incidental_bias.h).
+      const double predicted = -(2 * delta.dot(g_) + delta.dot(H_ * delta));
+      const bool resolvable = predicted >= kTolerance * static_cast<double>(SharingTexels());
+      const bool moved = resolvable ? TryStep(delta) : TakeStep(delta);
       spdlog::debug("maps: shared step {}: cost {:.6g}, lamp ({:.4f}, {:.4f}, {:.4f}), {}", it,
                     cost_, lamp_.position.x(), lamp_.position.y(), lamp_.position.z(),
-                    moved ? "taken" : "no gain");
+                    !resolvable ? "taken below the texels' resolution"
+                    : moved     ? "taken"
+                                : "no gain");
       if (!moved) break;
     }
   }
@@ -301,22 +312,32 @@ class SharedFit {
     });
   }
 
-  // The maps, chi2 and BIC over the texels that share; the edge texels' standard deviations
-  // scaled by their own misfit.
-  void Outputs() {
+  // The maps and shared values (TexelSolveOptions::values_only: nothing else).
+  void Values() {
     fit_->w.assign(n_ * cm_, 0.f);
     fit_->p.assign(n_, 0.f);
     fit_->q.assign(n_, 0.f);
     fit_->r.assign(n_, 0.f);
-    fit_->chi2 = fit_->edge_chi2 = 0;
-    fit_->residuals = fit_->edge_residuals = fit_->edge_texels = 0;
-    size_t fitted = 0;
     for (size_t t = 0; t < n_; ++t) {
       if (!fit_->fitted[t]) continue;
       for (int k = 0; k < cm_; ++k) fit_->w[t * cm_ + k] = static_cast<float>(x_[t].w[k]);
       fit_->p[t] = static_cast<float>(x_[t].p);
       fit_->q[t] = static_cast<float>(x_[t].q);
       fit_->r[t] = static_cast<float>(s_.RoughnessOf(t, x_[t]));
+    }
+    fit_->cluster_r = s_.cluster_r;
+    fit_->lamp = lamp_;
+  }
+
+  // The maps, chi2 and BIC over the texels that share; the edge texels' standard deviations
+  // scaled by their own misfit.
+  void Outputs() {
+    Values();
+    fit_->chi2 = fit_->edge_chi2 = 0;
+    fit_->residuals = fit_->edge_residuals = fit_->edge_texels = 0;
+    size_t fitted = 0;
+    for (size_t t = 0; t < n_; ++t) {
+      if (!fit_->fitted[t]) continue;
       size_t nr = 0;
       const double chi2 = TexelCost<Basis>(s_, t, x_[t], &nr);
       if (s_.Shares(t)) {
@@ -330,8 +351,6 @@ class SharedFit {
       fit_->edge_residuals += nr;
       ScaleEdgeSd(t, chi2, nr);
     }
-    fit_->cluster_r = s_.cluster_r;
-    fit_->lamp = lamp_;
     fit_->parameters = fitted * s_.P() + s_.GlobalShared();
     fit_->bic =
         fit_->chi2 + static_cast<double>(fit_->parameters) *
@@ -432,6 +451,34 @@ class SharedFit {
     WhiteSystem(s_, lamp_, il_, ii_, &H_, &g_);
   }
 
+  size_t SharingTexels() const {
+    size_t n = 0;
+    for (size_t t = 0; t < n_; ++t) n += fit_->fitted[t] && s_.Shares(t);
+    return n;
+  }
+
+  // The shared values moved by `step` x `delta`, the texels solved again from `x_old`.
+  double MoveShared(const std::vector<double>& r_old, const MapsLamp& lamp_old,
+                    const std::vector<State>& x_old, const Eigen::VectorXd& delta, double step) {
+    for (int k = 0; k < K_; ++k) {
+      s_.cluster_r[k] =
+          std::clamp(r_old[k] + step * delta(k), s_.info.roughness_lo, s_.info.roughness_hi);
+    }
+    if (il_ >= 0) lamp_.position = lamp_old.position + step * delta.segment<3>(il_);
+    if (ii_ >= 0) lamp_.intensity = std::max(1e-12, lamp_old.intensity + step * delta(ii_));
+    SetLamp(data_, lamp_, &s_);
+    x_ = x_old;
+    ++fit_->outer_iterations;
+    return TexelPass();
+  }
+
+  // The whole step, unverified (UpdateShared: below the texels' resolution).
+  bool TakeStep(const Eigen::VectorXd& delta) {
+    const std::vector<State> x_old = x_;
+    cost_ = MoveShared(s_.cluster_r, lamp_, x_old, delta, 1.0);
+    return true;
+  }
+
   // The shared values moved by `delta`, or a quarter of it when the whole step does not lower
   // the cost; false (the old values and texels kept) when neither does.
   bool TryStep(const Eigen::VectorXd& delta) {
@@ -440,16 +487,7 @@ class SharedFit {
     const std::vector<State> x_old = x_;
     const std::vector<uint8_t> fitted_old = fit_->fitted;
     for (double step : {1.0, 0.25}) {
-      for (int k = 0; k < K_; ++k) {
-        s_.cluster_r[k] =
-            std::clamp(r_old[k] + step * delta(k), s_.info.roughness_lo, s_.info.roughness_hi);
-      }
-      if (il_ >= 0) lamp_.position = lamp_old.position + step * delta.segment<3>(il_);
-      if (ii_ >= 0) lamp_.intensity = std::max(1e-12, lamp_old.intensity + step * delta(ii_));
-      SetLamp(data_, lamp_, &s_);
-      x_ = x_old;
-      const double c = TexelPass();
-      ++fit_->outer_iterations;
+      const double c = MoveShared(r_old, lamp_old, x_old, delta, step);
       if (c <= cost_) {
         cost_ = c;
         return true;
@@ -493,6 +531,7 @@ void RunFit(const TexelData& data, Pass& s, const TexelFit* start, const MapsLam
             const TexelSolveOptions& o, TexelFit* fit) {
   SharedFit<Basis> f(data, s, lamp, o, fit);
   f.Start(start);
+  if (o.values_only) return f.Values();
   f.UpdateShared();
   f.Uncertainty();
   f.Outputs();

@@ -80,6 +80,9 @@ struct TexelSolveOptions {
   // deviations as reported (widened by the views' scatter; texel_solver.cc UpdateShared).
   double shared_step_sd = 0.1;
   size_t min_views = 4;  // a texel seen in fewer views is not fitted
+  // The texels' values given the shared ones alone: no shared steps, standard deviations,
+  // chi2 or BIC (a start and the materials' features; maps_hypotheses.cc FinalFit).
+  bool values_only = false;
   int threads = 0;
   void Check() const;  // InputError naming the option
 };

@@ -466,6 +466,28 @@ TEST(TexelSolver, SharedStepsStopAtATenthOfTheReportedStandardDeviation) {
   EXPECT_THROW(bad.Check(), InputError);
 }
 
+// values_only (the labels' pass of the final fit): the same texels' values as the whole fit
+// under the same shared values, and nothing that the whole fit adds.
+TEST(TexelSolver, ValuesOnlyGivesTheSameValuesAndNoStandardDeviations) {
+  Truth truth;
+  MapsLamp lamp;
+  const TexelData data = OneMaterial(16, &truth, &lamp);
+  TexelSolveOptions whole = Options(), values = Options();
+  values.values_only = true;
+  const TexelFit a =
+      FitTexels(data, RoughnessMode::kTexel, {}, 0, lamp, NoiseModel(), nullptr, whole);
+  const TexelFit b =
+      FitTexels(data, RoughnessMode::kTexel, {}, 0, lamp, NoiseModel(), nullptr, values);
+  EXPECT_EQ(a.fitted, b.fitted);
+  EXPECT_EQ(a.w, b.w);
+  EXPECT_EQ(a.p, b.p);
+  EXPECT_EQ(a.r, b.r);
+  EXPECT_FALSE(a.sd_w.empty());
+  EXPECT_TRUE(b.sd_w.empty());
+  EXPECT_GT(a.residuals, 0u);
+  EXPECT_EQ(b.residuals, 0u);
+}
+
 // A lamp placed by an earlier fit and held (MapsLamp::position_fitted): it does not move, and
 // the roughness's standard deviation carries its uncertainty, wider than with a known lamp.
 TEST(TexelSolver, AHeldFittedLampKeepsItsUncertainty) {
