@@ -44,14 +44,12 @@ PhotometricCalibration LoadPhotometricFor(const Session& session, const std::str
         "response` and `gonio photometric vignette` (docs/photometric.md) and pass "
         "--photometric, or pass --assume-linear to accept a linear camera without vignetting");
   }
-  const int bits = session.bit_depth ? session.bit_depth : 8;
   in->photometric_source = "assumed";
-  in->assumptions.push_back(fmt::format(
-      "no photometric calibration: a linear camera with black level 0 and no vignetting "
-      "({} bit) was assumed",
-      bits));
-  spdlog::warn("{}", in->assumptions.back());
-  return PhotometricCalibration::Linear(bits, 1, 0.0, BlackLevelSource::kAssumed);
+  std::string assumption;
+  PhotometricCalibration p = PhotometricCalibration::AssumedLinearFor(session, &assumption);
+  in->assumptions.push_back(assumption);
+  spdlog::warn("{}", assumption);
+  return p;
 }
 
 RunInputs LoadRunInputs(const fs::path& session_dir, const std::string& camera_path,

@@ -83,6 +83,18 @@ void PhotometricCalibration::ToRadiance(const cv::Mat& raw, double exposure_s, d
   });
 }
 
+PhotometricCalibration PhotometricCalibration::AssumedLinearFor(const Session& session,
+                                                                std::string* assumption) {
+  if (session.frames.empty()) throw InputError(session.dir.string() + ": no frames");
+  const cv::Mat first = ReadImage(session.FramePath(0), ImageExpectation());
+  const int bits = session.bit_depth > 0 ? session.bit_depth : (first.depth() == CV_8U ? 8 : 16);
+  *assumption = fmt::format(
+      "no photometric calibration: a linear camera with black level 0 and no vignetting ({} "
+      "bit) was assumed (--assume-linear)",
+      bits);
+  return Linear(bits, first.channels(), 0.0, BlackLevelSource::kAssumed);
+}
+
 double PhotometricCalibration::CombinedAccuracy(const ResponseResult& response,
                                                 double vignette_rms_relative) {
   return std::min(

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/photometry/response.h"
+#include "common/session.h"
 
 namespace gonio {
 
@@ -86,6 +87,10 @@ struct PhotometricCalibration {
   // says where the black level came from (response.json black_level_source).
   static PhotometricCalibration Linear(int bit_depth, int channels, double black_level,
                                        BlackLevelSource source);
+  // The linear camera `--assume-linear` takes for `session` without a calibration: the
+  // session's bit depth (else its first frame's container: 8 or 16), the first frame's
+  // channels, black level 0, no vignetting. *assumption: the sentence the result records.
+  static PhotometricCalibration AssumedLinearFor(const Session& session, std::string* assumption);
 
   // radiance: CV_32FC(channels), variance: same, valid: CV_8U (0 where a channel is saturated
   // or at/below the black level, where no radiance can be read). threads: rows converted in

@@ -55,14 +55,9 @@ MapsSessionInputs LoadMapsSessionInputs(const fs::path& session_dir, const std::
                                    in.session.bit_depth));
     }
   } else if (assume_linear) {
-    if (in.session.frames.empty()) throw InputError(session_dir.string() + ": no frames");
-    const cv::Mat first = ReadImage(in.session.FramePath(0), ImageExpectation());
-    const int bits =
-        in.session.bit_depth > 0 ? in.session.bit_depth : (first.depth() == CV_8U ? 8 : 16);
-    in.photometric =
-        PhotometricCalibration::Linear(bits, first.channels(), 0.0, BlackLevelSource::kAssumed);
-    in.assumptions.push_back(fmt::format(
-        "a linear camera ({} bits, black level 0, no vignetting): --assume-linear", bits));
+    std::string assumption;
+    in.photometric = PhotometricCalibration::AssumedLinearFor(in.session, &assumption);
+    in.assumptions.push_back(assumption);
   } else {
     throw InputError(
         "no photometric calibration: give --photometric photometric.json (gonio photometric "

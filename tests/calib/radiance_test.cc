@@ -345,5 +345,33 @@ TEST_F(HdrSynthetic, CliApplyAndHdr) {
   EXPECT_EQ(testing::MessageLines(r.err), 1) << r.err;
 }
 
+// --assume-linear (gonio run and gonio maps alike): the frames' channels and bit depth, read from
+// the first frame, not a grey camera (an RGB session had failed "3 channel(s), assumed has 1").
+TEST(PhotometricAssumed, LinearCameraTakesTheFramesChannelsAndDepth) {
+  testing::TempDir dir;
+  Session session;
+  session.frames.resize(1);
+  session.frames[0].file = "frame_0000.png";
+  session.frames[0].exposure_s = 0.01;
+  session.dir = dir.path();
+  cv::imwrite((dir.path() / "frame_0000.png").string(),
+              cv::Mat(8, 8, CV_16UC3, cv::Scalar::all(9)));
+  std::string assumption;
+  const PhotometricCalibration rgb = PhotometricCalibration::AssumedLinearFor(session, &assumption);
+  EXPECT_EQ(rgb.response.channels, 3);
+  EXPECT_EQ(rgb.response.bit_depth, 16);
+  EXPECT_NE(assumption.find("--assume-linear"), std::string::npos) << assumption;
+  cv::imwrite((dir.path() / "frame_0000.png").string(), cv::Mat(8, 8, CV_8UC1, cv::Scalar::all(9)));
+  session.bit_depth = 0;
+  const PhotometricCalibration grey =
+      PhotometricCalibration::AssumedLinearFor(session, &assumption);
+  EXPECT_EQ(grey.response.channels, 1);
+  EXPECT_EQ(grey.response.bit_depth, 8);
+  session.bit_depth = 12;  // the session's own word wins over the container
+  EXPECT_EQ(PhotometricCalibration::AssumedLinearFor(session, &assumption).response.bit_depth, 12);
+  session.frames.clear();
+  EXPECT_THROW(PhotometricCalibration::AssumedLinearFor(session, &assumption), InputError);
+}
+
 }  // namespace
 }  // namespace gonio
