@@ -137,6 +137,13 @@ MapsResult SolveMaps(TexelData data, const MapsLamp& lamp_start, const MapsOptio
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
   MapsResult r;
+  if (const size_t bad = data.InvalidateNonFinite()) {
+    r.warnings.push_back(
+        fmt::format("{} samples with a non-finite radiance or variance left out (the frames or the "
+                    "calibration hold values that are not numbers)",
+                    bad));
+    spdlog::warn("{}", r.warnings.back());
+  }
   ViewSamples held;
   if (o.hold_out) {
     if (*o.hold_out >= static_cast<int>(data.views.size())) {

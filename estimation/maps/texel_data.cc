@@ -117,6 +117,40 @@ size_t TexelData::masked_texels() const {
   return static_cast<size_t>(std::count(mask.begin(), mask.end(), 1));
 }
 
+size_t TexelData::InvalidateNonFinite() {
+  auto bad = [](float L, float var_read, float var_shot) {
+    return !std::isfinite(L) || !(var_read >= 0) || !(var_shot >= 0) || !std::isfinite(var_read) ||
+           !std::isfinite(var_shot);
+  };
+  size_t n = 0;
+  for (ViewSamples& s : samples) {
+    size_t in_view = 0;
+    for (size_t t = 0; t < s.valid.size(); ++t) {
+      if (!s.valid[t]) continue;
+      bool invalid = false;
+      for (int c = 0; c < channels; ++c) {
+        const size_t i = t * channels + c;
+        invalid = invalid || bad(s.radiance[i], s.var_read[i], s.var_shot[i]);
+      }
+      s.valid[t] = !invalid;
+      in_view += invalid;
+    }
+    if (in_view) s.count = static_cast<size_t>(std::count(s.valid.begin(), s.valid.end(), 1));
+    n += in_view;
+  }
+  const size_t white_before = white.size();
+  white.erase(std::remove_if(white.begin(), white.end(),
+                             [&](const WhiteSample& w) {
+                               bool invalid = false;
+                               for (int c = 0; c < channels; ++c)
+                                 invalid =
+                                     invalid || bad(w.radiance[c], w.var_read[c], w.var_shot[c]);
+                               return invalid;
+                             }),
+              white.end());
+  return n + (white_before - white.size());
+}
+
 void TexelSamplingOptions::Check() const {
   if (!(texel_m >= 0 && texel_m <= 0.05)) throw InputError("--texel: must be in (0, 50] mm");
   if (!(edge_margin_px >= 0)) throw InputError("maps: the edge margin must be >= 0");

@@ -87,6 +87,11 @@ struct TexelData {
   // margin, so that no texel mixes sample and paper.
   double reach_m = 0;
   size_t masked_texels() const;
+  // Marks invalid every sample with a non-finite or negative-variance channel (radiance,
+  // read or shot variance), and drops such white samples; returns how many. No input gonio
+  // reads yields one, but the solver's sums would carry it into every map (SolveMaps calls
+  // it first).
+  size_t InvalidateNonFinite();
   // How far on the sample view v's sample of the point p reaches (metres) towards the unit
   // in-plane direction `towards`: the interpolation's support projected on the sample, an
   // ellipse whose half-width support_rad D across the view's tilt is stretched along it by

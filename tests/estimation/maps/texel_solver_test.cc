@@ -488,6 +488,53 @@ TEST(TexelSolver, ValuesOnlyGivesTheSameValuesAndNoStandardDeviations) {
   EXPECT_EQ(b.residuals, 0u);
 }
 
+// Stability: samples the solver cannot use (a non-finite radiance or variance, a black sample,
+// too few views) give finite maps or none, never a NaN in a map that is reported.
+TEST(TexelSolver, UnusableSamplesGiveFiniteMapsOrNone) {
+  Truth truth;
+  MapsLamp lamp;
+  const TexelData clean = OneMaterial(16, &truth, &lamp);
+  MapsOptions o;
+  o.model = MapsModel::kOrenNayar;
+  o.lamp = lamp.position;
+  o.roughness = RoughnessChoice::kSample;
+  auto finite = [](const TexelFit& f) {
+    for (const auto* v : {&f.w, &f.p, &f.q, &f.r, &f.sd_w, &f.sd_normal_deg, &f.sd_r}) {
+      for (size_t t = 0; t < v->size(); ++t) {
+        if (!std::isfinite((*v)[t])) return false;
+      }
+    }
+    return true;
+  };
+  TexelData nan = clean;
+  size_t poisoned = 0;
+  for (auto& s : nan.samples) {
+    for (size_t i = 0; i < s.radiance.size(); i += 7, ++poisoned) {
+      s.radiance[i] = std::numeric_limits<float>::quiet_NaN();
+      if (i % 3 == 0) s.var_shot[i] = std::numeric_limits<float>::infinity();
+    }
+  }
+  const MapsResult a = SolveMaps(std::move(nan), lamp, o);
+  EXPECT_TRUE(finite(a.fit));
+  ASSERT_EQ(a.fit.cluster_r.size(), 1u);
+  EXPECT_NEAR(RadToDeg(a.fit.cluster_r[0]), 30, 0.5);
+  ASSERT_FALSE(a.warnings.empty());
+  EXPECT_NE(a.warnings[0].find("non-finite"), std::string::npos) << a.warnings[0];
+  TexelData black = clean;  // no light back: albedo 0, the roughness unreached (sd NaN: "none")
+  for (auto& s : black.samples) std::fill(s.radiance.begin(), s.radiance.end(), 0.f);
+  const MapsResult b = SolveMaps(std::move(black), lamp, o);
+  EXPECT_TRUE(finite(b.fit));
+  for (float w : b.fit.w) EXPECT_EQ(w, 0.f);
+  TexelData few = clean;  // three views: below min_views, nothing fitted
+  for (size_t v = 3; v < few.samples.size(); ++v) {
+    std::fill(few.samples[v].valid.begin(), few.samples[v].valid.end(), 0);
+  }
+  const TexelFit c =
+      FitTexels(few, RoughnessMode::kSample, {}, 0, lamp, NoiseModel(), nullptr, Options());
+  EXPECT_EQ(std::count(c.fitted.begin(), c.fitted.end(), 1), 0);
+  EXPECT_TRUE(finite(c));
+}
+
 // A lamp placed by an earlier fit and held (MapsLamp::position_fitted): it does not move, and
 // the roughness's standard deviation carries its uncertainty, wider than with a known lamp.
 TEST(TexelSolver, AHeldFittedLampKeepsItsUncertainty) {
