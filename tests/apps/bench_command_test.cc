@@ -1,6 +1,6 @@
 // `gonio bench` end to end at the smoke size: the files each bench writes (the evaluation and
-// fitting bench, --stability, --pipeline, --plan, --sfs and --coverage), no timing asserts, and
-// the options it refuses. The benches' statistics are tested in tests/bench.
+// fitting bench, --stability, --pipeline, --plan, --sfs, --coverage and --maps), no timing asserts,
+// and the options it refuses. The benches' statistics are tested in tests/bench.
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -191,6 +191,28 @@ TEST(CoverageCli, AFirstSeedBelowOneIsAnInputError) {
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("--first-seed"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(out / "coverage.json"));
+}
+
+// `gonio bench --maps --smoke`: the maps of a small textured session timed and judged against
+// the truth, the held-out view of a rectified capture against the two baselines, and the
+// targets judged (the sessions' only at full size; the held-out views at every size).
+TEST(MapsBenchCli, SmokeJudgesTheHeldOutViewsTargets) {
+  testing::TempDir dir;
+  const auto r = testing::RunGonio("bench --maps --smoke --threads 2 --out " + dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "maps_bench.json");
+  ASSERT_EQ(j["sessions"].size(), 1u);
+  EXPECT_GT(j["sessions"][0]["total_s"].get<double>(), 0);
+  EXPECT_GT(j["sessions"][0]["peak_rss_mb"].get<double>(), 0);
+  ASSERT_EQ(j["held_out"].size(), 3u);  // one view, three models
+  ASSERT_EQ(j["targets"].size(), 3u) << j["targets"].dump(1);
+  for (const auto& c : j["targets"]) {
+    EXPECT_TRUE(c["met"].get<bool>()) << c.dump();
+    EXPECT_NE(c["what"].get<std::string>().find("held-out view"), std::string::npos);
+  }
+  EXPECT_TRUE(j["targets_met"].get<bool>());
+  EXPECT_NE(r.err.find("every target met"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "heldout.png"));
 }
 
 }  // namespace
