@@ -61,9 +61,15 @@ struct ShadingGeometry {
     using std::atan2;
     return {atan2(si, ci), atan2(so, co), atan2(phi_y, phi_x)};
   }
-  T CosPhi() const {
+  // The angles' cosines and sines: each atan2's arguments over their hypot.
+  struct Trig {
+    T cos_i, sin_i, cos_o, sin_o, cos_phi, sin_phi;
+  };
+  Trig Unit() const {
     using std::sqrt;
-    return phi_x / sqrt(phi_x * phi_x + phi_y * phi_y);
+    const T hi = sqrt(ci * ci + si * si), ho = sqrt(co * co + so * so);
+    const T hp = sqrt(phi_x * phi_x + phi_y * phi_y);
+    return {ci / hi, si / hi, co / ho, so / ho, phi_x / hp, phi_y / hp};
   }
 };
 
@@ -123,18 +129,17 @@ struct RegistryBasis<OrenNayar> {
   template <typename T>
   static void Eval(const ShadingGeometry<T>& g, const T& r, T* B, T* Q) {
     using std::atan2;
-    using std::sqrt;
     const T theta_i = atan2(g.si, g.ci), theta_r = atan2(g.so, g.co);
     const bool i_is_alpha = theta_i >= theta_r;  // oren_nayar_internal::AlphaBeta
     const T& alpha = i_is_alpha ? theta_i : theta_r;
     const T& beta = i_is_alpha ? theta_r : theta_i;
-    const T hi = sqrt(g.ci * g.ci + g.si * g.si), ho = sqrt(g.co * g.co + g.so * g.so);
-    const T sin_i = g.si / hi, cos_i = g.ci / hi, sin_o = g.so / ho, cos_o = g.co / ho;
-    const T& sin_alpha = i_is_alpha ? sin_i : sin_o;
-    const T& cos_alpha = i_is_alpha ? cos_i : cos_o;
-    const T& sin_beta = i_is_alpha ? sin_o : sin_i;
-    const T& cos_beta = i_is_alpha ? cos_o : cos_i;
-    const T cos_phi = g.CosPhi(), tan_beta = sin_beta / cos_beta;
+    const typename ShadingGeometry<T>::Trig u = g.Unit();
+    const T& sin_alpha = i_is_alpha ? u.sin_i : u.sin_o;
+    const T& cos_alpha = i_is_alpha ? u.cos_i : u.cos_o;
+    const T& sin_beta = i_is_alpha ? u.sin_o : u.sin_i;
+    const T& cos_beta = i_is_alpha ? u.cos_o : u.cos_i;
+    const T& cos_phi = u.cos_phi;
+    const T tan_beta = sin_beta / cos_beta;
     const T tan_half_sum = (sin_alpha + sin_beta) / (cos_alpha + cos_beta);
     QuadraticReadOff(
         r,
@@ -153,11 +158,10 @@ struct DiffuseGgxBasis {
   template <typename T>
   static void Eval(const ShadingGeometry<T>& g, const T& alpha, T* B, T* Q) {
     using std::sqrt;
-    const T hi = sqrt(g.ci * g.ci + g.si * g.si), ho = sqrt(g.co * g.co + g.so * g.so);
-    const T hp = sqrt(g.phi_x * g.phi_x + g.phi_y * g.phi_y);
-    const T ci = g.ci / hi, si = g.si / hi, co = g.co / ho, so = g.so / ho;
+    const typename ShadingGeometry<T>::Trig u = g.Unit();
+    const T &ci = u.cos_i, &si = u.sin_i, &co = u.cos_o, &so = u.sin_o;
     // l = (si, 0, ci), v = (so cos phi, so sin phi, co): phi = 0 is backscatter.
-    const T hx = si + so * g.phi_x / hp, hy = so * g.phi_y / hp, hz = ci + co;
+    const T hx = si + so * u.cos_phi, hy = so * u.sin_phi, hz = ci + co;
     const T h2 = hx * hx + hy * hy + hz * hz;
     const T a2 = alpha * alpha;
     const T c2 = hz * hz / h2;  // cos^2 theta_h

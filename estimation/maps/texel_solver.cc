@@ -457,9 +457,10 @@ class SharedFit {
     return n;
   }
 
-  // The shared values moved by `step` x `delta`, the texels solved again from `x_old`.
+  // The shared values `step` x `delta` from `r_old` and `lamp_old`, the texels solved again
+  // from where they are; returns the pass's cost.
   double MoveShared(const std::vector<double>& r_old, const MapsLamp& lamp_old,
-                    const std::vector<State>& x_old, const Eigen::VectorXd& delta, double step) {
+                    const Eigen::VectorXd& delta, double step) {
     for (int k = 0; k < K_; ++k) {
       s_.cluster_r[k] =
           std::clamp(r_old[k] + step * delta(k), s_.info.roughness_lo, s_.info.roughness_hi);
@@ -467,15 +468,14 @@ class SharedFit {
     if (il_ >= 0) lamp_.position = lamp_old.position + step * delta.segment<3>(il_);
     if (ii_ >= 0) lamp_.intensity = std::max(1e-12, lamp_old.intensity + step * delta(ii_));
     SetLamp(data_, lamp_, &s_);
-    x_ = x_old;
     ++fit_->outer_iterations;
     return TexelPass();
   }
 
   // The whole step, unverified (UpdateShared: below the texels' resolution).
   bool TakeStep(const Eigen::VectorXd& delta) {
-    const std::vector<State> x_old = x_;
-    cost_ = MoveShared(s_.cluster_r, lamp_, x_old, delta, 1.0);
+    // Copies: MoveShared writes the values it steps from.
+    cost_ = MoveShared(std::vector<double>(s_.cluster_r), MapsLamp(lamp_), delta, 1.0);
     return true;
   }
 
@@ -487,7 +487,8 @@ class SharedFit {
     const std::vector<State> x_old = x_;
     const std::vector<uint8_t> fitted_old = fit_->fitted;
     for (double step : {1.0, 0.25}) {
-      const double c = MoveShared(r_old, lamp_old, x_old, delta, step);
+      x_ = x_old;
+      const double c = MoveShared(r_old, lamp_old, delta, step);
       if (c <= cost_) {
         cost_ = c;
         return true;
