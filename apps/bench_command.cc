@@ -26,7 +26,8 @@ struct BenchArgs {
   bool plan = false, tags = false, coverage = false, maps = false, keep_work = false;
   std::string apriltag_ref;
   int threads = 0;
-  int seeds = 0, first_seed = 1;  // --coverage: 0 seeds = the size's default
+  int seeds = 0, first_seed = 1;           // --coverage: 0 seeds = the size's default
+  std::vector<std::string> kinds, sweeps;  // --coverage: empty = the size's default
 };
 
 // A bench that renders into OUT/work: run it there, write its outputs into OUT, remove the
@@ -110,14 +111,15 @@ void RunBench(const BenchArgs& args) {
   // The user chain runs this very executable's commands as separate processes.
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
   if (args.coverage) {
+    // The plan before any work, so a kind that is none fails with nothing on disk.
+    bench::CoveragePlan plan = bench::CoveragePlanFor(opt);
+    if (args.seeds > 0) plan.seeds = args.seeds;
+    plan.first_seed = args.first_seed;
+    if (!args.kinds.empty()) plan.kinds = bench::CoverageKindsNamed(args.kinds);
+    if (!args.sweeps.empty()) plan.sweeps = args.sweeps;
     RunInWorkFolder(
         args.out, args.keep_work,
-        [&](const auto& work) {
-          bench::CoveragePlan plan = bench::CoveragePlanFor(opt);
-          if (args.seeds > 0) plan.seeds = args.seeds;
-          plan.first_seed = args.first_seed;
-          return bench::RunCoverageBench(opt, plan, self, work);
-        },
+        [&](const auto& work) { return bench::RunCoverageBench(opt, plan, self, work); },
         bench::WriteCoverageOutputs, /*runs_in_file_only=*/true);
   } else if (args.pipeline) {
     RunInWorkFolder(
@@ -182,6 +184,13 @@ void AddBenchCommand(CLI::App& app) {
                   "--coverage: the first seed; 1 is the presets' capture, every later seed a "
                   "capture of its own (5 with 4 seeds: a grid to check the default one against)")
       ->check(CLI::Range(1, 100000));
+  cmd->add_option("--kinds", args->kinds,
+                  "--coverage: only these scene kinds, by name or material (oren-nayar/gamma12, "
+                  "tson, pitted-exact, dark-oren-nayar, flash; comma-separated)")
+      ->delimiter(',');
+  cmd->add_option("--sweeps", args->sweeps, "--coverage: only these sweeps (third, whole)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"third", "whole"}));
   cmd->add_flag("--plan", args->plan,
                 "gonio plan's predicted scatter against the scatter measured on sessions "
                 "rendered from the plan and from the default orbit (plan_bench.json + chart)")

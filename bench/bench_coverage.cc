@@ -358,8 +358,7 @@ std::string Slug(const std::string& s) {
 
 }  // namespace
 
-CoveragePlan CoveragePlanFor(const BenchOptions& options) {
-  options.Check();
+std::vector<CoverageKind> AllCoverageKinds() {
   // The five kinds: the default material on a 12-bit gamma camera (MSB-free in 16-bit PNGs), a
   // specular sample on a 16-bit linear camera, a pitted sample on an 8-bit sRGB camera (a JPEG),
   // a dark rough sample on the 8-bit camera, and a lamp beside the lens on a 12-bit linear
@@ -396,9 +395,39 @@ CoveragePlan CoveragePlanFor(const BenchOptions& options) {
                            synth::ResponseCurve::kLinear,
                            64,
                            true};
+  return {oren_nayar, tson, pitted, dark, flash};
+}
+
+std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& names) {
+  const std::vector<CoverageKind> all = AllCoverageKinds();
+  std::vector<CoverageKind> chosen;
+  for (const auto& name : names) {
+    // A kind by its whole name ("pitted-exact/srgb8") or by its material ("pitted-exact").
+    auto it = std::find_if(all.begin(), all.end(), [&](const CoverageKind& k) {
+      return k.name == name || k.name.substr(0, k.name.find('/')) == name;
+    });
+    if (it == all.end()) {
+      std::string known;
+      for (const auto& k : all) known += (known.empty() ? "" : ", ") + k.name;
+      throw InputError("--kinds: '" + name + "' is none of " + known);
+    }
+    if (std::none_of(chosen.begin(), chosen.end(),
+                     [&](const CoverageKind& k) { return k.name == it->name; })) {
+      chosen.push_back(*it);
+    }
+  }
+  return chosen;
+}
+
+CoveragePlan CoveragePlanFor(const BenchOptions& options) {
+  options.Check();
+  const std::vector<CoverageKind> all = AllCoverageKinds();
+  const CoverageKind& oren_nayar = all[0];
+  const CoverageKind& pitted = all[2];
+  const CoverageKind& flash = all[4];
   CoveragePlan p;
   if (options.size == "full") {
-    p.kinds = {oren_nayar, tson, pitted, dark, flash};
+    p.kinds = all;
     p.seeds = 4;
   } else if (options.size == "quick") {
     p.kinds = {oren_nayar, pitted, flash};

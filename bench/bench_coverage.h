@@ -48,6 +48,11 @@ struct CoveragePlan {
 };
 CoveragePlan CoveragePlanFor(const BenchOptions& options);
 
+// The full size's five kinds, and those of them `names` name (a whole name, "pitted-exact/srgb8",
+// or its material, "pitted-exact"), in the order named; InputError for a name that is none.
+std::vector<CoverageKind> AllCoverageKinds();
+std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& names);
+
 // One judged quantity of one run.
 struct CoverageValue {
   std::string parameter;  // a material parameter's name, or lamp_x, lamp_y, lamp_z

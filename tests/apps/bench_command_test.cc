@@ -182,15 +182,21 @@ TEST(CoverageCli, SmokeRunsTheUsersChain) {
   EXPECT_NE(r.err.find("coverage 1/1"), std::string::npos) << r.err;  // progress on stderr
 }
 
-// --first-seed 0 names no capture (seed 1 is the presets'): a one-line error, exit 2, nothing
-// written.
-TEST(CoverageCli, AFirstSeedBelowOneIsAnInputError) {
-  testing::TempDir dir;
-  const auto out = dir.path() / "out";
-  const auto r = testing::RunGonio("bench --coverage --smoke --first-seed 0 --out " + out.string());
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  EXPECT_NE(r.err.find("--first-seed"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(out / "coverage.json"));
+// --first-seed 0 names no capture (seed 1 is the presets'), --kinds a kind that is none, --sweeps
+// a sweep that is none: a one-line error naming the option, exit 2, nothing written.
+TEST(CoverageCli, BadOptionsAreInputErrors) {
+  const std::pair<const char*, const char*> cases[] = {{"--first-seed 0", "--first-seed"},
+                                                       {"--kinds lambert", "--kinds"},
+                                                       {"--sweeps half", "--sweeps"}};
+  for (const auto& [option, named] : cases) {
+    testing::TempDir dir;
+    const auto out = dir.path() / "out";
+    const auto r = testing::RunGonio(std::string("bench --coverage --smoke ") + option + " --out " +
+                                     out.string());
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.err;
+    EXPECT_NE(r.err.find(named), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << option;
+  }
 }
 
 // `gonio bench --maps --smoke`: the maps of a small textured session timed and judged against

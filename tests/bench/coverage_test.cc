@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "bench/bench_coverage.h"
+#include "common/error.h"
 
 namespace gonio::bench {
 namespace {
@@ -115,6 +116,25 @@ TEST(Coverage, FullPlanCoversTheIssuesGrid) {
     flash |= k.flash;
   }
   EXPECT_TRUE(tson && pitted && srgb8 && gamma12 && linear16 && flash);
+}
+
+// --kinds picks kinds by whole name or by material, in the order named, each once; a name that
+// is none is an input error that lists the kinds.
+TEST(Coverage, KindsAreNamedByNameOrMaterial) {
+  const auto all = AllCoverageKinds();
+  const auto chosen = CoverageKindsNamed({"flash", "pitted-exact/srgb8", "flash"});
+  ASSERT_EQ(chosen.size(), 2u);
+  EXPECT_EQ(chosen[0].name, "flash/linear12");
+  EXPECT_TRUE(chosen[0].flash);
+  EXPECT_EQ(chosen[1].model, "pitted-exact");
+  // "oren-nayar" is the gamma camera's kind, not the dark one's ("dark-oren-nayar").
+  EXPECT_EQ(CoverageKindsNamed({"oren-nayar"}).at(0).name, all.at(0).name);
+  try {
+    CoverageKindsNamed({"lambert"});
+    ADD_FAILURE() << "no error for a kind that is none";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tson/linear16"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
