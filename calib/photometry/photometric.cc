@@ -197,6 +197,34 @@ double PhotometricCalibration::ResponseAccuracy(const ResponseResult& response) 
 
 namespace {
 
+// photometric.json's "vignette_input" "response_kernel" (docs/formats.md).
+void ReadResponseKernel(const std::string& where, const nlohmann::json& j,
+                        PhotometricCalibration* p) {
+  const std::string what = where +
+                           ": 'response_kernel' must be {\"v\": [3 numbers], \"raw\": "
+                           "[numbers >= 0], \"weight\": [[3 numbers] per raw value]}";
+  const auto finite = [](const nlohmann::json& x) {
+    return x.is_number() && std::isfinite(x.get<double>());
+  };
+  const auto triple = [&](const nlohmann::json& x) {
+    return x.is_array() && x.size() == 3 && std::all_of(x.begin(), x.end(), finite);
+  };
+  if (!j.is_object() || !j.contains("v") || !triple(j["v"]) || !j.contains("raw") ||
+      !j["raw"].is_array() || !j.contains("weight") || !j["weight"].is_array() ||
+      j["weight"].size() != j["raw"].size()) {
+    throw InputError(what);
+  }
+  VignetteResponseKernel k;
+  k.v = j["v"].get<std::array<double, 3>>();
+  for (size_t b = 0; b < j["raw"].size(); ++b) {
+    const auto& raw = j["raw"][b];
+    if (!finite(raw) || raw.get<double>() < 0 || !triple(j["weight"][b])) throw InputError(what);
+    k.raw.push_back(raw.get<double>());
+    k.weight.push_back(j["weight"][b].get<std::array<double, 3>>());
+  }
+  p->vignette_response_kernel = std::move(k);
+}
+
 // photometric.json's "vignette_input" (docs/formats.md): the raw values V was measured from,
 // on a grid of cell_px cells covering the vignetting map; NaN where V had no sample.
 void ReadVignetteInput(const std::filesystem::path& path, const nlohmann::json& j,
@@ -232,6 +260,7 @@ void ReadVignetteInput(const std::filesystem::path& path, const nlohmann::json& 
   }
   p->vignette_input_raw = raw;
   p->vignette_input_cell_px = cell;
+  if (j.contains("response_kernel")) ReadResponseKernel(where, j["response_kernel"], p);
 }
 
 }  // namespace
@@ -313,6 +342,10 @@ void PhotometricCalibration::Write(const std::filesystem::path& path) const {
       const std::string input = path.stem().string() + "_vignette_input.tiff";
       WriteImage(path.parent_path() / input, vignette_input_raw);
       j["vignette_input"] = {{"raw_values", input}, {"cell_px", vignette_input_cell_px}};
+      if (!vignette_response_kernel.empty()) {
+        const VignetteResponseKernel& k = vignette_response_kernel;
+        j["vignette_input"]["response_kernel"] = {{"v", k.v}, {"raw", k.raw}, {"weight", k.weight}};
+      }
     }
   } else {
     j["vignette"] = nullptr;

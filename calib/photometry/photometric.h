@@ -6,6 +6,7 @@
 // noise^2 + shot noise (value - black) / gain_dn_per_e (when known).
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -18,6 +19,19 @@
 
 namespace gonio {
 
+// How far the radial polynomial V = 1 + v1 r^2 + v2 r^4 + v3 r^6 (calib/photometry/vignette.h)
+// moves under a relative error f(z) of the values it was fitted to, read at raw values z: the
+// response's error, which V inherits. To first order at the fit's solution (the board texture
+// eliminated as in the fit), d v_j = sum_b weight[b][j] f(raw[b]) over bins of raw value. A
+// field that bends the values between the frames' exposures of one board point moves V by far
+// more than its own size, a constant not at all (the texture takes it).
+struct VignetteResponseKernel {
+  std::array<double, 3> v{};                  // the fitted v1, v2, v3
+  std::vector<double> raw;                    // each bin's mean raw value
+  std::vector<std::array<double, 3>> weight;  // per bin: d v1, d v2, d v3 per unit ln error
+  bool empty() const { return raw.empty(); }
+};
+
 struct PhotometricCalibration {
   ResponseResult response;
   cv::Mat vignette;  // CV_32F, image size, V(pixel) (1 = no fall-off); empty: none
@@ -27,6 +41,9 @@ struct PhotometricCalibration {
   // renderer), and V's share of the response's error is not propagated.
   cv::Mat vignette_input_raw;
   int vignette_input_cell_px = 0;
+  // A radial V's response to the response's error (VignetteResponseKernel); empty for a map,
+  // which follows its input cell by cell.
+  VignetteResponseKernel vignette_response_kernel;
   double read_noise_dn = 0.5;
   std::optional<double> electrons_per_dn;  // shot noise when known
   // The calibration's own 1-sigma relative radiance error (response and vignetting combined,

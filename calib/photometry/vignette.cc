@@ -509,6 +509,8 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
     FinishMap(camera, grid, std::move(set), v, std::move(C), options, result);
   } else {
     FinishRadial(camera, grid, set, v, C, options, result);
+    result->response_kernel = RadialResponseKernel(set.samples, grid.pixels, v, C,
+                                                   RadialTerms(result->covered_radius));
   }
 }
 

@@ -93,6 +93,9 @@ struct VignetteResult {
   // gonio run propagates it there (estimation/joint/calibration_error.h).
   cv::Mat input_raw;
   int input_cell_px = 0;
+  // The radial model's response to an error of the response (VignetteResponseKernel,
+  // vignette_kernel.cc); empty for the map model, which follows input_raw cell by cell.
+  VignetteResponseKernel response_kernel;
   // Whether the paper's brightness follows a lamp on the camera (vignette_lamp.h); a session
   // where it does is refused.
   CameraLampTest lamp_test;

@@ -148,6 +148,7 @@ PhotometricCalibration WithVignette(PhotometricCalibration response_only, const 
   p.vignette = v.map;
   p.vignette_input_raw = v.input_raw;
   p.vignette_input_cell_px = v.input_cell_px;
+  p.vignette_response_kernel = v.response_kernel;
   p.relative_accuracy = PhotometricCalibration::CombinedAccuracy(p.response, v.Accuracy());
   return p;
 }

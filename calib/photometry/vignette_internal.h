@@ -62,6 +62,14 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
 // median of its samples' raw values, NaN where it has none.
 cv::Mat InputRawPerCell(const PixelGrid& grid, const std::vector<Sample>& samples);
 
+// The radial fit's response to an error of the response (VignetteResponseKernel): the
+// solution (v, the texture C) of the fit with `terms` free terms, linearised as the fit's
+// normal equations with C eliminated (vignette_kernel.cc).
+VignetteResponseKernel RadialResponseKernel(const std::vector<Sample>& samples,
+                                            const std::vector<SampledPixel>& pixels,
+                                            const std::array<double, 3>& v,
+                                            const std::vector<double>& C, int terms);
+
 // The raw value at `xy` of a frame, channels averaged.
 float MeanRawAt(const cv::Mat& image, const cv::Point& xy);
 

@@ -12,6 +12,7 @@
 #include "common/error.h"
 #include "common/stats.h"
 #include "estimation/joint/joint_fit_problem.h"
+#include "estimation/joint/vignette_share.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
@@ -72,31 +73,25 @@ std::vector<double> VignetteModeAt(const CalibrationErrorModel& e, int mode,
 }
 
 // Where the observations in `use` are read on the response: their raw values per channel, and
-// those the vignetting was measured from at their pixels (calibration_error.h), channels
-// averaged, with log2 of the inverse response there; NaN where V's input is not known.
+// V's input (the raw values V was measured from, channels averaged, with log2 of the inverse
+// response there) with V's share of a field over it (vignette_share.h).
 struct RawValues {
   std::vector<std::vector<double>> observed;
-  std::vector<double> vignette, vignette_log2x;
+  VignetteShare vignette;
 };
 
 RawValues RawValuesAt(const ObservationSet& data, const std::vector<size_t>& use,
                       const CalibrationErrorModel& e) {
   RawValues r;
+  std::vector<Eigen::Vector2d> px;
   for (size_t i : use) {
     const Observation& o = data.observations[i];
     r.observed.push_back(o.value);
-    double z = NAN, log2x = NAN;
-    if (!e.vignette_input_raw.empty() && e.vignette_input_cell_px > 0) {
-      const int cx = static_cast<int>(std::floor(o.px / e.vignette_input_cell_px));
-      const int cy = static_cast<int>(std::floor(o.py / e.vignette_input_cell_px));
-      if (cx >= 0 && cy >= 0 && cx < e.vignette_input_raw.cols && cy < e.vignette_input_raw.rows) {
-        z = e.vignette_input_raw.at<float>(cy, cx);
-        log2x = e.vignette_input_log2x.at<float>(cy, cx);
-      }
-    }
-    r.vignette.push_back(z);
-    r.vignette_log2x.push_back(log2x);
+    px.emplace_back(o.px, o.py);
   }
+  r.vignette = VignetteShare(e.vignette_input_raw, e.vignette_input_log2x, e.vignette_input_cell_px,
+                             e.vignette_kernel, e.vignette_kernel_log2x, e.principal_point,
+                             e.RadiusPx(), px);
   return r;
 }
 
@@ -113,13 +108,17 @@ std::vector<double> EndMode(const RawValues& raw, const ResponseEnd& end) {
   std::vector<double> m;
   bool reached = false;
   const auto weight = [&](double z) { return std::isfinite(z) ? end.WeightAt(z) : 0.0; };
+  const std::vector<double> w_vignette = raw.vignette.At([&](double z, double) {
+    const double w = weight(z);
+    reached = reached || w > 0;
+    return w;
+  });
   for (size_t k = 0; k < raw.observed.size(); ++k) {
     const auto& value = raw.observed[k];
     const double w =
         weight(end.channel < static_cast<int>(value.size()) ? value[end.channel] : NAN);
-    const double w_vignette = weight(raw.vignette[k]);
-    reached = reached || w > 0 || w_vignette > 0;
-    m.push_back(end.error * (w - w_vignette));
+    reached = reached || w > 0;
+    m.push_back(end.error * (w - (w_vignette.empty() ? 0.0 : w_vignette[k])));
   }
   return reached ? Centred(std::move(m)) : std::vector<double>{};
 }
@@ -135,16 +134,19 @@ void AddSlopeModes(const ObservationSet& data, const std::vector<size_t>& use, E
     for (double x : r) sum += x;
     log_l.push_back(std::log2(std::max(sum / std::max<size_t>(r.size(), 1), 1e-300)));
   }
-  for (double x : m->raw.vignette_log2x) {
+  for (double x : m->raw.vignette.ObservedLog2x()) {
     if (std::isfinite(x)) log_v.push_back(x);
   }
   const double median = Median(log_l), median_v = log_v.empty() ? 0.0 : Median(log_v);
+  std::vector<double> uv = m->raw.vignette.At([&](double, double x) { return x - median_v; });
+  std::vector<double> uv2 =
+      m->raw.vignette.At([&](double, double x) { return (x - median_v) * (x - median_v); });
+  uv.resize(use.size(), 0.0);
+  uv2.resize(use.size(), 0.0);
   std::vector<double> u, u2;
   for (size_t k = 0; k < use.size(); ++k) {
-    const double x = m->raw.vignette_log2x[k];
-    const double uv = std::isfinite(x) ? x - median_v : 0.0;
-    u.push_back(log_l[k] - median - uv);
-    u2.push_back((log_l[k] - median) * (log_l[k] - median) - uv * uv);
+    u.push_back(log_l[k] - median - uv[k]);
+    u2.push_back((log_l[k] - median) * (log_l[k] - median) - uv2[k]);
   }
   // In octaves, not normalised: the slope error is drawn per octave (calibration_error.h).
   m->response.push_back(Centred(u));
@@ -177,17 +179,23 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
 template <typename ValueAt>
 void AddRawField(const RawValues& raw, size_t channels, double scale, ValueAt value_at,
                  std::vector<double>* log_field) {
+  const size_t used = raw.observed.empty() ? 0 : std::min(raw.observed[0].size(), channels);
+  std::vector<double> vignette = raw.vignette.At([&](double z, double) {
+    double sum = 0;
+    for (size_t c = 0; c < used; ++c) sum += value_at(c, z);
+    return used > 0 ? sum / used : 0.0;
+  });
+  vignette.resize(raw.observed.size(), 0.0);
   for (size_t k = 0; k < raw.observed.size(); ++k) {
     const auto& value = raw.observed[k];
-    const double z_vignette = raw.vignette[k];
     double sum = 0;
     int n = 0;
     for (size_t c = 0; c < std::min(value.size(), channels); ++c) {
       if (!std::isfinite(value[c])) continue;
-      sum += value_at(c, value[c]) - (std::isfinite(z_vignette) ? value_at(c, z_vignette) : 0.0);
+      sum += value_at(c, value[c]);
       ++n;
     }
-    if (n > 0) (*log_field)[k] += scale * sum / n;
+    if (n > 0) (*log_field)[k] += scale * (sum / n - vignette[k]);
   }
 }
 
@@ -376,6 +384,10 @@ void CalibrationErrorModel::Check() const {
         "calibration error: V's input raw values need their log2 X of the same size (CV_32F) and "
         "a cell of at least 1 px");
   }
+  if (vignette_kernel.weight.size() != vignette_kernel.raw.size() ||
+      vignette_kernel_log2x.size() != vignette_kernel.raw.size()) {
+    throw InputError("calibration error: V's response kernel needs a weight and log2 X per value");
+  }
 }
 
 void CalibrationPropagationOptions::Check() const {
@@ -429,31 +441,6 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   spdlog::debug("calibration error propagated over {} refits", p.draws);
   return p;
 }
-
-namespace {
-
-// V's input raw values (PhotometricCalibration::vignette_input_raw) and log2 of the inverse
-// response there, channels averaged, into `e`.
-void SetVignetteInput(const PhotometricCalibration& photometric, CalibrationErrorModel* e) {
-  const cv::Mat& raw = photometric.vignette_input_raw;
-  if (raw.empty() || photometric.vignette_input_cell_px < 1) return;
-  const ResponseResult& response = photometric.response;
-  const int channels = std::max<int>(1, response.inverse_response.size());
-  e->vignette_input_raw = raw.clone();
-  e->vignette_input_log2x = cv::Mat(raw.size(), CV_32F, cv::Scalar(std::nanf("")));
-  e->vignette_input_cell_px = photometric.vignette_input_cell_px;
-  for (int y = 0; y < raw.rows; ++y) {
-    for (int x = 0; x < raw.cols; ++x) {
-      const float z = raw.at<float>(y, x);
-      if (!std::isfinite(z)) continue;
-      double sum = 0;
-      for (int c = 0; c < channels; ++c) sum += response.Linearize(c, z);
-      if (sum > 0) e->vignette_input_log2x.at<float>(y, x) = std::log2(sum / channels);
-    }
-  }
-}
-
-}  // namespace
 
 std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     const PhotometricCalibration& photometric, const ObservationSet& data,

@@ -57,11 +57,12 @@
 //             interpolation, off by a fraction of a percent that changes sign from knot to
 //             knot. Drawn per knot, interpolated by value.
 // V was measured through the same response (a flat field or the board's paper at its own raw
-// values), so every response mode also moves V: by its value at the raw value V was measured
-// from at the observation's pixel (vignette_input_raw), which divides the observation. Where the
-// sample and V's input were read at the same values, the response's error cancels; where V's
-// input spans values the sample does not, V carries an error of its own that the split halves
-// share and cannot show.
+// values), so every response mode also moves V, which divides the observation: as far as V's
+// form follows the mode's values at the raw values V was measured from (vignette_input_raw;
+// vignette_share.h): a map cell by cell, the radial polynomial by their least-squares
+// projection on its terms. Where the sample and V's input were read at the same values, the
+// response's error cancels; where V's input spans values the sample does not, V carries an
+// error of its own that the split halves share and cannot show.
 // The board poses: each draw moves every frame's observations by a pose error drawn from the
 // frame's covariance (pose_error.h): one draw per frame, common to its observations.
 // Response amplitudes are drawn with standard deviation response_ratio_error per octave,
@@ -116,6 +117,11 @@ struct CalibrationErrorModel {
   // vignette_input_raw). Empty: V's share of the response's error is not propagated.
   cv::Mat vignette_input_raw, vignette_input_log2x;
   int vignette_input_cell_px = 0;
+  // A radial V's response to a response error (PhotometricCalibration::
+  // vignette_response_kernel) with log2 of the inverse response at its raw values; empty: V is
+  // a map and follows the field at its input cell by cell (vignette_share.h).
+  VignetteResponseKernel vignette_kernel;
+  std::vector<double> vignette_kernel_log2x;
   // The board poses' error (estimation/joint/pose_error.h): each draw also moves every frame's
   // observations by a pose error drawn from its covariance. Empty: the poses are taken as exact.
   PoseErrorModel poses;

@@ -220,6 +220,49 @@ TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {
   }
 }
 
+// photometric.json's "vignette_input" keeps the radial V's response kernel (docs/formats.md):
+// read back as written, empty when absent (a map, or a file from before it), any other form an
+// input error naming the file and key.
+TEST(PhotometricFile, VignetteInputKeepsTheRadialResponseKernel) {
+  testing::TempDir dir;
+  const fs::path path = dir.path() / "photometric.json";
+  PhotometricCalibration p = PhotometricCalibration::Linear(12, 1, 64, BlackLevelSource::kOption);
+  p.vignette = cv::Mat(48, 64, CV_32F, cv::Scalar(0.9f));
+  p.vignette_input_raw = cv::Mat(3, 4, CV_32F, cv::Scalar(1000.0f));
+  p.vignette_input_cell_px = 16;
+  p.vignette_response_kernel.v = {-0.3, 0.05, 0};
+  p.vignette_response_kernel.raw = {900, 1000.5};
+  p.vignette_response_kernel.weight = {{0.1, -0.2, 0}, {-0.1, 0.2, 0}};
+  p.Write(path);
+  const VignetteResponseKernel back = PhotometricCalibration::Read(path).vignette_response_kernel;
+  EXPECT_EQ(back.v, p.vignette_response_kernel.v);
+  EXPECT_EQ(back.raw, p.vignette_response_kernel.raw);
+  EXPECT_EQ(back.weight, p.vignette_response_kernel.weight);
+  nlohmann::json j = ReadJsonFile(path);
+  const nlohmann::json kernel = j["vignette_input"]["response_kernel"];
+  j["vignette_input"].erase("response_kernel");
+  WriteJsonAtomically(path, j);
+  EXPECT_TRUE(PhotometricCalibration::Read(path).vignette_response_kernel.empty());
+  nlohmann::json short_v = kernel, negative = kernel, ragged = kernel, nan_weight = kernel;
+  short_v["v"] = {0.1, 0.2};
+  negative["raw"][0] = -1;
+  ragged["weight"].erase(1);
+  nan_weight["weight"][0][0] = "nan";
+  for (const nlohmann::json& bad : {nlohmann::json(3), short_v, negative, ragged, nan_weight}) {
+    j["vignette_input"]["response_kernel"] = bad;
+    WriteJsonAtomically(path, j);
+    try {
+      PhotometricCalibration::Read(path);
+      ADD_FAILURE() << bad.dump();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(path.string() +
+                                           ": 'vignette_input': 'response_kernel' must be"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 class HdrSynthetic : public ::testing::Test {
  protected:
   void SetUp() override {

@@ -354,6 +354,69 @@ TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
   EXPECT_LT(same.lamp_stddev.norm(), 1e-7);
 }
 
+// The same walk through a radial V (vignette_share.h): V moves as its fit's response kernel
+// says, d v_j = sum_b weight[b][j] f(raw[b]) (a kernel made up here: three terms over raw values
+// 1000-3700, summing to 0), and each observation, all read at raw value 2000, is divided by
+// V's change there. Drawn through the kernel the bars hold the shift as above (0.73 of them);
+// drawn cell by cell from V's input, as for a map, they are half as wide (1.52).
+TEST(CalibrationError, ARadialVignettingMovesAsItsKernelSays) {
+  constexpr int kCell = 32;
+  cv::Mat input(30, 40, CV_32F), log2x(30, 40, CV_32F);
+  for (int y = 0; y < input.rows; ++y) {
+    for (int x = 0; x < input.cols; ++x) {
+      input.at<float>(y, x) = 1000 + 45 * x + 35 * y;
+      log2x.at<float>(y, x) = std::log2(input.at<float>(y, x));
+    }
+  }
+  std::mt19937_64 rng(4242);
+  const std::vector<double> truth = SmoothedWalk(&rng);
+  const auto ln_error = [&](double z) {
+    const double pos = z / kKnotSpacing;
+    const size_t j = static_cast<size_t>(pos);
+    return (1 - (pos - j)) * truth[j] + (pos - j) * truth[j + 1];
+  };
+  VignetteResponseKernel kernel;
+  kernel.v = {-0.3, 0, 0};
+  std::vector<double> kernel_log2x;
+  for (int b = 0; b < 28; ++b) {
+    const double z = 1000 + 100 * b;
+    kernel.raw.push_back(z);
+    kernel_log2x.push_back(std::log2(z));
+    // Against the field's change from one value to the next, as the fit takes it.
+    kernel.weight.push_back({b % 2 ? 0.4 : -0.4, (b % 3) - 1.0, 0});
+  }
+  Eigen::Vector3d dv = Eigen::Vector3d::Zero();
+  for (size_t b = 0; b < kernel.raw.size(); ++b) {
+    for (int j = 0; j < 3; ++j) dv[j] += kernel.weight[b][j] * ln_error(kernel.raw[b]);
+  }
+  BentFits b = FitWithoutAndWith(std::vector<double>(400, 0.0));
+  for (auto& o : b.data.observations) {
+    o.value = {2000.0};
+    const double r2 =
+        (Eigen::Vector2d(o.px, o.py) - kPrincipalPoint).squaredNorm() / (kRadiusPx * kRadiusPx);
+    for (double& l : o.radiance) l *= std::exp(-(dv[0] * r2 + dv[1] * r2 * r2) / (1 - 0.3 * r2));
+  }
+  b.fit = FitJoint("oren-nayar", b.data, kLamp, b.options);
+  ASSERT_TRUE(b.base.material.converged && b.fit.material.converged);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_knot_spacing = kKnotSpacing;
+  for (int r = 0; r < 10; ++r) e.response_replicates.push_back({SmoothedWalk(&rng)});
+  e.vignette_input_raw = input;
+  e.vignette_input_log2x = log2x;
+  e.vignette_input_cell_px = kCell;
+  e.vignette_kernel = kernel;
+  e.vignette_kernel_log2x = kernel_log2x;
+  const double radial = LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e));
+  EXPECT_LT(radial, 3.0);
+  EXPECT_GT(radial, 0.2);
+  e.vignette_kernel = VignetteResponseKernel();
+  e.vignette_kernel_log2x.clear();
+  const double map = LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e));
+  std::cout << "largest shift / sd: " << radial << " drawn through the kernel, " << map
+            << " drawn cell by cell\n";
+  EXPECT_GT(map, 1.6 * radial);
+}
+
 // The statistical part when the fit's floor is the propagated calibration accuracy
 // (calibration_error.h RescaleForPropagatedFloor): observations whose pixel variance is a tenth
 // of the modelled one (pixel sd 0.1 %, floor 0.3 %). Residuals at 0.3 of the model's variance:
@@ -418,6 +481,11 @@ TEST(CalibrationError, BadOptionsAreInputErrors) {
   e.vignette_input_cell_px = 32;
   EXPECT_THROW(e.Check(), InputError);  // no log2 X beside the raw values
   e.vignette_input_log2x = cv::Mat(30, 40, CV_32F, cv::Scalar(10));
+  EXPECT_NO_THROW(e.Check());
+  e.vignette_kernel.raw = {1000};
+  e.vignette_kernel.weight = {{0.1, 0, 0}};
+  EXPECT_THROW(e.Check(), InputError);  // no log2 X at the kernel's raw value
+  e.vignette_kernel_log2x = {10};
   EXPECT_NO_THROW(e.Check());
   CalibrationPropagationOptions po;
   po.draws = 1;
