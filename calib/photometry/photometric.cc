@@ -202,7 +202,8 @@ void ReadResponseKernel(const std::string& where, const nlohmann::json& j,
                         PhotometricCalibration* p) {
   const std::string what = where +
                            ": 'response_kernel' must be {\"v\": [3 numbers], \"raw\": "
-                           "[numbers >= 0], \"weight\": [[3 numbers] per raw value]}";
+                           "[numbers >= 0], \"weight\": [[3 numbers] per raw value], optionally "
+                           "\"truncation\": [3 numbers] with \"covered_radius\": number >= 0}";
   const auto finite = [](const nlohmann::json& x) {
     return x.is_number() && std::isfinite(x.get<double>());
   };
@@ -216,6 +217,15 @@ void ReadResponseKernel(const std::string& where, const nlohmann::json& j,
   }
   VignetteResponseKernel k;
   k.v = j["v"].get<std::array<double, 3>>();
+  // The truncation and its radius (written since they were measured; absent: none).
+  if (j.contains("truncation") || j.contains("covered_radius")) {
+    if (!j.contains("truncation") || !triple(j["truncation"]) || !j.contains("covered_radius") ||
+        !finite(j["covered_radius"]) || j["covered_radius"].get<double>() < 0) {
+      throw InputError(what);
+    }
+    k.truncation = j["truncation"].get<std::array<double, 3>>();
+    k.covered_radius = j["covered_radius"].get<double>();
+  }
   for (size_t b = 0; b < j["raw"].size(); ++b) {
     const auto& raw = j["raw"][b];
     if (!finite(raw) || raw.get<double>() < 0 || !triple(j["weight"][b])) throw InputError(what);
@@ -344,7 +354,11 @@ void PhotometricCalibration::Write(const std::filesystem::path& path) const {
       j["vignette_input"] = {{"raw_values", input}, {"cell_px", vignette_input_cell_px}};
       if (!vignette_response_kernel.empty()) {
         const VignetteResponseKernel& k = vignette_response_kernel;
-        j["vignette_input"]["response_kernel"] = {{"v", k.v}, {"raw", k.raw}, {"weight", k.weight}};
+        j["vignette_input"]["response_kernel"] = {{"v", k.v},
+                                                  {"truncation", k.truncation},
+                                                  {"covered_radius", k.covered_radius},
+                                                  {"raw", k.raw},
+                                                  {"weight", k.weight}};
       }
     }
   } else {

@@ -26,7 +26,12 @@ namespace gonio {
 // field that bends the values between the frames' exposures of one board point moves V by far
 // more than its own size, a constant not at all (the texture takes it).
 struct VignetteResponseKernel {
-  std::array<double, 3> v{};                  // the fitted v1, v2, v3
+  std::array<double, 3> v{};  // the fitted v1, v2, v3
+  // The model's own error: the fit with the next term less this one (0 with all three terms),
+  // meant within `covered_radius` (r of the 99th percentile of the samples), a 1-sigma
+  // difference of V drawn by gonio run.
+  std::array<double, 3> truncation{};
+  double covered_radius = 0;
   std::vector<double> raw;                    // each bin's mean raw value
   std::vector<std::array<double, 3>> weight;  // per bin: d v1, d v2, d v3 per unit ln error
   bool empty() const { return raw.empty(); }

@@ -509,8 +509,19 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
     FinishMap(camera, grid, std::move(set), v, std::move(C), options, result);
   } else {
     FinishRadial(camera, grid, set, v, C, options, result);
-    result->response_kernel = RadialResponseKernel(set.samples, grid.pixels, v, C,
-                                                   RadialTerms(result->covered_radius));
+    const int terms = RadialTerms(result->covered_radius);
+    VignetteResponseKernel& k = result->response_kernel;
+    k = RadialResponseKernel(set.samples, grid.pixels, v, C, terms);
+    k.covered_radius = result->covered_radius;
+    // The next term, which the covered radius does not let the model carry: the fit with it
+    // less the fit without, within the covered radius, is the truncation's size, a model error
+    // both split halves share (docs/photometric.md "Vignetting accuracy").
+    if (terms < 3) {
+      int iterations = 0;
+      const auto next =
+          FitRadialJointly(set.samples, grid.pixels, terms + 1, options.threads, &C, &iterations);
+      for (int j = 0; j < 3; ++j) k.truncation[j] = next[j] - v[j];
+    }
   }
 }
 

@@ -11,6 +11,7 @@
 
 #include "common/error.h"
 #include "common/stats.h"
+#include "common/vignetting.h"
 #include "estimation/joint/joint_fit_problem.h"
 #include "estimation/joint/vignette_share.h"
 #include "reflectance/registry.h"
@@ -99,7 +100,29 @@ struct ErrorModes {
   RawValues raw;
   std::vector<std::vector<double>> response, vignette;  // [mode][observation in `use`]
   std::vector<std::vector<double>> ends;                // in relative error per unit normal draw
+  std::vector<double> truncation;  // a radial V's truncation (1 sigma), or empty
 };
+
+// A radial V's truncation (photometric.h VignetteResponseKernel::truncation) at the pixels `at`:
+// the observation divided by 1 + dV / V, r held at the covered radius beyond it (the fit with
+// the next term is meant there only), centred (a common scale is the lamp's intensity); empty
+// without one.
+std::vector<double> TruncationModeAt(const CalibrationErrorModel& e,
+                                     const std::vector<Eigen::Vector2d>& at) {
+  const VignetteResponseKernel& k = e.vignette_kernel;
+  if (k.empty() || !(k.covered_radius > 0) ||
+      std::all_of(k.truncation.begin(), k.truncation.end(), [](double t) { return t == 0; })) {
+    return {};
+  }
+  std::vector<double> mode;
+  for (const Eigen::Vector2d& p : at) {
+    const double r2 = std::min((p - e.principal_point).squaredNorm() / std::pow(e.RadiusPx(), 2),
+                               k.covered_radius * k.covered_radius);
+    const double dv = RadialVignettingAtR2(k.truncation, r2) - 1.0;
+    mode.push_back(-std::log1p(dv / RadialVignettingAtR2(k.v, r2)));
+  }
+  return Centred(std::move(mode));
+}
 
 // One response end's mode (calibration_error.h): the end's error times its weight at each
 // observation's raw value in its channel, less its weight at V's input there, centred (a common
@@ -169,6 +192,7 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
     auto n = EndMode(m.raw, end);
     if (!n.empty()) m.ends.push_back(std::move(n));
   }
+  m.truncation = TruncationModeAt(e, at);
   return m;
 }
 
@@ -301,6 +325,7 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   };
   add(modes.response, e.response_ratio_error);
   add(modes.ends, 1.0);
+  if (!modes.truncation.empty()) add({modes.truncation}, 1.0);
   AddWiggles(modes, e, rng, &log_field);
   AddPriorPart(modes, e, rng, &log_field);
   AddReplicate(modes, e, draw, rng, &log_field);

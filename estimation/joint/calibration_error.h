@@ -63,6 +63,9 @@
 // projection on its terms. Where the sample and V's input were read at the same values, the
 // response's error cancels; where V's input spans values the sample does not, V carries an
 // error of its own that the split halves share and cannot show.
+// A radial V's truncation (photometric.h VignetteResponseKernel::truncation): the fit with the
+// next term less the fit, drawn with sd 1, each observation divided by 1 + dV(r) / V(r), r held
+// at the covered radius beyond it: the split halves share it and cannot show it.
 // The board poses: each draw moves every frame's observations by a pose error drawn from the
 // frame's covariance (pose_error.h): one draw per frame, common to its observations.
 // Response amplitudes are drawn with standard deviation response_ratio_error per octave,

@@ -231,11 +231,15 @@ TEST(PhotometricFile, VignetteInputKeepsTheRadialResponseKernel) {
   p.vignette_input_raw = cv::Mat(3, 4, CV_32F, cv::Scalar(1000.0f));
   p.vignette_input_cell_px = 16;
   p.vignette_response_kernel.v = {-0.3, 0.05, 0};
+  p.vignette_response_kernel.truncation = {0.01, -0.02, 0};
+  p.vignette_response_kernel.covered_radius = 0.55;
   p.vignette_response_kernel.raw = {900, 1000.5};
   p.vignette_response_kernel.weight = {{0.1, -0.2, 0}, {-0.1, 0.2, 0}};
   p.Write(path);
   const VignetteResponseKernel back = PhotometricCalibration::Read(path).vignette_response_kernel;
   EXPECT_EQ(back.v, p.vignette_response_kernel.v);
+  EXPECT_EQ(back.truncation, p.vignette_response_kernel.truncation);
+  EXPECT_EQ(back.covered_radius, 0.55);
   EXPECT_EQ(back.raw, p.vignette_response_kernel.raw);
   EXPECT_EQ(back.weight, p.vignette_response_kernel.weight);
   nlohmann::json j = ReadJsonFile(path);
@@ -243,12 +247,15 @@ TEST(PhotometricFile, VignetteInputKeepsTheRadialResponseKernel) {
   j["vignette_input"].erase("response_kernel");
   WriteJsonAtomically(path, j);
   EXPECT_TRUE(PhotometricCalibration::Read(path).vignette_response_kernel.empty());
-  nlohmann::json short_v = kernel, negative = kernel, ragged = kernel, nan_weight = kernel;
+  nlohmann::json short_v = kernel, negative = kernel, ragged = kernel, nan_weight = kernel,
+                 radius_alone = kernel;
+  radius_alone.erase("truncation");
   short_v["v"] = {0.1, 0.2};
   negative["raw"][0] = -1;
   ragged["weight"].erase(1);
   nan_weight["weight"][0][0] = "nan";
-  for (const nlohmann::json& bad : {nlohmann::json(3), short_v, negative, ragged, nan_weight}) {
+  for (const nlohmann::json& bad :
+       {nlohmann::json(3), short_v, negative, ragged, nan_weight, radius_alone}) {
     j["vignette_input"]["response_kernel"] = bad;
     WriteJsonAtomically(path, j);
     try {

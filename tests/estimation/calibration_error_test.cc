@@ -417,6 +417,39 @@ TEST(CalibrationError, ARadialVignettingMovesAsItsKernelSays) {
   EXPECT_GT(map, 1.6 * radial);
 }
 
+// A radial V's truncation (photometric.h VignetteResponseKernel::truncation): the observations
+// divided by 1 + dV(r) / V(r), dV of the size the next term's fit gave (here -0.01 r^2 + 0.05
+// r^4), r held at the covered radius (0.6) beyond it. Drawn as a 1-sigma mode, the bars hold a
+// 1-sigma truncation (measured: every shift 1.25-1.29 of them, one direction moving all); without
+// the mode nothing draws it.
+TEST(CalibrationError, ARadialVignettingsTruncationIsDrawn) {
+  VignetteResponseKernel k;
+  k.v = {-0.3, 0, 0};
+  k.truncation = {-0.01, 0.05, 0};
+  k.covered_radius = 0.6;
+  k.raw = {1000};
+  k.weight = {{0, 0, 0}};
+  BentFits b = FitWithoutAndWith(std::vector<double>(400, 0.0));
+  for (auto& o : b.data.observations) {
+    const double r2 = std::min(
+        (Eigen::Vector2d(o.px, o.py) - kPrincipalPoint).squaredNorm() / (kRadiusPx * kRadiusPx),
+        0.36);
+    const double dv = -0.01 * r2 + 0.05 * r2 * r2;
+    for (double& l : o.radiance) l /= 1 + dv / (1 - 0.3 * r2);
+  }
+  b.fit = FitJoint("oren-nayar", b.data, kLamp, b.options);
+  ASSERT_TRUE(b.base.material.converged && b.fit.material.converged);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.vignette_kernel = k;
+  e.vignette_kernel_log2x = {10};
+  const double drawn = LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e));
+  EXPECT_LT(drawn, 3.0);
+  EXPECT_GT(drawn, 0.3);
+  e.vignette_kernel.truncation = {0, 0, 0};
+  const CalibrationPropagation none = PropagateTen(b.data, b.fit, b.options, e);
+  for (double sd : none.param_stddev) EXPECT_LT(sd, 1e-7);
+}
+
 // The statistical part when the fit's floor is the propagated calibration accuracy
 // (calibration_error.h RescaleForPropagatedFloor): observations whose pixel variance is a tenth
 // of the modelled one (pixel sd 0.1 %, floor 0.3 %). Residuals at 0.3 of the model's variance:
