@@ -44,6 +44,16 @@ class VignetteSynthetic : public ::testing::Test {
   }
   static void TearDownTestSuite() { delete dir_; }
 
+  // V of the board scene (truth poses, the texture cell for 320x240) read through `photometric`.
+  static VignetteResult FitBoard(const PhotometricCalibration& photometric) {
+    const fs::path d = dir_->path() / "board";
+    const auto frames = testing::LoadVignetteFrames(d, dir_->path() / "board_poses.json");
+    VignetteOptions o;
+    o.albedo_cell_m = kAlbedoCell;
+    return CalibrateVignette(board_.camera, PaperRegion::Read(d / "board.json"), photometric,
+                             frames, o);
+  }
+
   static testing::TempDir* dir_;
   static synth::Scene flat_, board_;
 };
@@ -93,13 +103,7 @@ TEST_F(VignetteSynthetic, FlatFieldMapWithinOnePercentRms) {
 // radial polynomial, whose joint fit with the board texture (lamp fall-off, tag-free paper)
 // still matches the truth over the whole image.
 TEST_F(VignetteSynthetic, BoardSceneFallsBackToRadialWithinOnePercentRms) {
-  const fs::path d = dir_->path() / "board";
-  const auto frames = testing::LoadVignetteFrames(d, dir_->path() / "board_poses.json");
-  const PaperRegion board = PaperRegion::Read(d / "board.json");
-  VignetteOptions o;
-  o.albedo_cell_m = kAlbedoCell;
-  const VignetteResult r =
-      CalibrateVignette(board_.camera, board, testing::TruthCalibration(board_), frames, o);
+  const VignetteResult r = FitBoard(testing::TruthCalibration(board_));
   EXPECT_EQ(r.model_used, VignetteModel::kRadial) << r.Report();
   EXPECT_FALSE(r.note.empty());
   const cv::Mat truth = testing::TruthVignette(board_);
@@ -145,13 +149,8 @@ TEST_F(VignetteSynthetic, BoardSceneFallsBackToRadialWithinOnePercentRms) {
 // session within 1 % over 8 phases of a third-stop sine, docs/pipeline.md "Calibration
 // error"); a constant error moves nothing.
 TEST_F(VignetteSynthetic, TheResponseKernelPredictsHowTheRadialFitMoves) {
-  const fs::path d = dir_->path() / "board";
-  const auto frames = testing::LoadVignetteFrames(d, dir_->path() / "board_poses.json");
-  const PaperRegion board = PaperRegion::Read(d / "board.json");
-  VignetteOptions o;
-  o.albedo_cell_m = kAlbedoCell;
   const PhotometricCalibration truth = testing::TruthCalibration(board_);
-  const VignetteResult r = CalibrateVignette(board_.camera, board, truth, frames, o);
+  const VignetteResult r = FitBoard(truth);
   ASSERT_EQ(r.model_used, VignetteModel::kRadial);
   const VignetteResponseKernel& k = r.response_kernel;
   ASSERT_FALSE(k.empty());
@@ -162,7 +161,7 @@ TEST_F(VignetteSynthetic, TheResponseKernelPredictsHowTheRadialFitMoves) {
     for (size_t z = 0; z < p.response.inverse_response[0].size(); ++z) {
       p.response.inverse_response[0][z] *= std::exp(f(static_cast<double>(z)));
     }
-    return CalibrateVignette(board_.camera, board, p, frames, o).radial;
+    return FitBoard(p).radial;
   };
   const auto field = [&](double z) { return 0.003 * std::sin(2 * kPi * 6 * z / top + 0.4); };
   const std::array<double, 3> moved = bent(field);

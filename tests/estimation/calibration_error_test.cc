@@ -302,6 +302,27 @@ TEST(CalibrationError, APriorHeldErrorRepeatsWithTheLinearValue) {
   }
 }
 
+// V's input read at raw values that rise across the image (cells of kInputCell px, 1000 to
+// 3700), and log2 of a linear camera's value there.
+constexpr int kInputCell = 32;
+std::pair<cv::Mat, cv::Mat> RisingInput() {
+  cv::Mat input(30, 40, CV_32F), log2x(30, 40, CV_32F);
+  for (int y = 0; y < input.rows; ++y) {
+    for (int x = 0; x < input.cols; ++x) {
+      input.at<float>(y, x) = 1000 + 45 * x + 35 * y;
+      log2x.at<float>(y, x) = std::log2(input.at<float>(y, x));
+    }
+  }
+  return {input, log2x};
+}
+
+// A walk over knots kKnotSpacing raw values apart, linear between them, at raw value z.
+double WalkAt(const std::vector<double>& knot, double z) {
+  const double pos = z / kKnotSpacing;
+  const size_t j = static_cast<size_t>(pos);
+  return (1 - (pos - j)) * knot[j] + (pos - j) * knot[j + 1];
+}
+
 // The vignetting measured through the same response (calibration_error.h): V's input read at
 // raw values that rise across the image (cells of 32 px, 1000 to 3700), the observations all at
 // raw value 2000. The true response error (a smoothed walk) then reaches the fit only through V:
@@ -310,24 +331,14 @@ TEST(CalibrationError, APriorHeldErrorRepeatsWithTheLinearValue) {
 // the lamp's intensity absorbs, and its bars must not cover the shift. Where the observations
 // were read at V's own input values, the error cancels and nothing is added.
 TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
-  constexpr int kCell = 32;
-  cv::Mat input(30, 40, CV_32F), log2x(30, 40, CV_32F);
-  for (int y = 0; y < input.rows; ++y) {
-    for (int x = 0; x < input.cols; ++x) {
-      input.at<float>(y, x) = 1000 + 45 * x + 35 * y;
-      log2x.at<float>(y, x) = std::log2(input.at<float>(y, x));
-    }
-  }
+  const auto [input, log2x] = RisingInput();
   const auto input_at = [&](const Observation& o) {
-    return input.at<float>(static_cast<int>(o.py) / kCell, static_cast<int>(o.px) / kCell);
+    return input.at<float>(static_cast<int>(o.py) / kInputCell,
+                           static_cast<int>(o.px) / kInputCell);
   };
   std::mt19937_64 rng(4242);
   const std::vector<double> truth = SmoothedWalk(&rng);
-  const auto ln_error = [&](double z) {
-    const double pos = z / kKnotSpacing;
-    const size_t j = static_cast<size_t>(pos);
-    return (1 - (pos - j)) * truth[j] + (pos - j) * truth[j + 1];
-  };
+  const auto ln_error = [&](double z) { return WalkAt(truth, z); };
   BentFits b = FitWithoutAndWith(std::vector<double>(400, 0.0));
   for (auto& o : b.data.observations) {
     o.value = {2000.0};
@@ -341,7 +352,7 @@ TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
   CalibrationErrorModel with_input = e;
   with_input.vignette_input_raw = input;
   with_input.vignette_input_log2x = log2x;
-  with_input.vignette_input_cell_px = kCell;
+  with_input.vignette_input_cell_px = kInputCell;
   const double largest =
       LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, with_input));
   EXPECT_LT(largest, 3.0);
@@ -360,21 +371,10 @@ TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
 // V's change there. Drawn through the kernel the bars hold the shift as above (0.73 of them);
 // drawn cell by cell from V's input, as for a map, they are half as wide (1.52).
 TEST(CalibrationError, ARadialVignettingMovesAsItsKernelSays) {
-  constexpr int kCell = 32;
-  cv::Mat input(30, 40, CV_32F), log2x(30, 40, CV_32F);
-  for (int y = 0; y < input.rows; ++y) {
-    for (int x = 0; x < input.cols; ++x) {
-      input.at<float>(y, x) = 1000 + 45 * x + 35 * y;
-      log2x.at<float>(y, x) = std::log2(input.at<float>(y, x));
-    }
-  }
+  const auto [input, log2x] = RisingInput();
   std::mt19937_64 rng(4242);
   const std::vector<double> truth = SmoothedWalk(&rng);
-  const auto ln_error = [&](double z) {
-    const double pos = z / kKnotSpacing;
-    const size_t j = static_cast<size_t>(pos);
-    return (1 - (pos - j)) * truth[j] + (pos - j) * truth[j + 1];
-  };
+  const auto ln_error = [&](double z) { return WalkAt(truth, z); };
   VignetteResponseKernel kernel;
   kernel.v = {-0.3, 0, 0};
   std::vector<double> kernel_log2x;
@@ -403,7 +403,7 @@ TEST(CalibrationError, ARadialVignettingMovesAsItsKernelSays) {
   for (int r = 0; r < 10; ++r) e.response_replicates.push_back({SmoothedWalk(&rng)});
   e.vignette_input_raw = input;
   e.vignette_input_log2x = log2x;
-  e.vignette_input_cell_px = kCell;
+  e.vignette_input_cell_px = kInputCell;
   e.vignette_kernel = kernel;
   e.vignette_kernel_log2x = kernel_log2x;
   const double radial = LargestShiftInSd(b.base, b.fit, PropagateTen(b.data, b.fit, b.options, e));
