@@ -331,7 +331,9 @@ double WalkAt(const std::vector<double>& knot, double z) {
 // the lamp's intensity absorbs, and its bars must not cover the shift. Where the observations
 // were read at V's own input values, the error cancels and nothing is added.
 TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
-  const auto [input, log2x] = RisingInput();
+  // Named copies, not a structured binding: C++17 lambdas cannot capture one (clang refuses).
+  const std::pair<cv::Mat, cv::Mat> inputs = RisingInput();
+  const cv::Mat input = inputs.first, log2x = inputs.second;
   const auto input_at = [&](const Observation& o) {
     return input.at<float>(static_cast<int>(o.py) / kInputCell,
                            static_cast<int>(o.px) / kInputCell);
@@ -371,7 +373,9 @@ TEST(CalibrationError, TheResponseErrorReachesTheFitThroughTheVignetting) {
 // V's change there. Drawn through the kernel the bars hold the shift as above (0.73 of them);
 // drawn cell by cell from V's input, as for a map, they are half as wide (1.52).
 TEST(CalibrationError, ARadialVignettingMovesAsItsKernelSays) {
-  const auto [input, log2x] = RisingInput();
+  // Named copies, not a structured binding: C++17 lambdas cannot capture one (clang refuses).
+  const std::pair<cv::Mat, cv::Mat> inputs = RisingInput();
+  const cv::Mat input = inputs.first, log2x = inputs.second;
   std::mt19937_64 rng(4242);
   const std::vector<double> truth = SmoothedWalk(&rng);
   const auto ln_error = [&](double z) { return WalkAt(truth, z); };
