@@ -1,6 +1,7 @@
 // photometric.json (calib/photometry/photometric.h, PhotometricCalibration::Read): an accepted
 // calibration has a finite, non-negative read noise, a positive electrons-per-DN when given,
-// and a vignetting map (when there is one) of finite positive values.
+// a vignetting map (when there is one) of finite positive values, and a radial V's response
+// kernel (when there is one) of finite weights, one per raw value >= 0.
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -11,6 +12,9 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   // The vignetting map the seeds name (a small valid one), so inputs get past reading it.
   cv::Mat map(24, 32, CV_32F, cv::Scalar(0.9f));
   cv::imwrite((gonio::fuzz::WorkDir() / "photometric_vignette.tiff").string(), map);
+  // V's input raw values: 2 x 2 cells of 16 px cover the map.
+  cv::Mat input(2, 2, CV_32F, cv::Scalar(1000.0f));
+  cv::imwrite((gonio::fuzz::WorkDir() / "photometric_vignette_input.tiff").string(), input);
   return 0;
 }
 
@@ -27,6 +31,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       cv::minMaxLoc(c.vignette, &lo, &hi);
       GONIO_FUZZ_REQUIRE(cv::checkRange(c.vignette) && lo > 0);
     }
+    const gonio::VignetteResponseKernel& k = c.vignette_response_kernel;
+    GONIO_FUZZ_REQUIRE(k.weight.size() == k.raw.size());
+    for (size_t b = 0; b < k.raw.size(); ++b) {
+      GONIO_FUZZ_REQUIRE(Finite(k.raw[b]) && k.raw[b] >= 0);
+      for (double w : k.weight[b]) GONIO_FUZZ_REQUIRE(Finite(w));
+    }
+    for (int j = 0; j < 3; ++j) GONIO_FUZZ_REQUIRE(Finite(k.v[j]) && Finite(k.truncation[j]));
+    GONIO_FUZZ_REQUIRE(Finite(k.covered_radius) && k.covered_radius >= 0);
     const nlohmann::json response = c.response.ToJson();
     (void)response;
   });

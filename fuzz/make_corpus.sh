@@ -72,5 +72,13 @@ for name, vignette, e in (("photometric.json", "photometric_vignette.tiff", None
                           ("linear_no_map.json", None, 2.5)):
     j = {"response": r, "vignette": vignette, "read_noise_dn": 0.5, "electrons_per_dn": e}
     json.dump(j, open(sys.argv[2] + "/" + name, "w"))
+# With V's input and a radial V's response kernel (the fuzz target writes the input's TIFF).
+j = {"response": r, "vignette": "photometric_vignette.tiff", "read_noise_dn": 0.5,
+     "electrons_per_dn": None,
+     "vignette_input": {"raw_values": "photometric_vignette_input.tiff", "cell_px": 16,
+                        "response_kernel": {"v": [-0.3, 0, 0], "truncation": [0.01, -0.02, 0],
+                                            "covered_radius": 0.5, "raw": [1000, 1001.5],
+                                            "weight": [[0.1, 0, 0], [-0.1, 0, 0]]}}}
+json.dump(j, open(sys.argv[2] + "/radial_kernel.json", "w"))
 PY
 ls -l "$out"/*
