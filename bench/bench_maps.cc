@@ -149,7 +149,7 @@ void HeldOutComparison(const BenchOptions& options, const fs::path& work, MapsBe
     const double noise = NoiseRelativeRms(noisy, clean, k);
     noise2 += noise * noise;
     ++held;
-    for (const std::string& model : {"oren-nayar-qualitative", "lambert", "diffuse-ggx"}) {
+    for (const std::string model : {"oren-nayar-qualitative", "lambert", "diffuse-ggx"}) {
       MapsOptions o;
       o.model = ParseMapsModel(model, "model");
       o.roughness = RoughnessChoice::kSample;  // the GGX baseline's single roughness
@@ -279,7 +279,7 @@ void WriteMapsBenchOutputs(const fs::path& dir, const MapsBenchReport& rep) {
       "held-out view predicted from the maps (rectified flash capture, size {})", rep.size);
   spec.xlabel = "held-out view";
   spec.ylabel = "relative RMSE";
-  for (const std::string& model : {"oren-nayar-qualitative", "lambert", "diffuse-ggx"}) {
+  for (const std::string model : {"oren-nayar-qualitative", "lambert", "diffuse-ggx"}) {
     PlotSeries s;
     s.label = model;
     s.style = "linespoints pt 7 lw 2";
