@@ -125,8 +125,8 @@ std::vector<double> TruncationModeAt(const CalibrationErrorModel& e,
 }
 
 // One response end's mode (calibration_error.h): the end's error times its weight at each
-// observation's raw value in its channel, less its weight at V's input there, centred (a common
-// scale is the lamp's intensity); empty when no observation reaches the end.
+// observation's raw value in its channel, less V's share of it (vignette_share.h), centred (a
+// common scale is the lamp's intensity); empty when no observation reaches the end.
 std::vector<double> EndMode(const RawValues& raw, const ResponseEnd& end) {
   std::vector<double> m;
   bool reached = false;
@@ -141,7 +141,7 @@ std::vector<double> EndMode(const RawValues& raw, const ResponseEnd& end) {
     const double w =
         weight(end.channel < static_cast<int>(value.size()) ? value[end.channel] : NAN);
     reached = reached || w > 0;
-    m.push_back(end.error * (w - (w_vignette.empty() ? 0.0 : w_vignette[k])));
+    m.push_back(end.error * (w - w_vignette[k]));
   }
   return reached ? Centred(std::move(m)) : std::vector<double>{};
 }
@@ -161,11 +161,9 @@ void AddSlopeModes(const ObservationSet& data, const std::vector<size_t>& use, E
     if (std::isfinite(x)) log_v.push_back(x);
   }
   const double median = Median(log_l), median_v = log_v.empty() ? 0.0 : Median(log_v);
-  std::vector<double> uv = m->raw.vignette.At([&](double, double x) { return x - median_v; });
-  std::vector<double> uv2 =
+  const std::vector<double> uv = m->raw.vignette.At([&](double, double x) { return x - median_v; });
+  const std::vector<double> uv2 =
       m->raw.vignette.At([&](double, double x) { return (x - median_v) * (x - median_v); });
-  uv.resize(use.size(), 0.0);
-  uv2.resize(use.size(), 0.0);
   std::vector<double> u, u2;
   for (size_t k = 0; k < use.size(); ++k) {
     u.push_back(log_l[k] - median - uv[k]);
@@ -197,19 +195,18 @@ ErrorModes ModesAt(const ObservationSet& data, const std::vector<size_t>& use,
 }
 
 // A field over raw values, `scale` times it added to `log_field`: `value_at(channel, z)` at each
-// observation's raw value in each of the first `channels`, the mean over channels, less the same
-// at the raw value V was measured from there (in every channel), where known: V divides the
-// observation and was read through the same response.
+// observation's raw value in each of the first `channels`, the mean over channels, less V's
+// share of the same mean (vignette_share.h): V divides the observation and was read through the
+// same response.
 template <typename ValueAt>
 void AddRawField(const RawValues& raw, size_t channels, double scale, ValueAt value_at,
                  std::vector<double>* log_field) {
   const size_t used = raw.observed.empty() ? 0 : std::min(raw.observed[0].size(), channels);
-  std::vector<double> vignette = raw.vignette.At([&](double z, double) {
+  const std::vector<double> vignette = raw.vignette.At([&](double z, double) {
     double sum = 0;
     for (size_t c = 0; c < used; ++c) sum += value_at(c, z);
     return used > 0 ? sum / used : 0.0;
   });
-  vignette.resize(raw.observed.size(), 0.0);
   for (size_t k = 0; k < raw.observed.size(); ++k) {
     const auto& value = raw.observed[k];
     double sum = 0;

@@ -59,8 +59,8 @@
 // V was measured through the same response (a flat field or the board's paper at its own raw
 // values), so every response mode also moves V, which divides the observation: as far as V's
 // form follows the mode's values at the raw values V was measured from (vignette_input_raw;
-// vignette_share.h): a map cell by cell, the radial polynomial by their least-squares
-// projection on its terms. Where the sample and V's input were read at the same values, the
+// vignette_share.h): a map cell by cell, the radial polynomial as its fit's linear response
+// says (VignetteResponseKernel). Where the sample and V's input were read at the same values, the
 // response's error cancels; where V's input spans values the sample does not, V carries an
 // error of its own that the split halves share and cannot show.
 // A radial V's truncation (photometric.h VignetteResponseKernel::truncation): the fit with the

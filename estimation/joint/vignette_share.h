@@ -54,8 +54,8 @@ class VignetteShare {
   std::vector<double> ObservedRaw() const { return Observed(cell_z_); }
   std::vector<double> ObservedLog2x() const { return Observed(cell_log2x_); }
 
-  // V's share at each observation of a field f(z, log2x) over V's input (0 where V's input is
-  // unknown and V is a map, and everywhere when empty).
+  // V's share at each observation of a field f(z, log2x) over V's input, one per observation
+  // (0 where V's input is unknown and V is a map, and everywhere when empty).
   template <typename F>
   std::vector<double> At(F f) const {
     if (radial()) {
