@@ -57,46 +57,54 @@ VignetteResponseKernel RadialResponseKernel(const std::vector<Sample>& samples,
     for (int j = 0; j < terms; ++j, power *= r2) g[j] = C[s.acell] * power;
     return g;
   };
-  const auto v_of = [&](const Sample& s) { return RadialVignettingAtR2(v, pixels[s.ray].r2); };
-  // Per cell D_p and G_p, and S.
-  std::vector<double> d_of_sample(samples.size());
-  std::vector<Eigen::Vector3d> g_cell_of_sample(samples.size());
-  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
-  for (size_t begin = 0; begin < order.size();) {
-    size_t end = begin;
+  // Per texture cell (a run of `order`) D_p and G_p, and S.
+  struct Cell {
+    size_t begin, end;
     double D = 0;
     Eigen::Vector3d G = Eigen::Vector3d::Zero();
-    for (; end < order.size() && samples[order[end]].acell == samples[order[begin]].acell; ++end) {
-      const Sample& s = samples[order[end]];
+  };
+  std::vector<Cell> cells;
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (size_t begin = 0; begin < order.size();) {
+    Cell cell{begin, begin};
+    for (; cell.end < order.size() && samples[order[cell.end]].acell == samples[order[begin]].acell;
+         ++cell.end) {
+      const Sample& s = samples[order[cell.end]];
       const Eigen::Vector3d g = g_of(s);
-      D += v_of(s) * v_of(s);
-      G += v_of(s) * g;
+      const double V = RadialVignettingAtR2(v, pixels[s.ray].r2);
+      cell.D += V * V;
+      cell.G += V * g;
       S += g * g.transpose();
     }
-    if (D > 0) S -= G * G.transpose() / D;
-    for (size_t i = begin; i < end; ++i) d_of_sample[order[i]] = D, g_cell_of_sample[order[i]] = G;
-    begin = end;
+    if (cell.D > 0) S -= cell.G * cell.G.transpose() / cell.D;
+    begin = cell.end;
+    cells.push_back(cell);
   }
   // Only the free terms: the fixed ones' rows and columns are zero.
   const Eigen::MatrixXd S_free = S.topLeftCorner(terms, terms);
   const Eigen::LDLT<Eigen::MatrixXd> solve(S_free);
   if (solve.info() != Eigen::Success || !(S_free.diagonal().minCoeff() > 0)) return kernel;
-  // Bins of raw value: 1 DN up to 10 bits, coarser beyond (at most 1024 bins).
+  // Bins of raw value: 1 DN up to 10 bits, coarser beyond (at most 1024 bins). Each bin gathers
+  // its samples' (g_s - G_p V_s / D_p) I_s; S^-1 is applied once per bin.
   const double top = TopRaw(samples);
   const double width = std::max(1.0, std::ceil((top + 1) / 1024.0));
   std::vector<Eigen::Vector3d> weight(static_cast<size_t>(top / width) + 1,
                                       Eigen::Vector3d::Zero());
   std::vector<double> raw_sum(weight.size(), 0.0);
   std::vector<size_t> count(weight.size(), 0);
-  for (size_t i = 0; i < samples.size(); ++i) {
-    const Sample& s = samples[i];
-    if (!(d_of_sample[i] > 0) || !std::isfinite(s.raw) || s.raw < 0) continue;
-    const Eigen::Vector3d h = (g_of(s) - g_cell_of_sample[i] * v_of(s) / d_of_sample[i]) * s.value;
-    const size_t b = std::min(weight.size() - 1, static_cast<size_t>(s.raw / width));
-    weight[b].head(terms) += solve.solve(h.head(terms));
-    raw_sum[b] += s.raw;
-    ++count[b];
+  for (const Cell& cell : cells) {
+    if (!(cell.D > 0)) continue;
+    for (size_t i = cell.begin; i < cell.end; ++i) {
+      const Sample& s = samples[order[i]];
+      if (!std::isfinite(s.raw) || s.raw < 0) continue;
+      const double V = RadialVignettingAtR2(v, pixels[s.ray].r2);
+      const size_t b = std::min(weight.size() - 1, static_cast<size_t>(s.raw / width));
+      weight[b] += (g_of(s) - cell.G * V / cell.D) * s.value;
+      raw_sum[b] += s.raw;
+      ++count[b];
+    }
   }
+  for (Eigen::Vector3d& w : weight) w.head(terms) = solve.solve(w.head(terms));
   for (size_t b = 0; b < weight.size(); ++b) {
     if (count[b] == 0 || !weight[b].allFinite()) continue;
     kernel.raw.push_back(raw_sum[b] / count[b]);
