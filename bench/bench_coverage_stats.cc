@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -18,6 +19,28 @@ namespace {
 
 json Finite(double v) { return std::isfinite(v) ? json(v) : json(); }
 
+// The 5 % and 95 % quantiles of chi-square with n degrees of freedom: exact for n = 1 (the
+// square of a normal's 47.5 % and 2.5 % tails) and n = 2 (an exponential of mean 2); Wilson and
+// Hilferty's cube of a normal beyond, within 1 % of the tables from n = 3 on.
+std::pair<double, double> ChiSquare90(int n) {
+  constexpr double kZ95 = 1.6448536269514722;  // the standard normal's 95 % quantile
+  if (n == 1) return {0.0627068779 * 0.0627068779, 1.959963985 * 1.959963985};
+  if (n == 2) return {-2 * std::log(0.95), -2 * std::log(0.05)};
+  const double a = 2.0 / (9.0 * n);
+  const auto at = [&](double z) { return n * std::pow(1 - a + z * std::sqrt(a), 3); };
+  return {at(-kZ95), at(kZ95)};
+}
+
+// P(X >= k) for X binomial with n trials of probability p.
+double BinomialUpperTail(int n, int k, double p) {
+  double tail = 0;
+  for (int j = k; j <= n; ++j) {
+    tail += std::exp(std::lgamma(n + 1.0) - std::lgamma(j + 1.0) - std::lgamma(n - j + 1.0) +
+                     j * std::log(p) + (n - j) * std::log1p(-p));
+  }
+  return tail;
+}
+
 CoverageStat Stat(const std::string& parameter, bool warned, const std::vector<double>& z) {
   CoverageStat s;
   s.parameter = parameter;
@@ -32,6 +55,12 @@ CoverageStat Stat(const std::string& parameter, bool warned, const std::vector<d
   }
   s.rms_z = z.empty() ? 0.0 : std::sqrt(sq / z.size());
   s.share_below_2 = z.empty() ? 0.0 : static_cast<double>(below) / z.size();
+  if (!z.empty()) {
+    // n z^2 / true RMS^2 is chi-square with n degrees of freedom.
+    const auto [lo, hi] = ChiSquare90(s.n);
+    s.rms_z_lo = s.rms_z * std::sqrt(s.n / hi);
+    s.rms_z_hi = s.rms_z * std::sqrt(s.n / lo);
+  }
   return s;
 }
 
@@ -85,11 +114,36 @@ json CoverageRun::ToJson() const {
           {"seconds", Finite(seconds)}};
 }
 
+std::string ToString(CoverageVerdict v) {
+  switch (v) {
+    case CoverageVerdict::kMet:
+      return "met";
+    case CoverageVerdict::kUndecided:
+      return "undecided";
+    case CoverageVerdict::kMissed:
+      return "missed";
+  }
+  return "missed";
+}
+
+CoverageVerdict CoverageStat::Judge(const CoverageTargets& t) const {
+  if (n == 0) return CoverageVerdict::kUndecided;
+  const bool rms_in = rms_z >= t.min_rms_z && rms_z <= t.max_rms_z;
+  const bool share_in = share_below_2 >= t.min_share_below_2;
+  if (rms_in && share_in) return CoverageVerdict::kMet;
+  const int beyond = n - static_cast<int>(std::lround(share_below_2 * n));
+  const bool rms_out = rms_z_hi < t.min_rms_z || rms_z_lo > t.max_rms_z;
+  const bool share_out = BinomialUpperTail(n, beyond, 1 - t.min_share_below_2) < 0.05;
+  return rms_out || share_out ? CoverageVerdict::kMissed : CoverageVerdict::kUndecided;
+}
+
 json CoverageStat::ToJson() const {
   return {{"parameter", parameter},
           {"warned", warned},
           {"n", n},
           {"rms_z", Finite(rms_z)},
+          {"rms_z_90", {Finite(rms_z_lo), Finite(rms_z_hi)}},
+          {"verdict", ToString(Judge())},
           {"share_below_2", Finite(share_below_2)},
           {"max_abs_z", Finite(max_abs_z)}};
 }
@@ -156,7 +210,14 @@ json CoverageReport::ToJson() const {
   }
   json runs_json = json::array(), stats_json = json::array();
   for (const auto& r : runs) runs_json.push_back(r.ToJson());
-  for (const auto& s : stats) stats_json.push_back(s.ToJson());
+  json missed = json::array(), undecided = json::array();
+  for (const auto& s : stats) {
+    stats_json.push_back(s.ToJson());
+    if (s.warned || s.n == 0) continue;
+    const CoverageVerdict v = s.Judge();
+    if (v == CoverageVerdict::kMissed) missed.push_back(s.parameter);
+    if (v == CoverageVerdict::kUndecided) undecided.push_back(s.parameter);
+  }
   const CoverageTargets t;
   return {{"size", size},
           {"kinds", kinds},
@@ -169,6 +230,8 @@ json CoverageReport::ToJson() const {
             {"share_below_2", t.min_share_below_2},
             {"miss_z", kMissZ}}},
           {"targets_met", TargetsMet()},
+          {"targets_missed", missed},
+          {"targets_undecided", undecided},
           {"stats", stats_json},
           {"unwarned_misses", unwarned_misses},
           {"runs", runs_json},

@@ -77,6 +77,54 @@ TEST(Coverage, EveryParameterMustMeetTheTargets) {
   EXPECT_TRUE(rep.TargetsMet(loose));
 }
 
+// albedo's statistic over runs with these unwarned z.
+CoverageStat AlbedoStat(const std::vector<double>& z) {
+  CoverageReport rep;
+  for (double v : z) rep.runs.push_back(MadeUpRun("a", {{v, false}}));
+  SummarizeCoverage(&rep);
+  return *rep.Find("albedo", false);
+}
+
+// The RMS of n z is a measurement with an interval of its own (chi-square tables: n = 6 gives
+// 1.635 and 12.592 at 5 % and 95 %, n = 2 0.1026 and 5.991, n = 20 10.851 and 31.410): a band
+// missed over few runs is undecided, not missed, and the strict targets_met is unchanged.
+TEST(Coverage, FewRunsLeaveATargetUndecided) {
+  const CoverageStat six = AlbedoStat({1, -1, 1, -1, 1, -1});
+  EXPECT_NEAR(six.rms_z_lo, std::sqrt(6 / 12.592), 0.01 * std::sqrt(6 / 12.592));
+  EXPECT_NEAR(six.rms_z_hi, std::sqrt(6 / 1.635), 0.01 * std::sqrt(6 / 1.635));
+  EXPECT_EQ(six.Judge(), CoverageVerdict::kMet);
+  const CoverageStat two = AlbedoStat({1, -1});
+  EXPECT_NEAR(two.rms_z_lo, std::sqrt(2 / 5.991), 1e-3);
+  EXPECT_NEAR(two.rms_z_hi, std::sqrt(2 / 0.1026), 1e-2);
+  const CoverageStat twenty = AlbedoStat(std::vector<double>(20, 1.0));
+  EXPECT_NEAR(twenty.rms_z_lo, std::sqrt(20 / 31.410), 0.01 * std::sqrt(20 / 31.410));
+  EXPECT_NEAR(twenty.rms_z_hi, std::sqrt(20 / 10.851), 0.01 * std::sqrt(20 / 10.851));
+
+  // Bars twice the errors over 6 runs: the band's floor is inside the interval.
+  const CoverageStat wide6 = AlbedoStat({0.47, -0.47, 0.47, -0.47, 0.47, -0.47});
+  EXPECT_EQ(wide6.Judge(), CoverageVerdict::kUndecided);
+  // Five times the errors over 20 runs: ruled out.
+  EXPECT_EQ(AlbedoStat(std::vector<double>(20, 0.2)).Judge(), CoverageVerdict::kMissed);
+  // 2 of 17 beyond 2 (88 %): a true 10 % gives as many half the time.
+  std::vector<double> z17(15, 0.9);
+  z17.insert(z17.end(), {2.2, -2.1});
+  const CoverageStat s17 = AlbedoStat(z17);
+  EXPECT_LT(s17.share_below_2, 0.9);
+  EXPECT_EQ(s17.Judge(), CoverageVerdict::kUndecided);
+  // 6 of 20 beyond 2: a true 10 % gives as many 1 % of the time.
+  std::vector<double> z20(14, 0.5);
+  z20.insert(z20.end(), {2.1, -2.1, 2.1, -2.1, 2.1, -2.1});
+  EXPECT_EQ(AlbedoStat(z20).Judge(), CoverageVerdict::kMissed);
+
+  CoverageReport rep;
+  for (double v : {0.47, -0.47, 0.47}) rep.runs.push_back(MadeUpRun("a", {{v, false}}));
+  SummarizeCoverage(&rep);
+  EXPECT_FALSE(rep.TargetsMet());
+  const nlohmann::json j = rep.ToJson();
+  EXPECT_EQ(j.at("targets_undecided"), nlohmann::json::array({"albedo", "all"}));
+  EXPECT_TRUE(j.at("targets_missed").empty());
+}
+
 // A wrong model is a miss unless a warning touches some result; a failed step always is.
 TEST(Coverage, WrongModelAndFailedRunsAreMisses) {
   CoverageRun wrong = MadeUpRun("a", {});
