@@ -12,8 +12,13 @@
 #include "common/stats.h"
 #include "estimation/joint/joint_fit.h"
 #include "estimation/joint/joint_fit_problem.h"
+#include "reflectance/registry.h"
 
 namespace gonio {
+
+using joint_fit_internal::Geometry;
+using joint_fit_internal::LampInBoard;
+
 namespace {
 
 constexpr OptionWord<NuisanceTerm> kNuisanceWords[] = {
@@ -115,13 +120,8 @@ JointFitResult FitJoint(const std::string& model, const ObservationSet& data,
   options.Check();
   std::vector<size_t> all(data.observations.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-  JointFitResult r;
-  const ModelInfo& info = FindModel(model);
-  VisitModel(model, [&](auto tag) {
-    using M = typename decltype(tag)::type;
-    r = FitModel<M>(info, data, all, lamp_start, options, options.criterion == Criterion::kCv);
-  });
-  return r;
+  return joint_fit_internal::FitCandidate(model, data, all, lamp_start, options,
+                                          options.criterion == Criterion::kCv);
 }
 
 namespace {
