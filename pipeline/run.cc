@@ -203,15 +203,80 @@ void LocateFrames(const RunInputs& in, const RunOptions& o,
   spdlog::warn("{}", r->warnings.back().message);
 }
 
+// The nuisance terms --ambient auto / --sample-height auto kept that stand within
+// nuisance_min_z of the bar the calibration's part widened (AddCalibrationUncertainty).
+struct NuisanceDrop {
+  bool ambient = false, height = false;
+  double z_ambient = 0, z_height = 0;
+  bool Any() const { return ambient || height; }
+};
+
+NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const JointFitResult& f) {
+  NuisanceDrop d;
+  if (requested.ambient == AmbientTerm::kAuto && f.ambient == AmbientTerm::kFit) {
+    d.z_ambient = NuisanceZ(f, true);
+    d.ambient = !(d.z_ambient > requested.nuisance_min_z);
+  }
+  if (requested.sample_height == NuisanceTerm::kAuto && f.sample_height_offset) {
+    d.z_height = NuisanceZ(f, false);
+    d.height = !(d.z_height > requested.nuisance_min_z);
+  }
+  return d;
+}
+
+// After a drop: the reasons the selection gave, what dropped them, and, when leaving a term out
+// moves the lamp beyond kShiftInSd of its (widened) bar, the term as unresolved: the data
+// neither keep nor exclude it, and the run warns (pipeline/checks.cc).
+void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, JointFitResult* f) {
+  const std::string dropped =
+      d.ambient && d.height
+          ? fmt::format("ambient (z {:.2f}) and height (z {:.2f})", d.z_ambient, d.z_height)
+      : d.ambient ? fmt::format("ambient (z {:.2f})", d.z_ambient)
+                  : fmt::format("height (z {:.2f})", d.z_height);
+  const std::string note = fmt::format(
+      "; with the calibration's error (the refits) {} within {:g} standard deviations: dropped",
+      dropped, min_z);
+  spdlog::info("nuisances{}", note);
+  if (!kept.ambient_reason.empty()) f->ambient_reason = kept.ambient_reason + note;
+  if (!kept.sample_height_reason.empty())
+    f->sample_height_reason = kept.sample_height_reason + note;
+  if (!f->lamp_stddev) return;
+  const Eigen::Vector3d shift = kept.lamp_position - f->lamp_position;
+  const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *f->lamp_stddev);
+  if (in_sd > UnresolvedNuisance::kShiftInSd) {
+    f->unresolved_nuisance = UnresolvedNuisance{
+        d.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight,
+        d.ambient ? d.z_ambient : d.z_height, shift, in_sd};
+  }
+}
+
 // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the
 // selected model keep the nuisance terms the selection chose, and the calibration's error is
-// propagated after the checks (it widens error bars, it moves no residual).
+// propagated after the checks (it widens error bars, it moves no residual). A nuisance term the
+// selection kept on the noise's bar (the only one known then) must stand out of the widened bar
+// too: a calibration error bends the radiance the way room light or a height does (the coverage
+// bench's glossy sample on a 16-bit linear camera: room light at -12 % +- 1 % of the lamp kept,
+// +- 5 % with the calibration's part, and albedo then 2.4 bars off; without it 0.3). Such terms
+// are left out and the fit and the propagation run again.
 void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptions& fit_options,
                    RunResult* r) {
   CheckedFit checked = FitChecked(r->observations, fit_options, in.session.dir.string(), o.checks);
   r->fit = std::move(checked.fit);
   r->checks = std::move(checked.checks);
   PropagateCalibration(in, o, checked.options, r);
+  if (!r->calibration_error) return;
+  const NuisanceDrop drop = NuisancesWithinTheirBars(fit_options, r->fit.final_fit);
+  if (!drop.Any()) return;
+  const JointFitResult kept = r->fit.final_fit;
+  JointFitOptions without = WithChosenNuisances(fit_options, kept);
+  if (drop.ambient) without.ambient = AmbientTerm::kNone;
+  if (drop.height) without.sample_height = NuisanceTerm::kNone;
+  checked = FitChecked(r->observations, without, in.session.dir.string(), o.checks);
+  r->fit = std::move(checked.fit);
+  r->checks = std::move(checked.checks);
+  r->calibration_error.reset();
+  PropagateCalibration(in, o, checked.options, r);
+  NoteDrop(drop, kept, fit_options.nuisance_min_z, &r->fit.final_fit);
 }
 
 // Where the sample's raw values fall, the response between the sweep's exposures is its

@@ -345,6 +345,20 @@ ObservationSet PerturbedCopy(const ObservationSet& data, const std::vector<size_
   return out;
 }
 
+// A refit's nuisance terms appended per channel (as many as the fit's; a refit always holds
+// the fit's terms: same options).
+void CollectNuisances(const JointFitResult& r, std::vector<std::vector<double>>* ambient_sample,
+                      std::vector<std::vector<double>>* ambient_irradiance,
+                      std::vector<double>* height) {
+  for (size_t c = 0; c < ambient_sample->size() && c < r.ambient_sample.size(); ++c) {
+    (*ambient_sample)[c].push_back(r.ambient_sample[c]);
+  }
+  for (size_t c = 0; c < ambient_irradiance->size() && c < r.ambient_irradiance.size(); ++c) {
+    (*ambient_irradiance)[c].push_back(r.ambient_irradiance[c]);
+  }
+  if (r.sample_height_offset) height->push_back(*r.sample_height_offset);
+}
+
 // The refits' spread; 0 (nothing added) with fewer than two refits.
 double StdDev(const std::vector<double>& v) { return v.size() < 2 ? 0.0 : SampleStddev(v); }
 
@@ -436,7 +450,9 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   JointFitOptions refit_options = fit_options;
   refit_options.patch_model = fit.patch_model;
   std::vector<std::vector<double>> params(np);
-  std::vector<double> lx, ly, lz, intensity;
+  std::vector<double> lx, ly, lz, intensity, height;
+  std::vector<std::vector<double>> ambient_sample(fit.ambient_sample.size()),
+      ambient_irradiance(fit.ambient_irradiance.size());
   for (int d = 0; d < options.draws; ++d) {
     const ObservationSet perturbed = PerturbedCopy(data, use, modes, error, d, &rng, &pose_rng);
     const JointFitResult r = joint_fit_internal::FitCandidate(
@@ -447,6 +463,7 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
     ly.push_back(r.lamp_position.y());
     lz.push_back(r.lamp_position.z());
     intensity.push_back(r.intensity);
+    CollectNuisances(r, &ambient_sample, &ambient_irradiance, &height);
   }
   CalibrationPropagation p;
   p.draws = static_cast<int>(lx.size());
@@ -460,6 +477,9 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
   for (size_t i = 0; i < np; ++i) p.param_stddev.push_back(StdDev(params[i]));
   p.lamp_stddev = Eigen::Vector3d(StdDev(lx), StdDev(ly), StdDev(lz));
   p.intensity_stddev = StdDev(intensity);
+  for (const auto& v : ambient_sample) p.ambient_sample_stddev.push_back(StdDev(v));
+  for (const auto& v : ambient_irradiance) p.ambient_irradiance_stddev.push_back(StdDev(v));
+  if (fit.sample_height_offset) p.sample_height_stddev = StdDev(height);
   spdlog::debug("calibration error propagated over {} refits", p.draws);
   return p;
 }
@@ -517,85 +537,6 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
       std::sqrt(std::max(0.0, *accuracy * *accuracy - worst * worst - smoothing * smoothing));
   SetVignetteInput(photometric, &e);
   return e;
-}
-
-double RescaleForPropagatedFloor(const ObservationSet& data, double floor, JointFitResult* fit) {
-  double share = 0;
-  size_t n = 0;
-  for (const auto& o : data.observations) {
-    for (size_t c = 0; c < o.radiance.size() && c < o.variance.size(); ++c) {
-      const double sigma =
-          joint_fit_internal::Sigma(o, static_cast<int>(c), floor);  // the fit's noise model
-      if (!std::isfinite(sigma)) continue;
-      share += o.variance[c] / (sigma * sigma);
-      ++n;
-    }
-  }
-  const BrdfFitResult& m = fit->material;
-  const double dof = static_cast<double>(m.n_samples) - m.n_effective;
-  if (n == 0 || !(dof > 0) || !std::isfinite(m.weighted_ssr)) return 1.0;
-  share /= n;
-  const double v = m.weighted_ssr / dof;
-  const double factor = std::sqrt(std::max(v, share) / std::max(v, 1.0));
-  for (auto& sd : fit->material.stddev) {
-    if (sd) *sd *= factor;
-  }
-  if (fit->lamp_stddev) *fit->lamp_stddev *= factor;
-  if (fit->intensity_stddev) *fit->intensity_stddev *= factor;
-  spdlog::debug(
-      "statistical part x{:.3f}: residual variance {:.3f} per degree of freedom, pixel noise "
-      "{:.3f} of the modelled variance",
-      factor, v, share);
-  return factor;
-}
-
-void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* fit) {
-  auto& sd = fit->material.stddev;
-  for (size_t i = 0; i < std::min(sd.size(), p.param_stddev.size()); ++i) {
-    if (sd[i]) sd[i] = std::hypot(*sd[i], p.param_stddev[i]);
-  }
-  if (fit->lamp_stddev) {
-    for (int k = 0; k < 3; ++k) {
-      (*fit->lamp_stddev)[k] = std::hypot((*fit->lamp_stddev)[k], p.lamp_stddev[k]);
-    }
-  }
-  if (fit->intensity_stddev) {
-    fit->intensity_stddev = std::hypot(*fit->intensity_stddev, p.intensity_stddev);
-  }
-  // A nuisance the selection left unresolved moved the lamp by more than kShiftInSd of its
-  // statistical bar; the result depends on it only if the shift also leaves the bar that now
-  // holds the calibration's part. A calibration error bends the radiance the way room light or
-  // a height does: on the coverage bench's clean third-stop sessions such trials stood 2-2.6
-  // standard deviations out and moved the lamp by 4-11 mm, 8-14 statistical bars, and 5 of 7
-  // stay within 3 of the reported bars (docs/pipeline.md "Coverage of the error bars").
-  if (auto& u = fit->unresolved_nuisance; u && fit->lamp_stddev) {
-    u->shift_in_sd = UnresolvedNuisance::ShiftInSd(u->lamp_shift, *fit->lamp_stddev);
-    if (!(u->shift_in_sd > UnresolvedNuisance::kShiftInSd)) u.reset();
-  }
-}
-
-std::string CalibrationPropagation::Report() const {
-  const char* what = photometric && poses ? "calibration and pose error"
-                     : poses              ? "pose error"
-                                          : "calibration error";
-  std::string s = fmt::format("{} propagated ({} refits):", what, draws);
-  for (size_t i = 0; i < param_names.size(); ++i) {
-    s += fmt::format(" {} +-{:.3g}", param_names[i], param_stddev[i]);
-  }
-  s += fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n", lamp_stddev.x(),
-                   lamp_stddev.y(), lamp_stddev.z(), intensity_stddev);
-  return s;
-}
-
-nlohmann::json CalibrationPropagation::ToJson() const {
-  nlohmann::json params = nlohmann::json::object();
-  for (size_t i = 0; i < param_names.size(); ++i) params[param_names[i]] = param_stddev[i];
-  return {{"draws", draws},
-          {"photometric", photometric},
-          {"poses", poses},
-          {"param_stddev", params},
-          {"lamp_stddev", {lamp_stddev.x(), lamp_stddev.y(), lamp_stddev.z()}},
-          {"intensity_stddev", intensity_stddev}};
 }
 
 }  // namespace gonio

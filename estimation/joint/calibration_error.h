@@ -153,6 +153,13 @@ struct CalibrationPropagation {
   std::vector<double> param_stddev;  // calibration part only, same order as the fit's params
   Eigen::Vector3d lamp_stddev = Eigen::Vector3d::Zero();
   double intensity_stddev = 0;
+  // The nuisance terms the fit holds (JointFitResult): per channel the ambient radiance on the
+  // sample and irradiance on the white reference, the height correction; empty without them.
+  // A calibration error bends the radiance the way room light or a height does, so a term kept
+  // on the noise's bar alone must also stand out of this one (docs/pipeline.md "Nuisances
+  // chosen by evidence").
+  std::vector<double> ambient_sample_stddev, ambient_irradiance_stddev;
+  std::optional<double> sample_height_stddev;
   std::string Report() const;  // one line per quantity
   nlohmann::json ToJson() const;
 };
@@ -190,7 +197,7 @@ CalibrationPropagation PropagateCalibrationError(const ObservationSet& data,
 double RescaleForPropagatedFloor(const ObservationSet& data, double floor, JointFitResult* fit);
 
 // Adds the calibration part in quadrature to the fit's standard deviations (material, lamp,
-// intensity); undetermined quantities stay undetermined.
+// intensity, nuisance terms); undetermined quantities stay undetermined.
 void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* fit);
 
 }  // namespace gonio

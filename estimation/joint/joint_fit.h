@@ -217,6 +217,11 @@ JointFitOptions WithChosenNuisances(const JointFitOptions& options, const JointF
 double PredictedRadiance(const Observation& o, int channel, const JointFitResult& fit,
                          double white_albedo);
 
+// |value| / standard deviation of a fit's ambient terms (the largest over the sample's radiance
+// and the white reference's irradiance, per channel) or of its height correction; 0 when
+// undetermined or absent.
+double NuisanceZ(const JointFitResult& f, bool ambient_term);
+
 // Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options);

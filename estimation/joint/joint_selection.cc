@@ -251,27 +251,6 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
   out->selection.reason += stopped;
 }
 
-// |value| / standard deviation of a fit's ambient terms (the largest over the sample's
-// radiance and the white reference's irradiance, per channel) or of its height correction; 0
-// when undetermined.
-double NuisanceZ(const JointFitResult& f, bool ambient_term) {
-  auto z = [](double v, const std::optional<double>& sd) {
-    return sd && *sd > 0 ? std::abs(v) / *sd : 0.0;
-  };
-  if (!ambient_term) {
-    return f.sample_height_offset ? z(*f.sample_height_offset, f.sample_height_offset_stddev) : 0.0;
-  }
-  double best = 0;
-  for (size_t c = 0; c < f.ambient_sample.size() && c < f.ambient_sample_stddev.size(); ++c) {
-    best = std::max(best, z(f.ambient_sample[c], f.ambient_sample_stddev[c]));
-  }
-  for (size_t c = 0; c < f.ambient_irradiance.size() && c < f.ambient_irradiance_stddev.size();
-       ++c) {
-    best = std::max(best, z(f.ambient_irradiance[c], f.ambient_irradiance_stddev[c]));
-  }
-  return best;
-}
-
 // One combination of nuisance terms refitted by ChooseNuisances.
 struct NuisanceTrial {
   bool ambient = false, height = false;
@@ -445,6 +424,24 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
 }
 
 }  // namespace
+
+double NuisanceZ(const JointFitResult& f, bool ambient_term) {
+  auto z = [](double v, const std::optional<double>& sd) {
+    return sd && *sd > 0 ? std::abs(v) / *sd : 0.0;
+  };
+  if (!ambient_term) {
+    return f.sample_height_offset ? z(*f.sample_height_offset, f.sample_height_offset_stddev) : 0.0;
+  }
+  double best = 0;
+  for (size_t c = 0; c < f.ambient_sample.size() && c < f.ambient_sample_stddev.size(); ++c) {
+    best = std::max(best, z(f.ambient_sample[c], f.ambient_sample_stddev[c]));
+  }
+  for (size_t c = 0; c < f.ambient_irradiance.size() && c < f.ambient_irradiance_stddev.size();
+       ++c) {
+    best = std::max(best, z(f.ambient_irradiance[c], f.ambient_irradiance_stddev[c]));
+  }
+  return best;
+}
 
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
   options.Check();

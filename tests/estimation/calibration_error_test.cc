@@ -529,6 +529,38 @@ TEST(CalibrationError, BadOptionsAreInputErrors) {
   EXPECT_THROW(po.Check(), InputError);
 }
 
+// A calibration error bends the radiance the way room light does: a constant fitted in a dark
+// room under a 1 % per octave response error stands out of the noise's bar, but the refits,
+// which hold the term, spread it as wide as it is, and AddCalibrationUncertainty widens its bar
+// (pipeline/run.cc then leaves such a term out).
+TEST(CalibrationError, TheRefitsSpreadTheNuisanceTermsToo) {
+  const ObservationSet data =
+      WithCalibrationError(Synthesize(16, 1, true, kPixelNoise), 0.01, 0.01);
+  JointFitOptions o;
+  o.white_albedo = 0.8;
+  o.relative_noise_floor = 0.002;
+  o.ambient = AmbientTerm::kFit;
+  const JointFitResult fit = FitJoint("oren-nayar", data, kLamp + Eigen::Vector3d(0.03, 0, 0), o);
+  ASSERT_TRUE(fit.material.converged);
+  ASSERT_EQ(fit.ambient_sample.size(), 1u);
+  const double z_noise = NuisanceZ(fit, true);
+  CalibrationErrorModel e = ModelForTheImage();
+  e.response_ratio_error = 0.01;
+  e.vignette_rms = 0.01;
+  const CalibrationPropagation p = PropagateTen(data, fit, o, e);
+  ASSERT_EQ(p.ambient_sample_stddev.size(), 1u);
+  ASSERT_EQ(p.ambient_irradiance_stddev.size(), 1u);
+  EXPECT_FALSE(p.sample_height_stddev);
+  JointFitResult with = fit;
+  AddCalibrationUncertainty(p, &with);
+  const double z_all = NuisanceZ(with, true);
+  std::cout << "ambient: z " << z_noise << " on the noise's bar, " << z_all << " with the "
+            << "calibration's part\n";
+  EXPECT_GT(z_noise, 3.0);
+  EXPECT_LT(z_all, 3.0);
+  EXPECT_EQ(p.ToJson().at("ambient_sample_stddev").size(), 1u);
+}
+
 // A nuisance the selection could not resolve moved the lamp by more than 3 of its statistical
 // standard deviations (joint_selection.cc NoteUnresolved). The calibration's part widens the
 // lamp's bar; the shift is judged again against it: kept (warned) when it still exceeds 3 of
