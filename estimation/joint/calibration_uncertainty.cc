@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "estimation/joint/calibration_error.h"
+#include "estimation/joint/joint_fit_problem.h"
 
 namespace gonio {
 
