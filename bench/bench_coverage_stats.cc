@@ -10,6 +10,7 @@
 #include "bench/bench_coverage.h"
 #include "bench/bench_internal.h"
 #include "common/io.h"
+#include "common/option_words.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -115,15 +116,11 @@ json CoverageRun::ToJson() const {
 }
 
 std::string ToString(CoverageVerdict v) {
-  switch (v) {
-    case CoverageVerdict::kMet:
-      return "met";
-    case CoverageVerdict::kUndecided:
-      return "undecided";
-    case CoverageVerdict::kMissed:
-      return "missed";
-  }
-  return "missed";
+  static constexpr OptionWord<CoverageVerdict> kWords[] = {
+      {CoverageVerdict::kMet, "met"},
+      {CoverageVerdict::kUndecided, "undecided"},
+      {CoverageVerdict::kMissed, "missed"}};
+  return OptionWordOf(kWords, v);
 }
 
 CoverageVerdict CoverageStat::Judge(const CoverageTargets& t) const {
