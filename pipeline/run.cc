@@ -203,39 +203,13 @@ void LocateFrames(const RunInputs& in, const RunOptions& o,
   spdlog::warn("{}", r->warnings.back().message);
 }
 
-// The nuisance terms --ambient auto / --sample-height auto kept that stand within
-// nuisance_min_z of the bar the calibration's part widened (AddCalibrationUncertainty).
-struct NuisanceDrop {
-  bool ambient = false, height = false;
-  double z_ambient = 0, z_height = 0;
-  bool Any() const { return ambient || height; }
-};
-
-NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const JointFitResult& f) {
-  NuisanceDrop d;
-  if (requested.ambient == AmbientTerm::kAuto && f.ambient == AmbientTerm::kFit) {
-    d.z_ambient = NuisanceZ(f, true);
-    d.ambient = !(d.z_ambient > requested.nuisance_min_z);
-  }
-  if (requested.sample_height == NuisanceTerm::kAuto && f.sample_height_offset) {
-    d.z_height = NuisanceZ(f, false);
-    d.height = !(d.z_height > requested.nuisance_min_z);
-  }
-  return d;
-}
-
 // After a drop: the reasons the selection gave, what dropped them, and, when leaving a term out
 // moves the lamp beyond kShiftInSd of its (widened) bar, the term as unresolved: the data
 // neither keep nor exclude it, and the run warns (pipeline/checks.cc).
 void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, JointFitResult* f) {
-  const std::string dropped =
-      d.ambient && d.height
-          ? fmt::format("ambient (z {:.2f}) and height (z {:.2f})", d.z_ambient, d.z_height)
-      : d.ambient ? fmt::format("ambient (z {:.2f})", d.z_ambient)
-                  : fmt::format("height (z {:.2f})", d.z_height);
   const std::string note = fmt::format(
       "; with the calibration's error (the refits) {} within {:g} standard deviations: dropped",
-      dropped, min_z);
+      d.Named(), min_z);
   spdlog::info("nuisances{}", note);
   if (!kept.ambient_reason.empty()) f->ambient_reason = kept.ambient_reason + note;
   if (!kept.sample_height_reason.empty())

@@ -222,6 +222,19 @@ double PredictedRadiance(const Observation& o, int channel, const JointFitResult
 // undetermined or absent.
 double NuisanceZ(const JointFitResult& f, bool ambient_term);
 
+// The nuisance terms --ambient auto / --sample-height auto (`requested`) kept in `f`, and which
+// of them stand within nuisance_min_z of their standard deviations there: FitAndSelect judges
+// them on the final fit's noise bar, gonio run again on the bar the calibration's part widened
+// (pipeline/run.cc).
+struct NuisanceDrop {
+  bool ambient_kept = false, height_kept = false;
+  bool ambient = false, height = false;  // kept and within their bars: to be left out
+  double z_ambient = 0, z_height = 0;
+  bool Any() const { return ambient || height; }
+  std::string Named() const;  // "ambient (z 2.39)", "height (z ...)" or both joined by "and"
+};
+NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const JointFitResult& f);
+
 // Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options);

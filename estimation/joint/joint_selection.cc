@@ -396,24 +396,14 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
                               const JointFitOptions& search, const JointFitOptions& options,
                               const JointSelectionResult& without, std::string* reason,
                               JointSelectionResult* out) {
-  const JointFitResult& f = out->final_fit;
-  const bool ambient_kept = options.ambient == AmbientTerm::kAuto && !f.ambient_sample.empty();
-  const bool height_kept =
-      options.sample_height == NuisanceTerm::kAuto && f.sample_height_offset.has_value();
-  const bool drop_ambient = ambient_kept && !(NuisanceZ(f, true) > options.nuisance_min_z);
-  const bool drop_height = height_kept && !(NuisanceZ(f, false) > options.nuisance_min_z);
-  if (!drop_ambient && !drop_height) return;
-  const std::string dropped =
-      drop_ambient && drop_height ? fmt::format("ambient (z {:.2f}) and height (z {:.2f})",
-                                                NuisanceZ(f, true), NuisanceZ(f, false))
-      : drop_ambient              ? fmt::format("ambient (z {:.2f})", NuisanceZ(f, true))
-                                  : fmt::format("height (z {:.2f})", NuisanceZ(f, false));
+  const NuisanceDrop drop = NuisancesWithinTheirBars(options, out->final_fit);
+  if (!drop.Any()) return;
   *reason += fmt::format("; on all {} observations {} within {:g} standard deviations: dropped",
-                         final_use.size(), dropped, options.nuisance_min_z);
+                         final_use.size(), drop.Named(), options.nuisance_min_z);
   spdlog::info("nuisances: {}", *reason);
   JointFitOptions o = search;
-  if (ambient_kept && !drop_ambient) o.ambient = AmbientTerm::kFit;
-  if (height_kept && !drop_height) o.sample_height = NuisanceTerm::kFit;
+  if (drop.ambient_kept && !drop.ambient) o.ambient = AmbientTerm::kFit;
+  if (drop.height_kept && !drop.height) o.sample_height = NuisanceTerm::kFit;
   const bool none_left = o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit;
   if (none_left) *out = without;
   // The restored selection's fit has these options and starts the refit; a fit with another
@@ -441,6 +431,23 @@ double NuisanceZ(const JointFitResult& f, bool ambient_term) {
     best = std::max(best, z(f.ambient_irradiance[c], f.ambient_irradiance_stddev[c]));
   }
   return best;
+}
+
+std::string NuisanceDrop::Named() const {
+  const std::string a = fmt::format("ambient (z {:.2f})", z_ambient);
+  const std::string h = fmt::format("height (z {:.2f})", z_height);
+  return ambient && height ? a + " and " + h : ambient ? a : h;
+}
+
+NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const JointFitResult& f) {
+  NuisanceDrop d;
+  d.ambient_kept = requested.ambient == AmbientTerm::kAuto && !f.ambient_sample.empty();
+  d.height_kept = requested.sample_height == NuisanceTerm::kAuto && f.sample_height_offset;
+  d.z_ambient = NuisanceZ(f, true);
+  d.z_height = NuisanceZ(f, false);
+  d.ambient = d.ambient_kept && !(d.z_ambient > requested.nuisance_min_z);
+  d.height = d.height_kept && !(d.z_height > requested.nuisance_min_z);
+  return d;
 }
 
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
