@@ -153,9 +153,40 @@ double PhotometricCalibration::ExposureStepOctaves(const ResponseResult& respons
   return octaves.empty() ? 1.0 : Median(octaves);
 }
 
+double PhotometricCalibration::ResponseTrendAt(const ResponseResult& response,
+                                               const std::vector<double>& values) {
+  const PairConsistency& c = response.consistency;
+  const int n = static_cast<int>(c.band_bias.size());
+  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
+  if (values.empty() || n == 0 || !(width > 0)) return ResponseFieldRms(response);
+  std::vector<double> count(n, 0.0);
+  for (double z : values) {
+    ++count[std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1)];
+  }
+  double finite = 0, mean = 0;
+  for (int b = 0; b < n; ++b) {
+    if (std::isfinite(c.band_bias[b])) finite += count[b], mean += count[b] * c.band_bias[b];
+  }
+  const double missing = ResponseAccuracy(response);
+  const double total = static_cast<double>(values.size());
+  if (finite == 0) return std::min(missing, 0.99);
+  mean /= finite;
+  double scatter = 0, share_squares = 0;
+  for (int b = 0; b < n; ++b) {
+    if (!std::isfinite(c.band_bias[b])) continue;
+    const double share = count[b] / finite;
+    scatter += share * (c.band_bias[b] - mean) * (c.band_bias[b] - mean);
+    share_squares += share * share;
+  }
+  // The mean's variance: the scatter over the bands' effective number, 1 / sum of share^2.
+  const double common = mean * mean + scatter * share_squares;
+  return std::min(std::sqrt((finite * common + (total - finite) * missing * missing) / total),
+                  0.99);
+}
+
 double PhotometricCalibration::ResponseSlopeErrorAt(const ResponseResult& response,
                                                     const std::vector<double>& values) {
-  return std::min(ResponseFieldRmsAt(response, values) / ExposureStepOctaves(response), 0.99);
+  return std::min(ResponseTrendAt(response, values) / ExposureStepOctaves(response), 0.99);
 }
 
 double PhotometricCalibration::SmoothingSensitivityAt(const ResponseResult& response,

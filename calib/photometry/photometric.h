@@ -75,7 +75,17 @@ struct PhotometricCalibration {
   // ResponseFieldRms.
   static double ResponseFieldRmsAt(const ResponseResult& response,
                                    const std::vector<double>& values);
-  // The response's slope error per octave of radiance where the data are: ResponseFieldRmsAt,
+  // The part of the band biases the bands that hold `values` share: the root of their mean's
+  // square plus the mean's variance (the biases' scatter over those bands divided by the bands'
+  // effective number, 1 / sum of squared shares of the values), the bands weighted by the
+  // values they hold; a band without a figure counts as the worst band, as in
+  // ResponseFieldRmsAt. Values in one band: that band's |bias| (ResponseFieldRmsAt's figure);
+  // over many bands it tends to their mean, because a bias that changes sign from band to band
+  // is the curve's wiggle, which bends no global slope and which the propagation draws as the
+  // bootstrap's and the prior's modes (estimation/joint/calibration_error.h; docs/photometric.md
+  // "Slope error"). Without values: ResponseFieldRms.
+  static double ResponseTrendAt(const ResponseResult& response, const std::vector<double>& values);
+  // The response's slope error per octave of radiance where the data are: ResponseTrendAt,
   // a ratio error of neighbouring exposures, over log2 of their ratio (the median over the
   // used frames' neighbours: 1/3 for a third-stop sweep, where a slope error of s per octave
   // shows as s/3 per pair). What gonio run's calibration-error propagation draws.

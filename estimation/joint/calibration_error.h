@@ -17,7 +17,9 @@
 //             slope moving by c per octave), both centred, s and c drawn with standard
 //             deviation response_ratio_error. The self-check's band biases are ratio errors of
 //             neighbouring exposures: per octave they are the bias over log2 of the exposure
-//             ratio (PhotometricCalibration::ResponseSlopeErrorAt);
+//             ratio, and of the bands the observations reach only the part they share is slope
+//             (PhotometricCalibration::ResponseTrendAt, ResponseSlopeErrorAt): a bias that
+//             changes sign from band to band is the curve's wiggle, drawn by the modes below;
 //   vignetting (each with an RMS of 1 over the image, where V's accuracy is measured, and
 //             centred over the observations used): r^2 and r^4 about the principal point (r in
 //             half-diagonals, as the radial model of docs/formats.md), and the two linear tilts in

@@ -179,6 +179,36 @@ TEST(PhotometricAccuracy, SlopeErrorIsPerOctave) {
   EXPECT_NEAR(PhotometricCalibration::ResponseSlopeErrorAt(r, {150}), 0.001, 1e-12);
 }
 
+// The slope the band biases share where the values are (PhotometricCalibration::ResponseTrendAt),
+// worked by hand on eight bands of 100 values each over [0, 800): the values' mean bias, squared,
+// plus its variance (the scatter over the bands divided by their effective number).
+TEST(PhotometricAccuracy, TheSlopeIsWhatTheBandsShare) {
+  ResponseResult r;
+  r.consistency.range_lo = 0;
+  r.consistency.range_hi = 800;
+  r.consistency.band_bias = {0.002, -0.002, 0.002, -0.002, NAN, 0.001, 0.001, 0.001};
+  r.consistency.worst_band_bias = 0.002;
+  // One band: its bias, as the RMS (ResponseFieldRmsAt) has it.
+  EXPECT_NEAR(PhotometricCalibration::ResponseTrendAt(r, {150, 160}), 0.002, 1e-12);
+  // A bias that changes sign from band to band, values spread evenly over four bands: mean 0,
+  // scatter 4e-6 over 4 effective bands, so 1e-3, half the RMS of 2e-3.
+  const std::vector<double> even = {50, 150, 250, 350};
+  EXPECT_NEAR(PhotometricCalibration::ResponseFieldRmsAt(r, even), 0.002, 1e-12);
+  EXPECT_NEAR(PhotometricCalibration::ResponseTrendAt(r, even), 0.001, 1e-12);
+  // Three values in band 0 and one in band 1: shares 3/4 and 1/4, mean 1e-3, scatter 3e-6,
+  // sum of squared shares 5/8: sqrt(1e-6 + 1.875e-6).
+  EXPECT_NEAR(PhotometricCalibration::ResponseTrendAt(r, {10, 20, 30, 150}), std::sqrt(2.875e-6),
+              1e-12);
+  // A bias the bands share stays whole.
+  EXPECT_NEAR(PhotometricCalibration::ResponseTrendAt(r, {550, 650, 750}), 0.001, 1e-12);
+  // A band without a figure counts as the worst band, for its share of the values.
+  EXPECT_NEAR(PhotometricCalibration::ResponseTrendAt(r, {450, 550}),
+              std::sqrt((0.001 * 0.001 + 0.002 * 0.002) / 2), 1e-12);
+  // No values: the whole range's RMS (ResponseFieldRms).
+  EXPECT_DOUBLE_EQ(PhotometricCalibration::ResponseTrendAt(r, {}),
+                   PhotometricCalibration::ResponseFieldRms(r));
+}
+
 // photometric.json's noise terms and vignette name with a wrong type or sign are bad input
 // naming the file and key (found with the fuzz target, docs/testing.md).
 TEST(PhotometricFile, BadNoiseTermsAndVignetteNameAreInputErrors) {
