@@ -64,9 +64,11 @@ struct ResponseOptions {
   int num_knots = 128;    // knots of h over [0, 2^bit_depth)
   int num_pixels = 1500;  // sampled pixels per channel
   // Refits on the pixels drawn again with replacement: the table's statistical error
-  // (ResponseResult::bootstrap_ln_change; 0: not measured). Ten: one per draw of the
-  // calibration's propagation (estimation/joint/calibration_error.h).
-  int bootstrap_refits = 10;
+  // (ResponseResult::bootstrap_ln_change; 0: not measured). Twenty: one per draw of the
+  // calibration's propagation (CalibrationPropagationOptions::draws,
+  // estimation/joint/calibration_error.h). With ten (until 2026-12-05) every refit was drawn
+  // twice, and that part of a bar had the relative error of ten draws, not twenty.
+  int bootstrap_refits = 20;
   std::uint64_t bootstrap_seed = 1;
   double smoothness = 1.0;           // weight of h's curvature (the same at any num_knots)
   double exposure_tolerance = 0.05;  // relative mismatch that marks a frame inconsistent

@@ -140,6 +140,8 @@ struct CalibrationPropagationOptions {
   // Refits; the spread's own relative error is about 1 / sqrt(2 draws): 16 % at 20. At 10 (until
   // 2026-12-03) a bar came out at half its size in about 1 % of runs, and the coverage bench
   // met such runs (docs/pipeline.md "Coverage of the error bars").
+  // The response's bootstrap (ResponseOptions::bootstrap_refits) makes as many refits, so each
+  // draw takes its own; a file with fewer has them cycled.
   int draws = 20;
   std::uint64_t seed = 1;
   size_t max_observations = 3000;  // each refit uses a deterministic subsample
