@@ -114,19 +114,30 @@ double PhotometricCalibration::ResponseFieldRms(const ResponseResult& response) 
 
 namespace {
 
+// How many of `values` (raw pixel values) fall in each of `n` equal parts of the consistency's
+// value range (values beyond it in the outer parts); empty without values, parts or range.
+std::vector<double> ValuesPerBand(const PairConsistency& c, int n,
+                                  const std::vector<double>& values) {
+  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
+  if (values.empty() || n == 0 || !(width > 0)) return {};
+  std::vector<double> count(n, 0.0);
+  for (double z : values) {
+    ++count[std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1)];
+  }
+  return count;
+}
+
 // The RMS over `values` (raw pixel values) of the figure of the self-check's band each falls in
 // (`bands` over the consistency's value range in equal parts; a band without a figure counts as
 // `missing`, values beyond the range as the outer bands); `fallback` without bands or values.
 double BandRmsAt(const PairConsistency& c, const std::vector<double>& bands, double missing,
                  const std::vector<double>& values, double fallback) {
-  const int n = static_cast<int>(bands.size());
-  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
-  if (values.empty() || n == 0 || !(width > 0)) return fallback;
+  const std::vector<double> count = ValuesPerBand(c, static_cast<int>(bands.size()), values);
+  if (count.empty()) return fallback;
   double sum = 0;
-  for (double z : values) {
-    const int b = std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1);
+  for (size_t b = 0; b < bands.size(); ++b) {
     const double f = std::isfinite(bands[b]) ? bands[b] : missing;
-    sum += f * f;
+    sum += count[b] * f * f;
   }
   return std::min(std::sqrt(sum / values.size()), 0.99);
 }
@@ -157,12 +168,8 @@ double PhotometricCalibration::ResponseTrendAt(const ResponseResult& response,
                                                const std::vector<double>& values) {
   const PairConsistency& c = response.consistency;
   const int n = static_cast<int>(c.band_bias.size());
-  const double width = (c.range_hi - c.range_lo) / std::max(n, 1);
-  if (values.empty() || n == 0 || !(width > 0)) return ResponseFieldRms(response);
-  std::vector<double> count(n, 0.0);
-  for (double z : values) {
-    ++count[std::clamp(static_cast<int>(std::floor((z - c.range_lo) / width)), 0, n - 1)];
-  }
+  const std::vector<double> count = ValuesPerBand(c, n, values);
+  if (count.empty()) return ResponseFieldRms(response);
   double finite = 0, mean = 0;
   for (int b = 0; b < n; ++b) {
     if (std::isfinite(c.band_bias[b])) finite += count[b], mean += count[b] * c.band_bias[b];
