@@ -13,6 +13,7 @@
 #include "calib/geometry/detect.h"
 #include "calib/geometry/geometry_io.h"
 #include "calib/geometry/locate.h"
+#include "calib/photometry/response.h"
 #include "common/error.h"
 #include "common/io.h"
 
@@ -41,9 +42,25 @@ void AddDetectorOptions(CLI::App* cmd, AprilTagOptions* opt) {
       ->capture_default_str();
 }
 
+// --response: response.json, or the response in a photometric.json; its table, by which the
+// tags are found on radiance (calib/geometry/detect.h GreyForDetection). Empty: none given.
+RadianceTable ReadRadianceTable(const std::string& path) {
+  if (path.empty()) return {};
+  const nlohmann::json j = ReadJsonFile(path);
+  return ResponseResult::FromJson(j.contains("response") ? j["response"] : j, path)
+      .RadianceByValue();
+}
+
+void AddResponseOption(CLI::App* cmd, std::string* response) {
+  cmd->add_option("--response", *response,
+                  "response.json or photometric.json: find the tags on radiance, not on the "
+                  "encoded values (a gamma-encoded camera's tags read small otherwise; "
+                  "docs/calibration.md)");
+}
+
 struct DetectArgs {
   std::vector<std::string> images;
-  std::string board, family, json_out, corners_vnl;
+  std::string board, family, json_out, corners_vnl, response;
   AprilTagOptions detector;
 };
 
@@ -61,7 +78,8 @@ void RunDetect(const DetectArgs& a) {
   inputs.push_back(a.board);
   if (!a.corners_vnl.empty()) CheckOutputIsNotInput(a.corners_vnl, inputs);
   if (!a.json_out.empty()) CheckOutputIsNotInput(a.json_out, inputs);
-  const ImagesDetection d = DetectImages(a.images, args.detector, board ? &*board : nullptr);
+  const ImagesDetection d = DetectImages(a.images, args.detector, board ? &*board : nullptr,
+                                         ReadRadianceTable(a.response));
   if (!a.corners_vnl.empty())
     WriteTextAtomically(a.corners_vnl, ToCornersVnl(*board, d.observations));
   if (a.json_out.empty()) {
@@ -74,7 +92,7 @@ void RunDetect(const DetectArgs& a) {
 
 struct CalibrateArgs {
   std::vector<std::string> images;
-  std::string corners, board, out, report_json;
+  std::string corners, board, out, report_json, response;
   std::vector<int> imagersize;
   std::string lens_model = "LENSMODEL_OPENCV8";
   CalibrationOptions options;
@@ -93,14 +111,18 @@ void RunCalibrate(const CalibrateArgs& a) {
   if (a.images.empty() == a.corners.empty()) {
     throw InputError("calibrate: give exactly one of --images GLOB and --corners corners.vnl");
   }
+  if (!a.response.empty() && !a.corners.empty()) {
+    throw InputError("calibrate: --response reads images; with --corners there are none");
+  }
   const Board board = Board::Read(a.board);
-  CheckOutputIsNotInput(a.out, {a.board, a.corners});
+  CheckOutputIsNotInput(a.out, {a.board, a.corners, a.response});
   if (!a.report_json.empty()) CheckOutputIsNotInput(a.report_json, {a.board, a.corners, a.out});
+  const RadianceTable radiance = ReadRadianceTable(a.response);
   CalibrationViews v;
   if (!a.images.empty()) {
     const std::vector<std::string> files = ExpandImageGlobs(a.images);
     CheckOutputIsNotInput(a.out, files);
-    v = DetectCalibrationViews(files, board, a.detector);
+    v = DetectCalibrationViews(files, board, a.detector, radiance);
   } else {
     v = ReadCalibrationCorners(a.corners, board, a.imagersize);
   }
@@ -114,17 +136,18 @@ void RunCalibrate(const CalibrateArgs& a) {
 }
 
 struct LocateArgs {
-  std::string session, camera, board, out;
+  std::string session, camera, board, out, response;
   PoseOptions options;
 };
 
 void RunLocate(const LocateArgs& a) {
   a.options.Check();
-  CheckOutputIsNotInput(a.out,
-                        {(fs::path(a.session) / "session.json").string(), a.camera, a.board});
+  CheckOutputIsNotInput(
+      a.out, {(fs::path(a.session) / "session.json").string(), a.camera, a.board, a.response});
   const CameraModel camera = CameraModel::Read(a.camera);
   const Board board = ReadSessionBoard(a.session, a.board);
-  const SessionPoses poses = LocateSession(a.session, camera, board, a.options);
+  const SessionPoses poses =
+      LocateSession(a.session, camera, board, a.options, ReadRadianceTable(a.response));
   if (poses.frames.empty()) {
     throw InputError(fmt::format("{}: no frame gave a board pose (first reason: {})", a.session,
                                  poses.skipped.empty() ? "no frames" : poses.skipped[0].reason));
@@ -153,6 +176,7 @@ void AddCalibCommands(CLI::App& app) {
   detect->add_option("--board", detect_args->board, "board file (docs/formats.md)");
   detect->add_option("--family", detect_args->family, "AprilTag family, e.g. tag36h11");
   detect->add_option("--json", detect_args->json_out, "write the JSON here instead of stdout");
+  AddResponseOption(detect, &detect_args->response);
   detect->add_option("--corners-vnl", detect_args->corners_vnl,
                      "write mrcal's corners.vnl (needs --board)");
   AddDetectorOptions(detect, &detect_args->detector);
@@ -178,6 +202,7 @@ void AddCalibCommands(CLI::App& app) {
                   "refuse above this projection uncertainty at the centre (px)")
       ->capture_default_str();
   cal->add_option("--out", cal_args->out, "camera.cameramodel")->required();
+  AddResponseOption(cal, &cal_args->response);
   cal->add_option("--report-json", cal_args->report_json, "also write the report here");
   AddDetectorOptions(cal, &cal_args->detector);
   cal->callback([cal_args] { RunCalibrate(*cal_args); });
@@ -188,6 +213,7 @@ void AddCalibCommands(CLI::App& app) {
   loc->add_option("--camera", loc_args->camera, "camera.cameramodel")->required();
   loc->add_option("--board", loc_args->board, "board file (default: the session's)");
   loc->add_option("--out", loc_args->out, "poses.json")->required();
+  AddResponseOption(loc, &loc_args->response);
   loc->add_option("--min-tags", loc_args->options.min_tags)->capture_default_str();
   loc->add_option("--min-points", loc_args->options.min_points)->capture_default_str();
   loc->add_option("--huber-px", loc_args->options.huber_px,

@@ -58,6 +58,68 @@ const std::map<std::string, Family>& Families() {
 // libapriltag puts the top-left pixel's centre at (0.5, 0.5) (detect.h).
 constexpr double kAprilTagToGonioPixels = -0.5;
 
+// The tables one channel at a time, in the decoded image's order; one channel of a colour
+// table: the channels' mean.
+RadianceTable TablesForChannels(const RadianceTable& radiance, int channels) {
+  if (static_cast<int>(radiance.size()) == channels) return radiance;
+  if (channels != 1) {
+    throw InputError(
+        fmt::format("the response has {} channel(s), the image {}", radiance.size(), channels));
+  }
+  std::vector<float> mean(radiance.front().size(), 0.0f);
+  for (const auto& t : radiance) {
+    if (t.size() != mean.size()) throw InputError("the response's channels differ in length");
+    for (size_t v = 0; v < t.size(); ++v) mean[v] += t[v] / radiance.size();
+  }
+  return {mean};
+}
+
+// GreyForDetection with the camera's inverse response (detect.h).
+cv::Mat RadianceGrey(const cv::Mat& decoded, const RadianceTable& radiance) {
+  cv::Mat colour = decoded;  // BGRA's alpha is left out
+  if (decoded.channels() == 4) cv::cvtColor(decoded, colour, cv::COLOR_BGRA2BGR);
+  const int channels = colour.channels();
+  const RadianceTable tables = TablesForChannels(radiance, channels);
+  const std::vector<float> weights =
+      channels == 1 ? std::vector<float>{1.0f} : std::vector<float>{0.114f, 0.587f, 0.299f};
+  if (tables.size() != weights.size()) {
+    throw InputError(fmt::format("a {}-channel image has no grey to detect tags on", channels));
+  }
+  // A table of another bit depth would read every value as another radiance.
+  double highest = 0;
+  cv::minMaxLoc(colour.reshape(1), nullptr, &highest);
+  const size_t table_size = tables.front().size();
+  if ((colour.depth() == CV_8U && table_size != 256) || highest >= table_size) {
+    throw InputError(fmt::format(
+        "the response (--response) covers values 0..{}, the image is {}-bit{}", table_size - 1,
+        colour.depth() == CV_8U ? 8 : 16,
+        highest >= table_size ? fmt::format(" with values up to {:.0f}", highest) : ""));
+  }
+  cv::Mat ints;
+  colour.convertTo(ints, CV_MAKETYPE(CV_32S, channels));
+  cv::Mat grey(colour.size(), CV_32F);
+  for (int y = 0; y < colour.rows; ++y) {
+    const int32_t* in = ints.ptr<int32_t>(y);
+    float* out = grey.ptr<float>(y);
+    for (int x = 0; x < colour.cols; ++x) {
+      float sum = 0;
+      for (int c = 0; c < channels; ++c) sum += weights[c] * tables[c][in[x * channels + c]];
+      out[x] = sum;
+    }
+  }
+  // The bright level as for encoded 16-bit frames: the 99.5th percentile of a sparse grid.
+  std::vector<double> sparse;
+  for (int y = 0; y < grey.rows; y += 4) {
+    for (int x = 0; x < grey.cols; x += 4) sparse.push_back(grey.at<float>(y, x));
+  }
+  double top = 0;
+  for (const auto& t : tables) top = std::max<double>(top, t.back());
+  const double bright = std::max(Percentile(sparse, 0.995), top / 64.0);
+  cv::Mat out;
+  grey.convertTo(out, CV_8U, bright > 0 ? 255.0 / bright : 0.0);
+  return out;
+}
+
 }  // namespace
 
 void AprilTagOptions::Check() const {
@@ -71,15 +133,21 @@ void AprilTagOptions::Check() const {
   if (max_hamming < 0 || max_hamming > 2) throw InputError("--max-hamming must be 0, 1 or 2");
 }
 
-cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth,
-                      ImageExpectation::Jpeg jpeg) {
+cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth, ImageExpectation::Jpeg jpeg,
+                      const RadianceTable& radiance) {
   ImageExpectation expect;
   expect.bit_depth = bit_depth;
   expect.jpeg = jpeg;
-  return GreyForDetection(ReadImage(path, expect), bit_depth);
+  const cv::Mat decoded = ReadImage(path, expect);
+  try {
+    return GreyForDetection(decoded, bit_depth, radiance);
+  } catch (const InputError& e) {
+    throw InputError(path.string() + ": " + e.what());
+  }
 }
 
-cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth) {
+cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth, const RadianceTable& radiance) {
+  if (!radiance.empty()) return RadianceGrey(decoded, radiance);
   cv::Mat grey;
   if (decoded.channels() == 3) {
     cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);

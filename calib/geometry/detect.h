@@ -51,13 +51,18 @@ struct TagDetection {
   int hamming = 0;
 };
 
+// Raw value -> relative radiance, per channel ([channel][value]): the camera's inverse response
+// (calib/photometry/response.h ResponseResult::RadianceTable). Empty: the values as encoded.
+using RadianceTable = std::vector<std::vector<float>>;
+
 // Reads an image as 8-bit grey (GreyForDetection of the decoded file); InputError naming the
 // file when it cannot be read. A JPEG gives its luma channel by default (common/image_io.h:
 // the grey its camera encoded, not one computed again from clipped BGR); session frames pass
 // kAsStored, the grey `gonio run` derives from the colour frame it decodes once for
 // radiometry, so that `gonio locate` and `gonio run` detect the same corners.
 cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0,
-                      ImageExpectation::Jpeg jpeg = ImageExpectation::Jpeg::kLuma);
+                      ImageExpectation::Jpeg jpeg = ImageExpectation::Jpeg::kLuma,
+                      const RadianceTable& radiance = {});
 
 // The 8-bit grey image the detectors take, from a frame as decoded (cv::IMREAD_UNCHANGED:
 // grey or BGR(A), 8 or 16 bit). 16-bit frames are scaled by their own bright level (the
@@ -65,7 +70,18 @@ cv::Mat ReadGreyImage(const std::filesystem::path& path, int bit_depth = 0,
 // a short exposure of a sweep, would otherwise reach libapriltag with a few grey levels. The
 // gain is at most 64 over the stated range (bit_depth, 0: 16), so a black frame stays black.
 // Only geometry is read from this image; radiometry always uses the decoded values.
-cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth = 0);
+//
+// With `radiance` (the camera's inverse response), the grey is radiance: each channel through
+// its table, then the channels weighted as cv::COLOR_BGR2GRAY weights them (a single-channel
+// image, such as a JPEG's luma, through the channels' mean table), scaled by its bright level
+// to 8 bits. Why: libapriltag's edge refinement puts an edge at the centroid of the grey's
+// gradient across it, and a lens blurs radiance; a gamma-encoded value, steep in the dark,
+// moves that centroid to the tag's black side, so black tags read small (docs/calibration.md
+// "Corners on radiance": 0.8 % of the half-diagonal on an 8-bit sRGB camera, mrcal's focal
+// length then 0.1 % long and every pose 0.09 % too close). InputError when the table's channels
+// fit neither the image's nor one.
+cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth = 0,
+                         const RadianceTable& radiance = {});
 
 // Every tag of options.family in an 8-bit grey image, sorted by id: with
 // options.full_resolution_search, full resolution without edge refinement (AprilTag's own

@@ -41,11 +41,12 @@ std::vector<std::string> ExpandImageGlobs(const std::vector<std::string>& patter
 }
 
 CalibrationViews DetectCalibrationViews(const std::vector<std::string>& files, const Board& board,
-                                        const AprilTagOptions& detector) {
+                                        const AprilTagOptions& detector,
+                                        const RadianceTable& radiance) {
   CalibrationViews v;
   Progress progress("detect", files.size());
   for (const auto& f : files) {
-    const cv::Mat grey = ReadGreyImage(f);
+    const cv::Mat grey = ReadGreyImage(f, 0, ImageExpectation::Jpeg::kLuma, radiance);
     if (v.width == 0) {
       v.width = grey.cols;
       v.height = grey.rows;
@@ -127,11 +128,12 @@ nlohmann::json DetectionJson(const cv::Mat& grey, const std::string& image,
 }
 
 ImagesDetection DetectImages(const std::vector<std::string>& images,
-                             const AprilTagOptions& detector, const Board* board) {
+                             const AprilTagOptions& detector, const Board* board,
+                             const RadianceTable& radiance) {
   ImagesDetection d;
   for (const auto& image : images) {
     BoardObservation obs;
-    const cv::Mat grey = ReadGreyImage(image);
+    const cv::Mat grey = ReadGreyImage(image, 0, ImageExpectation::Jpeg::kLuma, radiance);
     nlohmann::json j = DetectionJson(grey, image, detector, board, &obs);
     if (board && !board->is_chessboard()) {
       spdlog::info("{}: {} board tags found ({} not on the board)", image, obs.tag_ids.size(),

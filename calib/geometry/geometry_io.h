@@ -27,10 +27,12 @@ struct CalibrationViews {
   int width = 0, height = 0;
 };
 
-// The board detected in each image, with a progress line. InputError naming an image whose
-// size differs from the first one's.
+// The board detected in each image, with a progress line; on radiance when `radiance` is given
+// (detect.h GreyForDetection). InputError naming an image whose size differs from the first
+// one's.
 CalibrationViews DetectCalibrationViews(const std::vector<std::string>& files, const Board& board,
-                                        const AprilTagOptions& detector);
+                                        const AprilTagOptions& detector,
+                                        const RadianceTable& radiance = {});
 
 // mrcal's corners.vnl; the imager size is `imagersize` (W, H) when it has two values, else the
 // first image's (image names are relative to the corners file's folder, mrcal's convention).
@@ -56,7 +58,8 @@ struct ImagesDetection {
   std::vector<BoardObservation> observations;
 };
 ImagesDetection DetectImages(const std::vector<std::string>& images,
-                             const AprilTagOptions& detector, const Board* board);
+                             const AprilTagOptions& detector, const Board* board,
+                             const RadianceTable& radiance = {});
 
 // `board_path` when not empty, else the board file session.json names (relative to the
 // session folder). InputError when the session names none.

@@ -285,7 +285,8 @@ std::vector<std::string> CheckReprojection(const SessionPoses& poses, const Came
 }
 
 SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camera,
-                           const Board& board, const PoseOptions& options) {
+                           const Board& board, const PoseOptions& options,
+                           const RadianceTable& radiance) {
   options.Check();
   const Session session = ReadSession(session_dir);
   ImageExpectation expect;
@@ -294,8 +295,13 @@ SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camer
   expect.size_of = "the camera model";
   std::vector<BoardObservation> observations;
   SessionFrames(session, expect).ForEach("locate", [&](size_t i, const cv::Mat& raw) {
-    observations.push_back(DetectBoard(GreyForDetection(raw, session.bit_depth), board,
-                                       options.detector, session.frames[i].file));
+    cv::Mat grey;
+    try {
+      grey = GreyForDetection(raw, session.bit_depth, radiance);
+    } catch (const InputError& e) {
+      throw InputError((session.dir / session.frames[i].file).string() + ": " + e.what());
+    }
+    observations.push_back(DetectBoard(grey, board, options.detector, session.frames[i].file));
   });
   return LocateObservations(camera, board, observations, options);
 }

@@ -83,9 +83,11 @@ struct ReprojectionCheck {
 std::vector<std::string> CheckReprojection(const SessionPoses& poses, const CameraModel& camera,
                                            const std::string& camera_what);
 
-// Every frame of a session folder (docs/formats.md). InputError on a missing or malformed
-// session.json, an unreadable frame, or frames whose size differs from the camera model's.
+// Every frame of a session folder (docs/formats.md), its tags found on radiance when `radiance`
+// is given (detect.h GreyForDetection). InputError on a missing or malformed session.json, an
+// unreadable frame, or frames whose size differs from the camera model's.
 SessionPoses LocateSession(const std::filesystem::path& session_dir, const CameraModel& camera,
-                           const Board& board, const PoseOptions& options);
+                           const Board& board, const PoseOptions& options,
+                           const RadianceTable& radiance = {});
 
 }  // namespace gonio

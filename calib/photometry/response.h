@@ -199,6 +199,9 @@ struct ResponseResult {
   double Linearize(int channel, double value) const;
   // Derivative dX/dZ at a value (for propagating pixel noise).
   double Slope(int channel, double value) const;
+  // Linearize of every pixel value 0 .. 2^bit_depth - 1, per channel, clamped at 0: the table
+  // the tag detectors read radiance through (calib/geometry/detect.h RadianceTable).
+  std::vector<std::vector<float>> RadianceByValue() const;
   // Whether the black levels the data allow span more than 2 % of the range in a channel (the
   // CLI then warns and recommends dark frames).
   bool BlackLevelUncertain() const;

@@ -199,6 +199,17 @@ double ResponseResult::Slope(int channel, double value) const {
   return t[k + 1] - t[k];
 }
 
+std::vector<std::vector<float>> ResponseResult::RadianceByValue() const {
+  const size_t values = static_cast<size_t>(1) << bit_depth;
+  std::vector<std::vector<float>> out(inverse_response.size(), std::vector<float>(values));
+  for (size_t c = 0; c < out.size(); ++c) {
+    for (size_t v = 0; v < values; ++v) {
+      out[c][v] = static_cast<float>(std::max(0.0, Linearize(static_cast<int>(c), v)));
+    }
+  }
+  return out;
+}
+
 bool ResponseResult::BlackLevelUncertain() const {
   const double max_value = std::ldexp(1.0, bit_depth) - 1;
   for (const auto& r : black_level_range) {

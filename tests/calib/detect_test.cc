@@ -6,7 +6,9 @@
 #include <apriltag/tag36h11.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -16,10 +18,10 @@
 namespace gonio {
 namespace {
 
-// Tag 7 of tag36h11 drawn upright with `scale` px per bit cell on white, top-left image
-// pixel of the tag image at (offset, offset). apriltag_to_image draws the white border too
-// (total_width cells); the black square's outer edge is 1 cell inside.
-cv::Mat RenderTag(int scale, int offset, int* total_width) {
+// Tag 7 of tag36h11 drawn upright with `scale` px per bit cell on white (255; black 0), top-left
+// image pixel of the tag image at (offset, offset), unblurred. apriltag_to_image draws the white
+// border too (total_width cells); the black square's outer edge is 1 cell inside.
+cv::Mat TagCells(int scale, int offset, int* total_width) {
   apriltag_family_t* tf = tag36h11_create();
   image_u8_t* tag = apriltag_to_image(tf, 7);
   *total_width = tag->width;
@@ -33,7 +35,13 @@ cv::Mat RenderTag(int scale, int offset, int* total_width) {
   cv::resize(small, big, cv::Size(), scale, scale, cv::INTER_NEAREST);
   cv::Mat img(big.rows + 2 * offset, big.cols + 2 * offset, CV_8UC1, cv::Scalar(255));
   big.copyTo(img(cv::Rect(offset, offset, big.cols, big.rows)));
-  // Dark 40, bright 220, slight blur: an edge then sits where the cells' boundary is.
+  return img;
+}
+
+// TagCells with dark 40, bright 220 and a slight blur: an edge then sits where the cells'
+// boundary is.
+cv::Mat RenderTag(int scale, int offset, int* total_width) {
+  cv::Mat img = TagCells(scale, offset, total_width);
   img.convertTo(img, CV_8U, 180.0 / 255.0, 40);
   cv::GaussianBlur(img, img, cv::Size(5, 5), 1.0);
   return img;
@@ -157,6 +165,56 @@ TEST(CornersVnl, RoundTripThroughMrcalLattice) {
     EXPECT_NEAR(back[0].pixels[i].y(), 20.0 + 0.5 * p, 1e-4);
   }
   EXPECT_EQ(back[0].tag_ids, (std::vector<int>{1, 4}));
+}
+
+// A lens blurs radiance; a gamma-encoded camera then writes each value through its curve, steep
+// in the dark, and libapriltag's edge refinement (the centroid of the grey's gradient across an
+// edge) moves to the black side: the tag reads small. Through the camera's inverse response
+// (RadianceTable) the grey is radiance again and the edges sit where the cells' boundaries are.
+// Truth: the rendering's own cell boundaries (as in CornerOrderAndPixelCentreConvention).
+TEST(GreyForDetection, OnRadianceAGammaCamerasTagKeepsItsSize) {
+  const int scale = 5, offset = 30;  // a 40 px black square, as the coverage bench's tags
+  int total_width = 0;
+  // Radiance: black 0.05, white 0.8, blurred by a lens of 1.2 px.
+  cv::Mat radiance;
+  TagCells(scale, offset, &total_width).convertTo(radiance, CV_64F, 0.75 / 255, 0.05);
+  cv::GaussianBlur(radiance, radiance, cv::Size(9, 9), 1.2);
+  // An sRGB-like camera: value = 255 (radiance / 0.9)^(1 / 2.2); its inverse response.
+  cv::Mat frame(radiance.size(), CV_8U);
+  for (int y = 0; y < frame.rows; ++y) {
+    for (int x = 0; x < frame.cols; ++x) {
+      frame.at<uint8_t>(y, x) =
+          cv::saturate_cast<uint8_t>(255.0 * std::pow(radiance.at<double>(y, x) / 0.9, 1 / 2.2));
+    }
+  }
+  RadianceTable inverse(1, std::vector<float>(256));
+  for (int v = 0; v < 256; ++v) inverse[0][v] = static_cast<float>(0.9 * std::pow(v / 255.0, 2.2));
+  const double lo = offset + 1 * scale - 0.5, hi = offset + (total_width - 1) * scale - 0.5;
+  const Eigen::Vector2d centre((lo + hi) / 2, (lo + hi) / 2);
+  // The corners' size against the truth's: sum (c - m).(e - m) / sum |e - m|^2 - 1.
+  const auto size_error = [&](const cv::Mat& grey) {
+    AprilTagOptions opt;
+    opt.decimate = 1.0;
+    const auto tags = DetectAprilTags(grey, opt);
+    EXPECT_EQ(tags.size(), 1u);
+    if (tags.size() != 1) return std::numeric_limits<double>::quiet_NaN();
+    const Eigen::Vector2d expected[4] = {{lo, hi}, {hi, hi}, {hi, lo}, {lo, lo}};
+    double dot = 0, norm = 0;
+    for (int c = 0; c < 4; ++c) {
+      dot += (tags[0].corners[c] - centre).dot(expected[c] - centre);
+      norm += (expected[c] - centre).squaredNorm();
+    }
+    return dot / norm - 1;
+  };
+  const double as_encoded = size_error(GreyForDetection(frame));
+  const double on_radiance = size_error(GreyForDetection(frame, 8, inverse));
+  // Measured: -2.14 % as encoded (0.6 px over the 28 px half-diagonal); +0.41 % on radiance,
+  // libapriltag's own outward refinement on a blurred edge (CornerOrderAndPixelCentreConvention).
+  EXPECT_LT(as_encoded, -0.018);
+  EXPECT_LT(std::abs(on_radiance), 0.005);
+  // The table must fit the frames: a 12-bit table on an 8-bit frame is refused, naming both.
+  RadianceTable twelve(1, std::vector<float>(4096, 1.0f));
+  EXPECT_THROW(GreyForDetection(frame, 8, twelve), InputError);
 }
 
 }  // namespace
