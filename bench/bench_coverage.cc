@@ -229,76 +229,77 @@ void Judge(const json& fit, const json& truth, CoverageRun* run) {
   }
 }
 
-// What the sweeps of one kind and seed share: the session, the user's camera model, and the
-// vignetting's source (the session with its located poses, or a tag-free flat field).
+// What the sweeps of one kind and seed share: the session and the vignetting's source (the
+// session, or a tag-free flat field).
 struct SharedChain {
-  fs::path session, camera, vignette_session, vignette_poses;  // poses empty: a flat field
+  fs::path session, vignette_session;
+  bool flat_field = false;  // the vignetting from a flat field: no poses to locate
   synth::Scene scene;
   double white_albedo = 0;
 };
 
-// Renders the session and calibrates the camera with mrcal from its frames; StepFailed when a
-// step fails.
+// Renders the session (and a flat field for a lamp on the camera); StepFailed when a step fails.
 SharedChain RunSharedSteps(const CoverageKind& kind, const CoveragePlan& plan, int seed,
                            const fs::path& dir, Chain* chain) {
   SharedChain s;
-  const fs::path cal = dir / "cal";
   s.session = dir / "session";
-  s.camera = cal / "camera.cameramodel";
   s.vignette_session = s.session;
-  s.vignette_poses = cal / "poses.json";
   s.scene = SessionScene(kind, plan, seed);
   chain->Render("session", s.scene, s.session);
   fs::remove(s.session / "camera.cameramodel");  // the renderer's geometry is not the user's
-  EnsureDirectory(cal);
-  chain->Step("calibrate",
-              {"calibrate", "--images", (s.session / "frame_*.png").string(), "--board",
-               (s.session / "board.json").string(), "--out", s.camera.string()});
   if (kind.flash) {
     s.vignette_session = dir / "flat";
+    s.flat_field = true;  // a tag-free flat field has no poses to locate (docs/photometric.md)
     chain->Render("flat", SameCamera("flat-field", s.scene), s.vignette_session);
-    s.vignette_poses.clear();  // a tag-free flat field has no poses to locate (docs/photometric.md)
-  } else {
-    chain->Step("locate", {"locate", "--session", s.session.string(), "--camera", s.camera.string(),
-                           "--out", s.vignette_poses.string()});
   }
   s.white_albedo = ReadJsonFile(s.session / "truth.json").at("white_albedo").get<double>();
   return s;
 }
 
-// One sweep's part of the chain: render the sweep, response, vignetting, run, judged into `r`;
-// StepFailed when a step fails.
+// One sweep's part of the chain, in the capture guide's order: render the sweep, the response,
+// the camera calibrated with mrcal from the session's frames and the poses located, both with
+// the tags found on radiance through that response (docs/calibration.md "Corners on
+// radiance"), the vignetting, the run; judged into `r`. StepFailed when a step fails.
 void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& dir, Chain* chain,
               CoverageRun* r) {
   const fs::path sweep_dir = dir / ("sweep-" + r->sweep), sc = dir / ("cal-" + r->sweep);
   const fs::path out = dir / ("run-" + r->sweep);
+  const fs::path camera = sc / "camera.cameramodel", poses = sc / "poses.json";
   chain->Render("sweep-" + r->sweep, SweepScene(r->sweep, s.scene, r->seed), sweep_dir);
   EnsureDirectory(sc);
-  chain->Step("response-" + r->sweep, {"photometric", "response", "--sweep", sweep_dir.string(),
-                                       "--out", (sc / "response.json").string()});
+  const std::string response = (sc / "response.json").string();
+  chain->Step("response-" + r->sweep,
+              {"photometric", "response", "--sweep", sweep_dir.string(), "--out", response});
+  chain->Step(
+      "calibrate-" + r->sweep,
+      {"calibrate", "--images", (s.session / "frame_*.png").string(), "--board",
+       (s.session / "board.json").string(), "--response", response, "--out", camera.string()});
+  if (!s.flat_field) {
+    chain->Step("locate-" + r->sweep,
+                {"locate", "--session", s.session.string(), "--camera", camera.string(),
+                 "--response", response, "--out", poses.string()});
+  }
   std::vector<std::string> vignette = {"photometric",
                                        "vignette",
                                        "--session",
                                        s.vignette_session.string(),
                                        "--camera",
-                                       s.camera.string(),
+                                       camera.string(),
                                        "--board",
                                        (s.vignette_session / "board.json").string(),
                                        "--response",
-                                       (sc / "response.json").string(),
+                                       response,
                                        "--out",
                                        (sc / "vignette.tiff").string(),
                                        "--photometric-out",
                                        (sc / "photometric.json").string()};
-  if (!s.vignette_poses.empty()) {
-    vignette.insert(vignette.end(), {"--poses", s.vignette_poses.string()});
-  }
+  if (!s.flat_field) vignette.insert(vignette.end(), {"--poses", poses.string()});
   chain->Step("vignette-" + r->sweep, vignette);
   std::vector<std::string> args = {"run",
                                    "--session",
                                    s.session.string(),
                                    "--camera",
-                                   s.camera.string(),
+                                   camera.string(),
                                    "--photometric",
                                    (sc / "photometric.json").string(),
                                    "--white-albedo",
@@ -314,8 +315,8 @@ double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The user's chain on one kind and seed, one run per sweep; the session, its camera model and
-// poses (or the flat field) are shared by the sweeps, and their time is split among them.
+// The user's chain on one kind and seed, one run per sweep; the session (and the flat field)
+// are shared by the sweeps, and their time is split among them.
 std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePlan& plan, int seed,
                                      const fs::path& exe, const fs::path& dir, int threads) {
   std::vector<CoverageRun> runs;

@@ -222,15 +222,17 @@ UserChainReport RunUserChainBench(const synth::Scene& scene, const fs::path& wor
   const double white = ReadJsonFile(session / "truth.json").at("white_albedo").get<double>();
   const std::string t = std::to_string(options.threads);
   const auto s = [](const fs::path& p) { return p.string(); };
+  // The capture guide's order: the response first, so that the tags are found on radiance
+  // (docs/calibration.md "Corners on radiance").
   const std::vector<std::pair<std::string, std::vector<std::string>>> commands = {
-      {"calibrate",
-       {"calibrate", "--images", s(session / "*.png"), "--board", s(session / "board.json"),
-        "--out", s(cal / "camera.cameramodel")}},
-      {"locate",
-       {"locate", "--session", s(session), "--camera", s(cal / "camera.cameramodel"), "--out",
-        s(cal / "poses.json")}},
       {"response",
        {"photometric", "response", "--sweep", s(sweep), "--out", s(cal / "response.json")}},
+      {"calibrate",
+       {"calibrate", "--images", s(session / "*.png"), "--board", s(session / "board.json"),
+        "--response", s(cal / "response.json"), "--out", s(cal / "camera.cameramodel")}},
+      {"locate",
+       {"locate", "--session", s(session), "--camera", s(cal / "camera.cameramodel"), "--response",
+        s(cal / "response.json"), "--out", s(cal / "poses.json")}},
       {"vignetting",
        {"photometric", "vignette", "--session", s(session), "--camera",
         s(cal / "camera.cameramodel"), "--board", s(session / "board.json"), "--poses",

@@ -69,17 +69,19 @@ synth::Scene ThirdStopSweep(const synth::Scene& session) {
   return s;
 }
 
-// The camera model as `gonio calibrate` makes it (mrcal, from the session's own frames), and
-// the board poses as `gonio locate` finds them; the decoded frames are returned for the
-// vignetting.
+// The camera model as `gonio calibrate --response` makes it (mrcal, from the session's own
+// frames, their tags found on radiance), and the board poses as `gonio locate --response` finds
+// them; the decoded frames are returned for the vignetting.
 CalibrationResult CalibrateCamera(const Session& session, const Board& board,
-                                  std::vector<cv::Mat>* raws, SessionPoses* poses) {
+                                  const ResponseResult& response, std::vector<cv::Mat>* raws,
+                                  SessionPoses* poses) {
   std::vector<BoardObservation> detections;
   ImageExpectation expect;
   expect.bit_depth = session.bit_depth;
+  const RadianceTable radiance = response.RadianceByValue();
   SessionFrames(session, expect).ForEach("detect", [&](size_t i, const cv::Mat& raw) {
     raws->push_back(raw);
-    detections.push_back(DetectBoard(GreyForDetection(raw, session.bit_depth), board,
+    detections.push_back(DetectBoard(GreyForDetection(raw, session.bit_depth, radiance), board,
                                      AprilTagOptions{}, session.frames[i].file));
   });
   const CalibrationResult cal =
@@ -130,18 +132,20 @@ void CalibrateLikeAUser(const fs::path& session_dir, const fs::path& sweep_dir, 
   const Board board = Board::Read(session.BoardPath());
   std::vector<cv::Mat> raws;
   SessionPoses poses;
+  // The response first: the tags are found on radiance (docs/calibration.md "Corners on
+  // radiance").
+  spdlog::info("demo: the inverse response from the sweep");
+  const ResponseResult response = CalibrateResponseFromSweep(sweep_dir);
+  WriteJsonAtomically(dir / "response.json", response.ToJson());
+  d->seconds.push_back(clock.Lap("response"));
   spdlog::info("demo: calibrating the camera from the session's frames (mrcal)");
-  const CalibrationResult cal = CalibrateCamera(session, board, &raws, &poses);
+  const CalibrationResult cal = CalibrateCamera(session, board, response, &raws, &poses);
   if (cal.solver == "mrcal") {
     WriteTextAtomically(dir / "camera.cameramodel", cal.model_text);
   } else {
     cal.camera.Write(dir / "camera.cameramodel", "cv::calibrateCamera");
   }
   d->seconds.push_back(clock.Lap("camera (mrcal) and poses"));
-  spdlog::info("demo: the inverse response from the sweep");
-  const ResponseResult response = CalibrateResponseFromSweep(sweep_dir);
-  WriteJsonAtomically(dir / "response.json", response.ToJson());
-  d->seconds.push_back(clock.Lap("response"));
   spdlog::info("demo: the vignetting from the board");
   VignetteResult vignette;
   const PhotometricCalibration p =

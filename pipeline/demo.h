@@ -51,7 +51,7 @@ struct DemoResult {
   double lamp_error_fraction = 0;  // |lamp - truth| / distance of the true lamp from the sample
   // What the user's calibrations gave (camera, response, vignetting): a few lines.
   std::string calibration_report;
-  // Each stage: render, sweep, camera, response, vignetting, run.
+  // Each stage: render, sweep, response, camera, vignetting, run.
   std::vector<DemoStageTime> seconds;
   std::string Report() const;  // recovered vs true with z, a few lines
 };

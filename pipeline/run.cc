@@ -35,11 +35,14 @@ ImageExpectation FrameExpectationOf(const RunInputs& in) {
 std::vector<BoardObservation> DetectBoards(const RunInputs& in, const RunOptions& o,
                                            SessionFrames* frames) {
   std::vector<BoardObservation> detections;
+  // Tags found on radiance (calib/geometry/detect.h GreyForDetection): the corners of a
+  // gamma-encoded camera's frames read small otherwise.
+  const RadianceTable radiance = in.photometric.response.RadianceByValue();
   frames->ForEach(
       "detect",
       [&](size_t i, const cv::Mat& raw) {
-        detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth), in.board,
-                                         o.pose.detector, in.session.frames[i].file));
+        detections.push_back(DetectBoard(GreyForDetection(raw, in.session.bit_depth, radiance),
+                                         in.board, o.pose.detector, in.session.frames[i].file));
       },
       {}, SessionFrames::After::kKeep);
   return detections;

@@ -83,9 +83,11 @@ std::vector<cv::Mat> ReadFrames(const MapsSessionInputs& in) {
 // The board pose of every frame, when the caller (gonio run) has none.
 SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat>& frames) {
   std::vector<BoardObservation> detections;
+  // On radiance, as gonio run finds them (calib/geometry/detect.h GreyForDetection).
+  const RadianceTable radiance = in.photometric.response.RadianceByValue();
   for (size_t i = 0; i < frames.size(); ++i) {
-    detections.push_back(DetectBoard(GreyForDetection(frames[i], in.session.bit_depth), in.board,
-                                     PoseOptions().detector, in.session.frames[i].file));
+    detections.push_back(DetectBoard(GreyForDetection(frames[i], in.session.bit_depth, radiance),
+                                     in.board, PoseOptions().detector, in.session.frames[i].file));
   }
   return LocateObservations(in.camera, in.board, detections, PoseOptions());
 }

@@ -121,8 +121,8 @@ FlashSessions RenderSessions(const std::string& preset, const fs::path& dir) {
 void ExpectFlashVignetteRefused(const FlashSessions& s, const fs::path& camera,
                                 const fs::path& response, const fs::path& dir) {
   const fs::path poses = dir / "flash_poses.json", out = dir / "refused" / "vignette.tiff";
-  RunGonioOk(fmt::format("locate --session {} --camera {} --out {}", s.flash.string(),
-                         camera.string(), poses.string()));
+  RunGonioOk(fmt::format("locate --session {} --camera {} --response {} --out {}", s.flash.string(),
+                         camera.string(), response.string(), poses.string()));
   const std::string common = fmt::format("photometric vignette --camera {} --response {} --out {}",
                                          camera.string(), response.string(), out.string());
   auto r = RunGonio(fmt::format("{} --session {} --board {} --poses {}", common, s.flash.string(),
@@ -141,14 +141,15 @@ void ExpectFlashVignetteRefused(const FlashSessions& s, const fs::path& camera,
   EXPECT_NE(r.err.find("--lamp-frame camera"), std::string::npos) << r.err;
 }
 
-// calibrate -> response -> vignette (flat field) -> run --lamp-frame camera.
+// response -> calibrate -> vignette (flat field) -> run --lamp-frame camera.
 Recovered UserChain(const FlashSessions& s, const fs::path& dir) {
   const fs::path camera = dir / "camera.cameramodel", response = dir / "response.json",
                  photometric = dir / "photometric.json", out = dir / "user_run";
-  RunGonioOk(fmt::format("calibrate --images '{}/frame_*.png' --board {} --out {}",
-                         s.flash.string(), (s.flash / "board.json").string(), camera.string()));
   RunGonioOk(fmt::format("photometric response --sweep {} --bit-depth {} --out {}",
                          s.sweep.string(), s.bit_depth, response.string()));
+  RunGonioOk(fmt::format("calibrate --images '{}/frame_*.png' --board {} --response {} --out {}",
+                         s.flash.string(), (s.flash / "board.json").string(), response.string(),
+                         camera.string()));
   ExpectFlashVignetteRefused(s, camera, response, dir);
   RunGonioOk(fmt::format(
       "photometric vignette --session {} --camera {} --board {} --poses {} --response {} --out {} "

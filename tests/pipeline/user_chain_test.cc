@@ -82,14 +82,16 @@ UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind,
   synth::RenderBoardSession(sweep, d.sweep, 0);
   fs::remove(d.session / "camera.cameramodel");  // the renderer's geometry is not the user's
   fs::create_directories(d.cal);
-  testing::RunGonioOk(fmt::format("calibrate --images {} --board {} --out {}",
-                                  Q(d.session / "*.png"), Q(d.session / "board.json"),
-                                  Q(d.cal / "camera.cameramodel")));
-  testing::RunGonioOk(fmt::format("locate --session {} --camera {} --out {}", Q(d.session),
-                                  Q(d.cal / "camera.cameramodel"), Q(d.cal / "poses.json")));
-  // Frames, exposure times and bit depth from the sweep's session.json.
+  // Frames, exposure times and bit depth from the sweep's session.json. The response first: the
+  // camera's tags are found on radiance through it (docs/calibration.md "Corners on radiance").
   testing::RunGonioOk(fmt::format("photometric response --sweep {} --out {}", Q(d.sweep),
                                   Q(d.cal / "response.json")));
+  testing::RunGonioOk(fmt::format("calibrate --images {} --board {} --response {} --out {}",
+                                  Q(d.session / "*.png"), Q(d.session / "board.json"),
+                                  Q(d.cal / "response.json"), Q(d.cal / "camera.cameramodel")));
+  testing::RunGonioOk(fmt::format("locate --session {} --camera {} --response {} --out {}",
+                                  Q(d.session), Q(d.cal / "camera.cameramodel"),
+                                  Q(d.cal / "response.json"), Q(d.cal / "poses.json")));
   const nlohmann::json response = ReadJsonFile(d.cal / "response.json");
   std::cout << fmt::format("{}: black level {} ({}; truth {})\n", kind.name,
                            response["black_level"].dump(),
