@@ -357,7 +357,9 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                      "lamp's standard deviation; {}",
                      ambient ? "room light" : "a sample height off board.json's", u->z,
                      1e3 * u->lamp_shift.norm(), u->shift_in_sd,
-                     ambient ? "lamp-off frames (session.json lamp_off) settle it"
+                     ambient ? "lamp-off frames (session.json lamp_off) settle it; if the room "
+                               "was dark, the response's error bends the radiance this way "
+                               "(third stops or RAW narrow it)"
                              : "measure the sample's thickness into board.json sample_height_m"),
          all});
   }
