@@ -131,6 +131,14 @@ void RunCalibrate(const CalibrateArgs& a) {
   std::cerr << result.Report();
   nlohmann::json j = result.ToJson();
   j["model"] = a.out;
+  j["tags_found_on"] = !a.corners.empty()   ? "the corners file"
+                       : a.response.empty() ? "encoded values"
+                                            : "radiance";
+  if (!a.images.empty() && a.response.empty()) {
+    spdlog::info(
+        "tags found on the encoded values: a gamma-encoded camera's read small; --response "
+        "response.json finds them on radiance (docs/calibration.md \"Corners on radiance\")");
+  }
   if (!a.report_json.empty()) WriteJsonAtomically(a.report_json, j);
   PrintJson(j);
 }
@@ -148,6 +156,11 @@ void RunLocate(const LocateArgs& a) {
   const Board board = ReadSessionBoard(a.session, a.board);
   const SessionPoses poses =
       LocateSession(a.session, camera, board, a.options, ReadRadianceTable(a.response));
+  if (a.response.empty()) {
+    spdlog::info(
+        "tags found on the encoded values: a gamma-encoded camera's read small; --response "
+        "response.json finds them on radiance (docs/calibration.md \"Corners on radiance\")");
+  }
   if (poses.frames.empty()) {
     throw InputError(fmt::format("{}: no frame gave a board pose (first reason: {})", a.session,
                                  poses.skipped.empty() ? "no frames" : poses.skipped[0].reason));

@@ -87,6 +87,7 @@ CalibrationResult CalibrateCamera(const Session& session, const Board& board,
   const CalibrationResult cal =
       Calibrate(board, detections, raws->front().cols, raws->front().rows, CalibrationOptions{});
   *poses = LocateObservations(cal.camera, board, detections, PoseOptions{});
+  poses->tags_found_on = SessionPoses::TagGrey::kRadiance;
   return cal;
 }
 

@@ -233,6 +233,7 @@ nlohmann::json SessionPoses::ToJson() const {
   }
   j["skipped"] = nlohmann::json::array();
   for (const auto& s : skipped) j["skipped"].push_back({{"file", s.file}, {"reason", s.reason}});
+  j["tags_found_on"] = tags_found_on == TagGrey::kRadiance ? "radiance" : "encoded values";
   return j;
 }
 
@@ -303,7 +304,9 @@ SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camer
     }
     observations.push_back(DetectBoard(grey, board, options.detector, session.frames[i].file));
   });
-  return LocateObservations(camera, board, observations, options);
+  SessionPoses poses = LocateObservations(camera, board, observations, options);
+  if (!radiance.empty()) poses.tags_found_on = SessionPoses::TagGrey::kRadiance;
+  return poses;
 }
 
 }  // namespace gonio

@@ -59,6 +59,10 @@ struct SessionPoses {
   };
   std::vector<Frame> frames;
   std::vector<Skipped> skipped;
+  // What the tags were found on: the encoded values, or radiance through the camera's response
+  // (detect.h GreyForDetection); poses.json `tags_found_on`.
+  enum class TagGrey { kEncoded, kRadiance };
+  TagGrey tags_found_on = TagGrey::kEncoded;
   nlohmann::json ToJson() const;  // poses.json (docs/formats.md)
 };
 

@@ -89,7 +89,9 @@ SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat
     detections.push_back(DetectBoard(GreyForDetection(frames[i], in.session.bit_depth, radiance),
                                      in.board, PoseOptions().detector, in.session.frames[i].file));
   }
-  return LocateObservations(in.camera, in.board, detections, PoseOptions());
+  SessionPoses poses = LocateObservations(in.camera, in.board, detections, PoseOptions());
+  poses.tags_found_on = SessionPoses::TagGrey::kRadiance;
+  return poses;
 }
 
 // The options of the maps' uniform fit and of the white reference's lamp.

@@ -287,6 +287,7 @@ TEST(LocateCli, PhotoSessionPosesAndSkipsABlankFrame) {
   ASSERT_EQ(poses["skipped"].size(), 1u);
   EXPECT_EQ(poses["skipped"][0]["file"], "frame_0001.png");
   EXPECT_EQ(poses["skipped"][0]["reason"], "0 tag(s) of the board found, 2 needed");
+  EXPECT_EQ(poses["tags_found_on"], "encoded values");  // no --response given
 }
 
 TEST(LocateCli, BadCameraFileIsExit2) {

@@ -92,6 +92,7 @@ UserChainDirs RenderAndCalibrate(const fs::path& dir, const CameraKind& kind,
   testing::RunGonioOk(fmt::format("locate --session {} --camera {} --response {} --out {}",
                                   Q(d.session), Q(d.cal / "camera.cameramodel"),
                                   Q(d.cal / "response.json"), Q(d.cal / "poses.json")));
+  EXPECT_EQ(ReadJsonFile(d.cal / "poses.json").at("tags_found_on"), "radiance");
   const nlohmann::json response = ReadJsonFile(d.cal / "response.json");
   std::cout << fmt::format("{}: black level {} ({}; truth {})\n", kind.name,
                            response["black_level"].dump(),
