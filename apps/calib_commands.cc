@@ -58,6 +58,13 @@ void AddResponseOption(CLI::App* cmd, std::string* response) {
                   "docs/calibration.md)");
 }
 
+// What finding the tags without --response costs, said once by calibrate and locate.
+void NoteTagsOnEncodedValues() {
+  spdlog::info(
+      "tags found on the encoded values: a gamma-encoded camera's read small; --response "
+      "response.json finds them on radiance (docs/calibration.md \"Corners on radiance\")");
+}
+
 struct DetectArgs {
   std::vector<std::string> images;
   std::string board, family, json_out, corners_vnl, response;
@@ -134,11 +141,7 @@ void RunCalibrate(const CalibrateArgs& a) {
   j["tags_found_on"] = !a.corners.empty()   ? "the corners file"
                        : a.response.empty() ? "encoded values"
                                             : "radiance";
-  if (!a.images.empty() && a.response.empty()) {
-    spdlog::info(
-        "tags found on the encoded values: a gamma-encoded camera's read small; --response "
-        "response.json finds them on radiance (docs/calibration.md \"Corners on radiance\")");
-  }
+  if (!a.images.empty() && a.response.empty()) NoteTagsOnEncodedValues();
   if (!a.report_json.empty()) WriteJsonAtomically(a.report_json, j);
   PrintJson(j);
 }
@@ -156,11 +159,7 @@ void RunLocate(const LocateArgs& a) {
   const Board board = ReadSessionBoard(a.session, a.board);
   const SessionPoses poses =
       LocateSession(a.session, camera, board, a.options, ReadRadianceTable(a.response));
-  if (a.response.empty()) {
-    spdlog::info(
-        "tags found on the encoded values: a gamma-encoded camera's read small; --response "
-        "response.json finds them on radiance (docs/calibration.md \"Corners on radiance\")");
-  }
+  if (a.response.empty()) NoteTagsOnEncodedValues();
   if (poses.frames.empty()) {
     throw InputError(fmt::format("{}: no frame gave a board pose (first reason: {})", a.session,
                                  poses.skipped.empty() ? "no frames" : poses.skipped[0].reason));

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -74,6 +75,40 @@ RadianceTable TablesForChannels(const RadianceTable& radiance, int channels) {
   return {mean};
 }
 
+// `grey` (CV_16U or CV_32F) to 8 bits, scaled by its bright level: the 99.5th percentile of a
+// sparse grid of pixels (every 4th row and column is enough), clamped to [lowest, highest].
+cv::Mat EightBitByBrightLevel(const cv::Mat& grey, double lowest, double highest) {
+  std::vector<double> values;
+  for (int y = 0; y < grey.rows; y += 4) {
+    for (int x = 0; x < grey.cols; x += 4) {
+      values.push_back(grey.depth() == CV_16U ? grey.at<uint16_t>(y, x) : grey.at<float>(y, x));
+    }
+  }
+  const double bright = std::clamp(Percentile(values, 0.995), lowest, highest);
+  cv::Mat out;
+  grey.convertTo(out, CV_8U, bright > 0 ? 255.0 / bright : 0.0);
+  return out;
+}
+
+// The weighted sum over channels of each value through its channel's table (`colour` 8 or 16
+// bit, every value within the tables).
+template <typename T>
+cv::Mat WeightedRadiance(const cv::Mat& colour, const RadianceTable& tables,
+                         const std::vector<float>& weights) {
+  const int channels = colour.channels();
+  cv::Mat grey(colour.size(), CV_32F);
+  for (int y = 0; y < colour.rows; ++y) {
+    const T* in = colour.ptr<T>(y);
+    float* out = grey.ptr<float>(y);
+    for (int x = 0; x < colour.cols; ++x) {
+      float sum = 0;
+      for (int c = 0; c < channels; ++c) sum += weights[c] * tables[c][in[x * channels + c]];
+      out[x] = sum;
+    }
+  }
+  return grey;
+}
+
 // GreyForDetection with the camera's inverse response (detect.h).
 cv::Mat RadianceGrey(const cv::Mat& decoded, const RadianceTable& radiance) {
   cv::Mat colour = decoded;  // BGRA's alpha is left out
@@ -86,38 +121,21 @@ cv::Mat RadianceGrey(const cv::Mat& decoded, const RadianceTable& radiance) {
     throw InputError(fmt::format("a {}-channel image has no grey to detect tags on", channels));
   }
   // A table of another bit depth would read every value as another radiance.
-  double highest = 0;
-  cv::minMaxLoc(colour.reshape(1), nullptr, &highest);
   const size_t table_size = tables.front().size();
+  double highest = 0;
+  if (colour.depth() == CV_16U) cv::minMaxLoc(colour.reshape(1), nullptr, &highest);
   if ((colour.depth() == CV_8U && table_size != 256) || highest >= table_size) {
     throw InputError(fmt::format(
         "the response (--response) covers values 0..{}, the image is {}-bit{}", table_size - 1,
         colour.depth() == CV_8U ? 8 : 16,
         highest >= table_size ? fmt::format(" with values up to {:.0f}", highest) : ""));
   }
-  cv::Mat ints;
-  colour.convertTo(ints, CV_MAKETYPE(CV_32S, channels));
-  cv::Mat grey(colour.size(), CV_32F);
-  for (int y = 0; y < colour.rows; ++y) {
-    const int32_t* in = ints.ptr<int32_t>(y);
-    float* out = grey.ptr<float>(y);
-    for (int x = 0; x < colour.cols; ++x) {
-      float sum = 0;
-      for (int c = 0; c < channels; ++c) sum += weights[c] * tables[c][in[x * channels + c]];
-      out[x] = sum;
-    }
-  }
-  // The bright level as for encoded 16-bit frames: the 99.5th percentile of a sparse grid.
-  std::vector<double> sparse;
-  for (int y = 0; y < grey.rows; y += 4) {
-    for (int x = 0; x < grey.cols; x += 4) sparse.push_back(grey.at<float>(y, x));
-  }
+  const cv::Mat grey = colour.depth() == CV_8U
+                           ? WeightedRadiance<uint8_t>(colour, tables, weights)
+                           : WeightedRadiance<uint16_t>(colour, tables, weights);
   double top = 0;
   for (const auto& t : tables) top = std::max<double>(top, t.back());
-  const double bright = std::max(Percentile(sparse, 0.995), top / 64.0);
-  cv::Mat out;
-  grey.convertTo(out, CV_8U, bright > 0 ? 255.0 / bright : 0.0);
-  return out;
+  return EightBitByBrightLevel(grey, top / 64.0, std::numeric_limits<double>::infinity());
 }
 
 }  // namespace
@@ -158,16 +176,7 @@ cv::Mat GreyForDetection(const cv::Mat& decoded, int bit_depth, const RadianceTa
   }
   if (grey.depth() == CV_8U) return grey;
   const double full = std::ldexp(1.0, bit_depth > 0 && bit_depth <= 16 ? bit_depth : 16) - 1;
-  // The bright level from a sparse grid of pixels (every 4th row and column) is enough.
-  std::vector<double> values;
-  for (int y = 0; y < grey.rows; y += 4) {
-    const uint16_t* row = grey.ptr<uint16_t>(y);
-    for (int x = 0; x < grey.cols; x += 4) values.push_back(row[x]);
-  }
-  const double bright = std::clamp(Percentile(values, 0.995), full / 64.0, full);
-  cv::Mat out;
-  grey.convertTo(out, CV_8U, 255.0 / bright);
-  return out;
+  return EightBitByBrightLevel(grey, full / 64.0, full);
 }
 
 AprilTagDetector::AprilTagDetector(const AprilTagOptions& options)

@@ -390,6 +390,96 @@ std::vector<FrameExposureReport> FramesFromJson(const nlohmann::json& j,
   return out;
 }
 
+// An optional number at `key`: absent or null leaves *value; otherwise it must be finite and
+// >= 0 (> 0 when `positive`), or InputError naming the file and key.
+void OptionalNumberFromJson(const nlohmann::json& j, const char* key, bool positive,
+                            const std::string& source, double* value) {
+  if (!j.contains(key) || j[key].is_null()) return;
+  const auto& v = j[key];
+  const bool ok = v.is_number() && std::isfinite(v.get<double>()) &&
+                  (positive ? v.get<double>() > 0 : v.get<double>() >= 0);
+  if (!ok) {
+    throw InputError(fmt::format("{}: '{}' must be a {} number or null", source, key,
+                                 positive ? "positive" : "non-negative"));
+  }
+  *value = v.get<double>();
+}
+
+// The fields every response.json holds: bit depth, black level (with its source and range),
+// the table and the saturation level.
+void RequiredFromJson(const nlohmann::json& j, const std::string& source, ResponseResult* r) {
+  try {
+    r->bit_depth = j.at("bit_depth").get<int>();
+    // Checked before any shift by it: 1 << 40 is undefined behaviour.
+    if (r->bit_depth < 8 || r->bit_depth > 16) {
+      throw InputError(source + ": bit_depth must be 8..16, not " + std::to_string(r->bit_depth));
+    }
+    r->black_level = j.at("black_level").get<std::vector<double>>();
+    // Written since the black level can be measured; older files held estimates or options.
+    const std::string named = j.value("black_level_source", "estimated");
+    bool known = false;
+    for (auto b : {BlackLevelSource::kEstimated, BlackLevelSource::kOption,
+                   BlackLevelSource::kSession, BlackLevelSource::kDarkFrames,
+                   BlackLevelSource::kRawMetadata, BlackLevelSource::kAssumed}) {
+      if (named == BlackLevelSourceName(b)) r->black_level_source = b, known = true;
+    }
+    if (!known) throw InputError(source + ": black_level_source '" + named + "' is unknown");
+    r->black_level_range = j.value("black_level_range", std::vector<std::array<double, 2>>());
+    r->inverse_response = j.at("inverse_response").get<std::vector<std::vector<double>>>();
+    r->channels = static_cast<int>(r->inverse_response.size());
+    r->saturation_level =
+        j.value("saturation_level", std::vector<double>(r->channels, (1 << r->bit_depth) - 1.0));
+  } catch (const nlohmann::json::exception&) {
+    throw InputError(source + ": needs bit_depth, black_level and inverse_response");
+  }
+  if (r->black_level_range.empty()) {
+    for (double b : r->black_level) r->black_level_range.push_back({b, b});
+  }
+}
+
+// The fit's figures. The self-check and the smoothing sensitivity set the response's share of
+// the calibration's accuracy (PhotometricCalibration::ResponseAccuracy), so they are read back,
+// not dropped; the rest so that a response from its file reports as it did.
+void FitFiguresFromJson(const nlohmann::json& j, const std::string& source, ResponseResult* r) {
+  if (j.contains("consistency"))
+    r->consistency = PairConsistency::FromJson(j["consistency"], source);
+  OptionalNumberFromJson(j, "smoothing_sensitivity", false, source, &r->smoothing_sensitivity);
+  if (j.contains("smoothing_sensitivity_bands")) {
+    r->smoothing_sensitivity_bands = BandsFromJson(j["smoothing_sensitivity_bands"], source);
+  }
+  if (j.contains("ends")) r->ends = EndsFromJson(j["ends"], r->channels, source);
+  if (j.contains("frames")) r->frames = FramesFromJson(j["frames"], source);
+  OptionalNumberFromJson(j, "rms_log_residual", false, source, &r->rms_log_residual);
+  OptionalNumberFromJson(j, "regional_mapping_difference", false, source,
+                         &r->regional_mapping_difference);
+  OptionalNumberFromJson(j, "knot_spacing", true, source, &r->knot_spacing);
+  if (j.contains("bootstrap_ln_change")) {
+    r->bootstrap_ln_change = BootstrapFromJson(j["bootstrap_ln_change"], r->channels, source);
+    if (!r->bootstrap_ln_change.empty() && !std::isfinite(r->knot_spacing)) {
+      throw InputError(source + ": 'bootstrap_ln_change' needs 'knot_spacing'");
+    }
+  }
+}
+
+// Per channel a black level, its range and a finite, non-decreasing table of 2^bit_depth values.
+void CheckShape(const ResponseResult& r, const std::string& source) {
+  if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
+      static_cast<int>(r.black_level.size()) != r.channels ||
+      static_cast<int>(r.black_level_range.size()) != r.channels) {
+    throw InputError(source + ": inconsistent bit_depth, black_level and inverse_response");
+  }
+  for (const auto& t : r.inverse_response) {
+    if (static_cast<int>(t.size()) != (1 << r.bit_depth)) {
+      throw InputError(source + ": inverse_response needs 2^bit_depth values per channel");
+    }
+    for (size_t z = 1; z < t.size(); ++z) {
+      if (!(t[z] >= t[z - 1]) || !std::isfinite(t[z])) {
+        throw InputError(source + ": inverse_response must be finite and non-decreasing");
+      }
+    }
+  }
+}
+
 }  // namespace
 
 nlohmann::json ResponseResult::ToJson() const {
@@ -425,88 +515,9 @@ nlohmann::json ResponseResult::ToJson() const {
 
 ResponseResult ResponseResult::FromJson(const nlohmann::json& j, const std::string& source) {
   ResponseResult r;
-  try {
-    r.bit_depth = j.at("bit_depth").get<int>();
-    // Checked before any shift by it: 1 << 40 is undefined behaviour.
-    if (r.bit_depth < 8 || r.bit_depth > 16) {
-      throw InputError(source + ": bit_depth must be 8..16, not " + std::to_string(r.bit_depth));
-    }
-    r.black_level = j.at("black_level").get<std::vector<double>>();
-    // Written since the black level can be measured; older files held estimates or options.
-    const std::string named = j.value("black_level_source", "estimated");
-    bool known = false;
-    for (auto b : {BlackLevelSource::kEstimated, BlackLevelSource::kOption,
-                   BlackLevelSource::kSession, BlackLevelSource::kDarkFrames,
-                   BlackLevelSource::kRawMetadata, BlackLevelSource::kAssumed}) {
-      if (named == BlackLevelSourceName(b)) r.black_level_source = b, known = true;
-    }
-    if (!known) throw InputError(source + ": black_level_source '" + named + "' is unknown");
-    r.black_level_range = j.value("black_level_range", std::vector<std::array<double, 2>>());
-    r.inverse_response = j.at("inverse_response").get<std::vector<std::vector<double>>>();
-    r.channels = static_cast<int>(r.inverse_response.size());
-    r.saturation_level =
-        j.value("saturation_level", std::vector<double>(r.channels, (1 << r.bit_depth) - 1.0));
-  } catch (const nlohmann::json::exception&) {
-    throw InputError(source + ": needs bit_depth, black_level and inverse_response");
-  }
-  if (r.black_level_range.empty()) {
-    for (double b : r.black_level) r.black_level_range.push_back({b, b});
-  }
-  // The self-check and the smoothing sensitivity set the response's share of the calibration's
-  // accuracy (PhotometricCalibration::ResponseAccuracy), so they are read back, not dropped.
-  if (j.contains("consistency"))
-    r.consistency = PairConsistency::FromJson(j["consistency"], source);
-  if (j.contains("smoothing_sensitivity") && !j["smoothing_sensitivity"].is_null()) {
-    const auto& v = j["smoothing_sensitivity"];
-    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
-      throw InputError(source + ": 'smoothing_sensitivity' must be a non-negative number or null");
-    }
-    r.smoothing_sensitivity = v.get<double>();
-  }
-  if (j.contains("smoothing_sensitivity_bands")) {
-    r.smoothing_sensitivity_bands = BandsFromJson(j["smoothing_sensitivity_bands"], source);
-  }
-  if (j.contains("ends")) r.ends = EndsFromJson(j["ends"], r.channels, source);
-  if (j.contains("frames")) r.frames = FramesFromJson(j["frames"], source);
-  // Figures of the fit, read back so that a response from its file reports as it did.
-  for (auto [key, value] :
-       {std::pair{"rms_log_residual", &r.rms_log_residual},
-        std::pair{"regional_mapping_difference", &r.regional_mapping_difference}}) {
-    if (!j.contains(key) || j[key].is_null()) continue;
-    if (!j[key].is_number() || !(j[key].get<double>() >= 0) ||
-        !std::isfinite(j[key].get<double>())) {
-      throw InputError(source + ": '" + key + "' must be a non-negative number");
-    }
-    *value = j[key].get<double>();
-  }
-  if (j.contains("knot_spacing") && !j["knot_spacing"].is_null()) {
-    const auto& v = j["knot_spacing"];
-    if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>())) {
-      throw InputError(source + ": 'knot_spacing' must be a positive number or null");
-    }
-    r.knot_spacing = v.get<double>();
-  }
-  if (j.contains("bootstrap_ln_change")) {
-    r.bootstrap_ln_change = BootstrapFromJson(j["bootstrap_ln_change"], r.channels, source);
-    if (!r.bootstrap_ln_change.empty() && !std::isfinite(r.knot_spacing)) {
-      throw InputError(source + ": 'bootstrap_ln_change' needs 'knot_spacing'");
-    }
-  }
-  if (r.bit_depth < 8 || r.bit_depth > 16 || r.channels < 1 ||
-      static_cast<int>(r.black_level.size()) != r.channels ||
-      static_cast<int>(r.black_level_range.size()) != r.channels) {
-    throw InputError(source + ": inconsistent bit_depth, black_level and inverse_response");
-  }
-  for (const auto& t : r.inverse_response) {
-    if (static_cast<int>(t.size()) != (1 << r.bit_depth)) {
-      throw InputError(source + ": inverse_response needs 2^bit_depth values per channel");
-    }
-    for (size_t z = 1; z < t.size(); ++z) {
-      if (!(t[z] >= t[z - 1]) || !std::isfinite(t[z])) {
-        throw InputError(source + ": inverse_response must be finite and non-decreasing");
-      }
-    }
-  }
+  RequiredFromJson(j, source, &r);
+  FitFiguresFromJson(j, source, &r);
+  CheckShape(r, source);
   return r;
 }
 
