@@ -235,7 +235,8 @@ void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, J
 // too: a calibration error bends the radiance the way room light or a height does (the coverage
 // bench's glossy sample on a 16-bit linear camera: room light at -12 % +- 1 % of the lamp kept,
 // +- 5 % with the calibration's part, and albedo then 2.4 bars off; without it 0.3). Such terms
-// are left out and the fit and the propagation run again.
+// are left out (the selection's own search without them restored, DropNuisances), and the
+// checks and the propagation run again.
 void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptions& fit_options,
                    RunResult* r) {
   CheckedFit checked = FitChecked(r->observations, fit_options, in.session.dir.string(), o.checks);
@@ -246,14 +247,11 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
   const NuisanceDrop drop = NuisancesWithinTheirBars(fit_options, r->fit.final_fit);
   if (!drop.Any()) return;
   const JointFitResult kept = r->fit.final_fit;
-  JointFitOptions without = WithChosenNuisances(fit_options, kept);
-  if (drop.ambient) without.ambient = AmbientTerm::kNone;
-  if (drop.height) without.sample_height = NuisanceTerm::kNone;
-  checked = FitChecked(r->observations, without, in.session.dir.string(), o.checks);
-  r->fit = std::move(checked.fit);
-  r->checks = std::move(checked.checks);
+  r->fit = DropNuisances(r->observations, fit_options, drop, r->fit);
+  const JointFitOptions refit_options = WithChosenNuisances(fit_options, r->fit.final_fit);
+  r->checks = CheckFit(r->fit, r->observations, refit_options, in.session.dir.string(), o.checks);
   r->calibration_error.reset();
-  PropagateCalibration(in, o, checked.options, r);
+  PropagateCalibration(in, o, refit_options, r);
   NoteDrop(drop, kept, fit_options.nuisance_min_z, &r->fit.final_fit);
 }
 

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -188,6 +189,9 @@ struct JointSelectionResult {
   ModelSelectionResult selection;    // candidates' material results and the rule's reason
   std::vector<JointFitResult> fits;  // same order as selection.candidates
   JointFitResult final_fit;          // the selected model refitted on every observation
+  // The search before the kAuto nuisance terms final_fit keeps (null when it keeps none), for
+  // DropNuisances: leaving a term out restores it instead of searching again.
+  std::shared_ptr<const JointSelectionResult> without_nuisances;
   std::string Report() const;
   nlohmann::json ToJson() const;
 };
@@ -238,5 +242,14 @@ NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const Jo
 // Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options);
+
+// `selection` (FitAndSelect's on `data` with `options`) with the terms `drop` names left out, as
+// FitAndSelect leaves out those within their bars on the final fit: when no kept term is left,
+// the search without nuisances is restored and its selected model refitted on all; when one of
+// two is left, the selected model is refitted with it. gonio run calls it when the bar the
+// calibration's part widened holds a term (pipeline/run.cc); the models are not searched again
+// (the search without the terms is the one FitAndSelect made first).
+JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOptions& options,
+                                   const NuisanceDrop& drop, const JointSelectionResult& selection);
 
 }  // namespace gonio

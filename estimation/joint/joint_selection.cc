@@ -7,8 +7,10 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <set>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -385,6 +387,24 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   return out;
 }
 
+// The terms `drop` names left out of `out`: the search without nuisances (`without`) restored
+// when none is left, its selected model refitted on `final_use` (warm), else the selected model
+// refitted with the term that is left. `search`: the options without the kAuto terms.
+void ApplyNuisanceDrop(const ObservationSet& data, const std::vector<size_t>& final_use,
+                       const JointFitOptions& search, const NuisanceDrop& drop,
+                       const JointSelectionResult& without, JointSelectionResult* out) {
+  JointFitOptions o = search;
+  if (drop.ambient_kept && !drop.ambient) o.ambient = AmbientTerm::kFit;
+  if (drop.height_kept && !drop.height) o.sample_height = NuisanceTerm::kFit;
+  const bool none_left = o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit;
+  if (none_left) *out = without;
+  // The restored selection's fit has these options and starts the refit; a fit with another
+  // term set does not (FitCandidate's warm start).
+  const JointFitResult& chosen = out->fits[out->selection.selected];
+  out->final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o,
+                                false, none_left ? &chosen : nullptr);
+}
+
 // A nuisance kept on the selection subsample must stand out of its error bar in the final fit
 // too: ChooseNuisances predicts the final bar from the subsample's (1 / sqrt(n)), and a
 // calibration error's smooth bend, which does not average out, can pass that test and then sit
@@ -401,16 +421,14 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
   *reason += fmt::format("; on all {} observations {} within {:g} standard deviations: dropped",
                          final_use.size(), drop.Named(), options.nuisance_min_z);
   spdlog::info("nuisances: {}", *reason);
-  JointFitOptions o = search;
-  if (drop.ambient_kept && !drop.ambient) o.ambient = AmbientTerm::kFit;
-  if (drop.height_kept && !drop.height) o.sample_height = NuisanceTerm::kFit;
-  const bool none_left = o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit;
-  if (none_left) *out = without;
-  // The restored selection's fit has these options and starts the refit; a fit with another
-  // term set does not (FitCandidate's warm start).
-  const JointFitResult& chosen = out->fits[out->selection.selected];
-  out->final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o,
-                                false, none_left ? &chosen : nullptr);
+  ApplyNuisanceDrop(data, final_use, search, drop, without, out);
+}
+
+// `options` with its kAuto nuisance terms off: what the model search fits.
+JointFitOptions WithoutAutoNuisances(JointFitOptions options) {
+  if (options.ambient == AmbientTerm::kAuto) options.ambient = AmbientTerm::kNone;
+  if (options.sample_height == NuisanceTerm::kAuto) options.sample_height = NuisanceTerm::kNone;
+  return options;
 }
 
 }  // namespace
@@ -466,9 +484,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
       options.candidates.empty() ? AutoCandidates() : options.candidates;
   CheckEnoughResiduals(data, names, options);
   // kAuto nuisances: the search without them; ChooseNuisances decides after it.
-  JointFitOptions search = options;
-  if (search.ambient == AmbientTerm::kAuto) search.ambient = AmbientTerm::kNone;
-  if (search.sample_height == NuisanceTerm::kAuto) search.sample_height = NuisanceTerm::kNone;
+  JointFitOptions search = WithoutAutoNuisances(options);
   const Eigen::Vector3d light0 = InitialLamp(data, search);
   const auto use = Subsample(data, options.selection_max_observations);
   // The reported fits (the final one, a restored selection's) are solved to the options'
@@ -516,6 +532,25 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   if (options.sample_height == NuisanceTerm::kAuto) {
     out.final_fit.sample_height_reason = nuisance_reason;
   }
+  const NuisanceDrop kept = NuisancesWithinTheirBars(options, out.final_fit);
+  if (kept.ambient_kept || kept.height_kept) {
+    out.without_nuisances = std::make_shared<const JointSelectionResult>(without_nuisances);
+  }
+  return out;
+}
+
+JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOptions& options,
+                                   const NuisanceDrop& drop,
+                                   const JointSelectionResult& selection) {
+  options.Check();
+  if (!drop.Any()) return selection;
+  if (!selection.without_nuisances) {
+    throw std::logic_error("DropNuisances: the selection holds no search without its nuisances");
+  }
+  JointSelectionResult out = selection;
+  out.without_nuisances.reset();
+  ApplyNuisanceDrop(data, Subsample(data, options.final_max_observations),
+                    WithoutAutoNuisances(options), drop, *selection.without_nuisances, &out);
   return out;
 }
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -144,6 +145,39 @@ TEST(SearchStop, TheSearchChoosesWhatTheFullTableChooses) {
   EXPECT_GT(stopped.weighted_ssr, search.fits[0].material.weighted_ssr);
   EXPECT_TRUE(ToJson(search.selection)["candidates"][2].value("stopped_early", false));
   for (const auto& f : table.fits) EXPECT_FALSE(f.material.stopped_early) << f.material.model;
+}
+
+// Leaving a kept nuisance term out (gonio run does it when the bar the calibration's part
+// widened holds it) restores the selection's own search without it: the same final fit as a
+// search with the term off from the start, without searching the models again.
+TEST(DropNuisances, RestoresTheSearchWithoutTheTerm) {
+  ObservationSet data = Synthesize(12, 1, true, 0.002);
+  for (auto& o : data.observations) o.radiance[0] += 0.1 * data.observations[0].radiance[0];
+  JointFitOptions o;
+  o.white_albedo = 0.8;
+  o.relative_noise_floor = 0.002;
+  o.sample_height = NuisanceTerm::kNone;
+  o.candidates = {"lambert", "oren-nayar"};
+  const JointSelectionResult kept = FitAndSelect(data, o);
+  ASSERT_EQ(kept.final_fit.ambient_sample.size(), 1u) << kept.Report();
+  ASSERT_TRUE(kept.without_nuisances);
+  NuisanceDrop drop;
+  drop.ambient_kept = drop.ambient = true;
+  const JointSelectionResult dropped = DropNuisances(data, o, drop, kept);
+  JointFitOptions off = o;
+  off.ambient = AmbientTerm::kNone;
+  const JointSelectionResult searched = FitAndSelect(data, off);
+  EXPECT_FALSE(searched.without_nuisances);  // nothing kept: nothing to restore
+  EXPECT_FALSE(dropped.without_nuisances);
+  EXPECT_TRUE(dropped.final_fit.ambient_sample.empty());
+  ASSERT_EQ(dropped.final_fit.material.model, searched.final_fit.material.model);
+  for (size_t k = 0; k < searched.final_fit.material.params.size(); ++k) {
+    EXPECT_NEAR(dropped.final_fit.material.params[k], searched.final_fit.material.params[k], 1e-9);
+  }
+  EXPECT_LT((dropped.final_fit.lamp_position - searched.final_fit.lamp_position).norm(), 1e-9);
+  // The terms moved the lamp: the test compares two different fits.
+  EXPECT_GT((kept.final_fit.lamp_position - searched.final_fit.lamp_position).norm(), 1e-4);
+  EXPECT_THROW(DropNuisances(data, o, drop, searched), std::logic_error);
 }
 
 using testing::InputErrorOf;
