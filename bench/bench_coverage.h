@@ -53,6 +53,11 @@ CoveragePlan CoveragePlanFor(const BenchOptions& options);
 std::vector<CoverageKind> AllCoverageKinds();
 std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& names);
 
+// The session a run of `kind` renders for `seed`: seed 1 the preset's capture, every later one
+// a capture of its own (the orbit, the lamp on a stand) through a lens of its own (its
+// vignetting); docs/bench.md.
+synth::Scene CoverageSessionScene(const CoverageKind& kind, const CoveragePlan& plan, int seed);
+
 // One judged quantity of one run.
 struct CoverageValue {
   std::string parameter;  // a material parameter's name, or lamp_x, lamp_y, lamp_z

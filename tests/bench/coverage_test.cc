@@ -1,12 +1,17 @@
 // gonio bench --coverage (bench/bench_coverage.h): the z statistics and the misses that need a
 // warning (on made-up runs) and the plans of each size. The command at --smoke size (one run of
 // the user's chain through the gonio executable): tests/apps/bench_command_test.cc.
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <set>
 
 #include <gtest/gtest.h>
 
 #include "bench/bench_coverage.h"
 #include "common/error.h"
+#include "common/vignetting.h"
+#include "data_synth/scene.h"
 
 namespace gonio::bench {
 namespace {
@@ -182,6 +187,37 @@ TEST(Coverage, KindsAreNamedByNameOrMaterial) {
     ADD_FAILURE() << "no error for a kind that is none";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("tson/linear16"), std::string::npos) << e.what();
+  }
+}
+
+// Seed 1 renders the preset's lens; every later seed a lens of its own that the renderer takes
+// (its scene check: V above 0.05 over the image), with corners between 0.5 and 0.95 and V
+// falling from the centre to r = 0.8; the same seed the same lens.
+TEST(Coverage, EveryLaterSeedHasALensOfItsOwn) {
+  const CoveragePlan plan = CoveragePlanFor(BenchOptions());
+  for (const CoverageKind& kind : {AllCoverageKinds().at(0), CoverageKindsNamed({"flash"}).at(0)}) {
+    const auto preset = synth::PresetScene(kind.flash ? "flash" : "default").photometric.vignetting;
+    EXPECT_EQ(CoverageSessionScene(kind, plan, 1).photometric.vignetting, preset);
+    std::set<std::array<double, 3>> lenses = {preset};
+    double lowest_corner = 1, highest_corner = 0;
+    for (int seed = 2; seed <= 41; ++seed) {
+      const synth::Scene s = CoverageSessionScene(kind, plan, seed);
+      const auto& v = s.photometric.vignetting;
+      EXPECT_EQ(v, CoverageSessionScene(kind, plan, seed).photometric.vignetting);
+      EXPECT_TRUE(lenses.insert(v).second) << "seed " << seed << " repeats a lens";
+      EXPECT_NO_THROW(synth::SceneFromJson(synth::SceneToJson(s), "seed"));
+      for (double r = 0.1; r <= 0.8 + 1e-9; r += 0.1) {
+        EXPECT_LT(RadialVignettingAtR2(v, r * r), RadialVignettingAtR2(v, (r - 0.1) * (r - 0.1)))
+            << "seed " << seed << " r " << r;
+      }
+      const double corner = RadialVignettingAtR2(v, 1.0);
+      lowest_corner = std::min(lowest_corner, corner);
+      highest_corner = std::max(highest_corner, corner);
+    }
+    EXPECT_GT(lowest_corner, 0.5);
+    EXPECT_LT(highest_corner, 0.95);
+    // The lenses spread: over 40 seeds the corners span most of the range drawn.
+    EXPECT_GT(highest_corner - lowest_corner, 0.25);
   }
 }
 
