@@ -5,6 +5,7 @@
 #include <set>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include "common/error.h"
@@ -160,6 +161,51 @@ double SplitThreshold(const JointFitResult& f) {
 
 }  // namespace
 
+// How far rival k's own fit puts the results it shares with the selected model (their fits on
+// the selection's subsample), in the final fit's standard deviations: "sigma 2.3 sd", "lamp
+// 1.4 sd" for those beyond one.
+std::vector<std::string> ResultsARivalMoves(const JointSelectionResult& fit, int k) {
+  const JointFitResult &chosen = fit.fits[fit.selection.selected], &rival = fit.fits[k];
+  const BrdfFitResult& final_material = fit.final_fit.material;
+  std::vector<std::string> moved;
+  for (size_t i = 0; i < final_material.param_names.size(); ++i) {
+    const auto& names = rival.material.param_names;
+    const size_t j =
+        std::find(names.begin(), names.end(), final_material.param_names[i]) - names.begin();
+    if (j >= rival.material.params.size() || i >= chosen.material.params.size() ||
+        i >= final_material.stddev.size() || !final_material.stddev[i] ||
+        !(*final_material.stddev[i] > 0)) {
+      continue;
+    }
+    const double apart =
+        std::abs(rival.material.params[j] - chosen.material.params[i]) / *final_material.stddev[i];
+    if (apart > 1) moved.push_back(fmt::format("{} {:.1f} sd", names[j], apart));
+  }
+  if (const auto& sd = fit.final_fit.lamp_stddev; sd && (sd->array() > 0).all()) {
+    const double apart =
+        ((rival.lamp_position - chosen.lamp_position).array() / sd->array()).abs().maxCoeff();
+    if (apart > 1) moved.push_back(fmt::format("lamp {:.1f} sd", apart));
+  }
+  return moved;
+}
+
+// The selection's rivals (ModelSelectionResult::rivals) whose own fit moves a result by more
+// than one standard deviation: a choice the data leave open and that changes the answer
+// ("oren-nayar (bic +1.77): lamp 2.1 sd"). A rival that gives the same values is no such choice
+// (li-torrance:dd and :coh+dd on a rough sample).
+std::vector<std::string> RivalsThatMoveResults(const JointSelectionResult& fit) {
+  std::vector<std::string> out;
+  const ModelSelectionResult& sel = fit.selection;
+  if (sel.selected < 0 || fit.fits.size() != sel.candidates.size()) return out;
+  for (int k : sel.rivals) {
+    const std::vector<std::string> moved = ResultsARivalMoves(fit, k);
+    if (!moved.empty()) {
+      out.push_back(fmt::format("{}: {}", sel.RivalText(k), fmt::join(moved, ", ")));
+    }
+  }
+  return out;
+}
+
 FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
                    const JointFitOptions& fit_options, const std::string& session_what,
                    const FitChecksOptions& o) {
@@ -177,6 +223,7 @@ FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
   }
   c.rms_sigma = RmsSigma(f);
   c.explains_data = c.rms_sigma <= o.max_rms_sigma;
+  c.rival_models = RivalsThatMoveResults(fit);
   ParametersAtBounds(f.material, o.bound_fraction, &c.at_bounds, &c.at_domain_edges);
   if (f.frames.size() >= 4 &&
       c.inconsistent_frames.size() > o.max_inconsistent_fraction * f.frames.size() &&
@@ -195,6 +242,8 @@ std::string ToString(WarningCause cause) {
   switch (cause) {
     case WarningCause::kFrameSkipped:
       return "frame-skipped";
+    case WarningCause::kModelChoice:
+      return "model-choice";
     case WarningCause::kReprojection:
       return "reprojection";
     case WarningCause::kFit:
@@ -418,6 +467,17 @@ std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit) const {
                  "frames that disagree with the fitted scene (moved lamp or sample, wrong "
                  "exposure?): " +
                      list,
+                 all});
+  }
+  if (!rival_models.empty()) {
+    // Same-count rivals within the margin (docs/pipeline.md "Checks"): the values are the
+    // selected model's; a rival's parameters mean other things, and the lamp moves with it.
+    m.push_back({WarningCause::kModelChoice,
+                 fmt::format("the data do not tell {} from {}: as many parameters and within the "
+                             "criterion's margin, and the rival's fit moves these results; every "
+                             "result is the selected model's (fit each with --models to compare, "
+                             "or add views where they disagree)",
+                             fit.material.model, fmt::join(rival_models, ", ")),
                  all});
   }
   AddStructureWarnings(structure, all, &m);

@@ -42,6 +42,7 @@ enum class WarningCause {
   kReprojection,        // frames whose board does not fit a given camera model
   kFit,                 // the joint fit's own (a frame the model misses, a far lamp)
   kFrameSkipped,        // a frame without a usable board pose: less data, no bias
+  kModelChoice,         // models the data do not tell from the selected one
 };
 std::string ToString(WarningCause cause);  // "frame-skipped", "residual-irradiance", ...
 
@@ -88,6 +89,10 @@ struct FitChecks {
   // the model's domain, 1)"; a value there is a measurement when the data are explained.
   std::vector<std::string> at_domain_edges;
   std::vector<std::string> inconsistent_frames;  // "frame_0003.png (+12.1%)"
+  // The selection's rivals (ModelSelectionResult::rivals: models the data do not tell from the
+  // selected one) whose fits move a shared result by more than one standard deviation:
+  // "oren-nayar (bic +1.77): lamp 2.1 sd".
+  std::vector<std::string> rival_models;
   ResidualStructure structure;  // residuals against irradiance, view, image position
   // True when nothing above stands in the way of reading the parameters as a measurement.
   bool Measured() const { return explains_data && at_bounds.empty(); }

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common/error.h"
 #include "common/option_words.h"
@@ -146,6 +147,21 @@ void ChooseSimplestAdequate(const ModelSelectionOptions& options, ModelSelection
         sel.model, sel.n_params, ToString(options.criterion), out.CriterionValue(sel), margin_text,
         out.candidates[best].model, out.candidates[best].n_params, best_value);
   }
+  const double rival_limit = options.criterion == Criterion::kCv
+                                 ? out.CriterionValue(sel) * (1.0 + options.cv_margin)
+                                 : out.CriterionValue(sel) + options.ic_margin;
+  out.rivals.clear();
+  for (int k = 0; k < static_cast<int>(out.candidates.size()); ++k) {
+    const auto& c = out.candidates[k];
+    if (k == chosen || !c.converged || c.n_params != sel.n_params) continue;
+    if (out.CriterionValue(c) <= rival_limit) out.rivals.push_back(k);
+  }
+  std::vector<std::string> rivals;
+  for (int k : out.rivals) rivals.push_back(out.RivalText(k));
+  if (!rivals.empty()) {
+    out.reason += fmt::format("; with as many parameters and within {} of it: {}", margin_text,
+                              fmt::join(rivals, ", "));
+  }
   if (!sel.undetermined.empty()) {
     std::string names_text;
     for (const auto& u : sel.undetermined) names_text += (names_text.empty() ? "" : ", ") + u;
@@ -211,14 +227,23 @@ nlohmann::json ToJson(const BrdfFitResult& fit) {
   return j;
 }
 
+std::string ModelSelectionResult::RivalText(int k) const {
+  const BrdfFitResult& c = candidates.at(k);
+  return fmt::format("{} ({} {:+.3g})", c.model, ToString(criterion),
+                     CriterionValue(c) - CriterionValue(Selected()));
+}
+
 nlohmann::json ToJson(const ModelSelectionResult& selection) {
   nlohmann::json candidates = nlohmann::json::array();
   for (const auto& c : selection.candidates) candidates.push_back(ToJson(c));
+  nlohmann::json rivals = nlohmann::json::array();
+  for (int k : selection.rivals) rivals.push_back(selection.RivalText(k));
   return {{"selected", selection.selected >= 0 ? selection.Selected().model : ""},
           {"criterion", ToString(selection.criterion)},
           {"reason", selection.reason},
           {"n_samples", selection.candidates.empty() ? 0 : selection.candidates[0].n_samples},
           {"skipped", selection.skipped},
+          {"rivals", rivals},
           {"candidates", candidates}};
 }
 

@@ -40,9 +40,15 @@ struct ModelSelectionResult {
   Criterion criterion = Criterion::kBic;
   std::string reason;
   std::vector<std::string> skipped;  // "model: why"
+  // Converged candidates with as many parameters as the selected one and a criterion within the
+  // margin of its value (indices into candidates): the data do not tell them from it, and the
+  // rule, which breaks ties only by parameter count, picked the lowest value among equals.
+  std::vector<int> rivals;
 
   const BrdfFitResult& Selected() const { return candidates.at(selected); }
   double CriterionValue(const BrdfFitResult& r) const;
+  // "oren-nayar (bic +1.77)": candidate k and its criterion against the selected one's.
+  std::string RivalText(int k) const;
   std::string Report() const;
 };
 

@@ -79,5 +79,36 @@ TEST(ModelSelection, JsonHasTheIssueFields) {
   }
 }
 
+// Candidates with the selected model's parameter count and a criterion within the margin of
+// its value are its rivals: the data do not tell them from it. A richer model, one beyond the
+// margin and one that did not converge are not.
+TEST(ModelSelection, SameCountModelsWithinTheMarginAreRivals) {
+  ModelSelectionResult r;
+  auto add = [&](const std::string& name, int k, double bic, bool converged) {
+    BrdfFitResult c;
+    c.model = name;
+    c.n_params = k;
+    c.bic = bic;
+    c.converged = converged;
+    r.candidates.push_back(c);
+  };
+  add("a", 2, 10.0, true);
+  add("b", 2, 11.5, true);   // +1.5: a rival
+  add("c", 2, 12.5, true);   // +2.5: beyond the margin
+  add("d", 3, 9.0, true);    // best, but a parameter more: the simpler "a" is chosen
+  add("e", 2, 10.5, false);  // not converged
+  ModelSelectionOptions o;
+  ChooseSimplestAdequate(o, &r);
+  EXPECT_EQ(r.Selected().model, "a");
+  EXPECT_EQ(r.rivals, std::vector<int>{1});
+  EXPECT_EQ(r.RivalText(1), "b (bic +1.5)");
+  EXPECT_NE(r.reason.find("within 2 of it: b (bic +1.5)"), std::string::npos) << r.reason;
+  EXPECT_EQ(ToJson(r)["rivals"], nlohmann::json({"b (bic +1.5)"}));
+  o.ic_margin = 1.0;  // b is 1.5 off: no rival (and d, 1 below a, still within the margin)
+  ChooseSimplestAdequate(o, &r);
+  EXPECT_EQ(r.Selected().model, "a");
+  EXPECT_TRUE(r.rivals.empty());
+}
+
 }  // namespace
 }  // namespace gonio

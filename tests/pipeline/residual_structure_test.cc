@@ -143,6 +143,46 @@ TEST(RunWarnings, TouchedResultsListEachCauseOnce) {
   EXPECT_EQ(w[0].ToJson()["cause"], "at-bound");
 }
 
+// Rivals of the selected model (the data do not tell them from it) are a warning that touches
+// every result and names them.
+TEST(RunWarnings, RivalModelsAreAWarningOnEveryResult) {
+  FitChecks c;
+  JointFitResult f = TrueFit();
+  EXPECT_TRUE(c.Warnings(f).empty());
+  c.rival_models = {"oren-nayar-fujii (bic +1.77): lamp 2.1 sd"};
+  const std::vector<RunWarning> w = c.Warnings(f);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(ToString(w[0].cause), "model-choice");
+  EXPECT_NE(w[0].message.find("oren-nayar from oren-nayar-fujii (bic +1.77): lamp 2.1 sd"),
+            std::string::npos)
+      << w[0].message;
+  EXPECT_EQ(w[0].touches, AllResults(f));
+}
+
+// A rival is warned of only when its own fit moves a result the selected model shares by more
+// than one of the final fit's standard deviations: one that gives the same values leaves the
+// user no choice to make.
+TEST(RunWarnings, ARivalThatGivesTheSameValuesIsNoWarning) {
+  JointSelectionResult s;
+  s.final_fit = TrueFit();
+  s.final_fit.lamp_stddev = Eigen::Vector3d(0.001, 0.001, 0.001);
+  for (const char* name : {"oren-nayar", "same", "moved"}) {
+    JointFitResult f = TrueFit();
+    f.material.model = name;
+    f.material.n_params = 2;
+    f.material.bic = 0;
+    s.fits.push_back(f);
+    s.selection.candidates.push_back(f.material);
+  }
+  s.fits[1].material.params[0] += 0.0005;  // albedo half a standard deviation off
+  s.fits[2].lamp_position.z() += 0.003;    // the lamp three off
+  s.selection.selected = 0;
+  s.selection.rivals = {1, 2};
+  const FitChecks c =
+      CheckFit(s, ObservationSet(), JointFitOptions(), "session", FitChecksOptions());
+  EXPECT_EQ(c.rival_models, std::vector<std::string>{"moved (bic +0): lamp 3.0 sd"});
+}
+
 // A kept ambient term is room light only when the white reference can see it too (checks.cc
 // AmbientIsNotRoomLight): a sample constant L_a = 0.18 +- 0.014 with albedo 0.6 implies a white
 // irradiance of pi 0.18 / 0.6 = 0.94. The coverage bench's tson runs read E_a -2.2 +- 2.6 there:
