@@ -159,8 +159,6 @@ double SplitThreshold(const JointFitResult& f) {
   return threshold;
 }
 
-}  // namespace
-
 // How far rival k's own fit puts the results it shares with the selected model (their fits on
 // the selection's subsample), in the final fit's standard deviations: "sigma 2.3 sd", "lamp
 // 1.4 sd" for those beyond one.
@@ -205,6 +203,8 @@ std::vector<std::string> RivalsThatMoveResults(const JointSelectionResult& fit) 
   }
   return out;
 }
+
+}  // namespace
 
 FitChecks CheckFit(const JointSelectionResult& fit, const ObservationSet& data,
                    const JointFitOptions& fit_options, const std::string& session_what,
