@@ -243,12 +243,11 @@ NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const Jo
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options);
 
-// `selection` (FitAndSelect's on `data` with `options`) with the terms `drop` names left out, as
-// FitAndSelect leaves out those within their bars on the final fit: when no kept term is left,
-// the search without nuisances is restored and its selected model refitted on all; when one of
-// two is left, the selected model is refitted with it. gonio run calls it when the bar the
-// calibration's part widened holds a term (pipeline/run.cc); the models are not searched again
-// (the search without the terms is the one FitAndSelect made first).
+// `selection` (FitAndSelect's on `data` with `options`) with the terms `drop` names left out:
+// when no kept term is left, the search without nuisances (the one FitAndSelect made first) is
+// restored and its selected model refitted on all, without searching the models again; when
+// one of two is left, the models are searched again with it on. gonio run calls it when the bar
+// the calibration's part widened holds a term (pipeline/run.cc).
 JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOptions& options,
                                    const NuisanceDrop& drop, const JointSelectionResult& selection);
 

@@ -544,6 +544,14 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
                                    const JointSelectionResult& selection) {
   options.Check();
   if (!drop.Any()) return selection;
+  if ((drop.ambient_kept && !drop.ambient) || (drop.height_kept && !drop.height)) {
+    // One of two kept terms stays: the models are searched again with it on (kFit), as the
+    // selection with both may not be the one with either alone.
+    JointFitOptions o = WithChosenNuisances(options, selection.final_fit);
+    if (drop.ambient) o.ambient = AmbientTerm::kNone;
+    if (drop.height) o.sample_height = NuisanceTerm::kNone;
+    return FitAndSelect(data, o);
+  }
   if (!selection.without_nuisances) {
     throw std::logic_error("DropNuisances: the selection holds no search without its nuisances");
   }

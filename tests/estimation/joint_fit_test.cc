@@ -180,6 +180,33 @@ TEST(DropNuisances, RestoresTheSearchWithoutTheTerm) {
   EXPECT_THROW(DropNuisances(data, o, drop, searched), std::logic_error);
 }
 
+// When one of two kept terms stays, the models are searched again with it on: the selection
+// with both need not be the one with either alone.
+TEST(DropNuisances, OneOfTwoLeftSearchesAgainWithIt) {
+  ObservationSet data = Synthesize(12, 1, true, 0.002);
+  for (auto& o : data.observations) o.radiance[0] += 0.1 * data.observations[0].radiance[0];
+  JointFitOptions o;
+  o.white_albedo = 0.8;
+  o.relative_noise_floor = 0.002;
+  o.candidates = {"lambert", "oren-nayar"};
+  o.ambient = AmbientTerm::kFit;
+  o.sample_height = NuisanceTerm::kFit;
+  const JointSelectionResult both = FitAndSelect(data, o);
+  ASSERT_TRUE(both.final_fit.sample_height_offset);
+  NuisanceDrop drop;
+  drop.ambient_kept = drop.height_kept = drop.ambient = true;
+  const JointSelectionResult dropped = DropNuisances(data, o, drop, both);
+  JointFitOptions height_only = o;
+  height_only.ambient = AmbientTerm::kNone;
+  const JointSelectionResult searched = FitAndSelect(data, height_only);
+  EXPECT_TRUE(dropped.final_fit.ambient_sample.empty());
+  ASSERT_TRUE(dropped.final_fit.sample_height_offset);
+  EXPECT_EQ(dropped.final_fit.material.model, searched.final_fit.material.model);
+  EXPECT_NEAR(*dropped.final_fit.sample_height_offset, *searched.final_fit.sample_height_offset,
+              1e-12);
+  EXPECT_LT((dropped.final_fit.lamp_position - searched.final_fit.lamp_position).norm(), 1e-12);
+}
+
 using testing::InputErrorOf;
 
 // Option words (--criterion, --robust, --lamp-frame) parse to enums and print back unchanged;
