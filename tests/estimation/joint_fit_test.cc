@@ -147,17 +147,30 @@ TEST(SearchStop, TheSearchChoosesWhatTheFullTableChooses) {
   for (const auto& f : table.fits) EXPECT_FALSE(f.material.stopped_early) << f.material.model;
 }
 
+// Twelve views of the Oren-Nayar sample under a room light of a tenth of the first radiance.
+ObservationSet UnderRoomLight() {
+  ObservationSet data = Synthesize(12, 1, true, 0.002);
+  const double room = 0.1 * data.observations[0].radiance[0];
+  for (auto& o : data.observations) o.radiance[0] += room;
+  return data;
+}
+
+// The white's albedo known, a 0.2 % floor and two candidates: a nuisance search in a second.
+JointFitOptions QuickNuisanceOptions() {
+  JointFitOptions o;
+  o.white_albedo = 0.8;
+  o.relative_noise_floor = 0.002;
+  o.candidates = {"lambert", "oren-nayar"};
+  return o;
+}
+
 // Leaving a kept nuisance term out (gonio run does it when the bar the calibration's part
 // widened holds it) restores the selection's own search without it: the same final fit as a
 // search with the term off from the start, without searching the models again.
 TEST(DropNuisances, RestoresTheSearchWithoutTheTerm) {
-  ObservationSet data = Synthesize(12, 1, true, 0.002);
-  for (auto& o : data.observations) o.radiance[0] += 0.1 * data.observations[0].radiance[0];
-  JointFitOptions o;
-  o.white_albedo = 0.8;
-  o.relative_noise_floor = 0.002;
+  const ObservationSet data = UnderRoomLight();
+  JointFitOptions o = QuickNuisanceOptions();
   o.sample_height = NuisanceTerm::kNone;
-  o.candidates = {"lambert", "oren-nayar"};
   const JointSelectionResult kept = FitAndSelect(data, o);
   ASSERT_EQ(kept.final_fit.ambient_sample.size(), 1u) << kept.Report();
   ASSERT_TRUE(kept.without_nuisances);
@@ -183,12 +196,8 @@ TEST(DropNuisances, RestoresTheSearchWithoutTheTerm) {
 // When one of two kept terms stays, the models are searched again with it on: the selection
 // with both need not be the one with either alone.
 TEST(DropNuisances, OneOfTwoLeftSearchesAgainWithIt) {
-  ObservationSet data = Synthesize(12, 1, true, 0.002);
-  for (auto& o : data.observations) o.radiance[0] += 0.1 * data.observations[0].radiance[0];
-  JointFitOptions o;
-  o.white_albedo = 0.8;
-  o.relative_noise_floor = 0.002;
-  o.candidates = {"lambert", "oren-nayar"};
+  const ObservationSet data = UnderRoomLight();
+  JointFitOptions o = QuickNuisanceOptions();
   o.ambient = AmbientTerm::kFit;
   o.sample_height = NuisanceTerm::kFit;
   const JointSelectionResult both = FitAndSelect(data, o);
