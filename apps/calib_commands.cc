@@ -138,9 +138,10 @@ void RunCalibrate(const CalibrateArgs& a) {
   std::cerr << result.Report();
   nlohmann::json j = result.ToJson();
   j["model"] = a.out;
-  j["tags_found_on"] = !a.corners.empty()   ? "the corners file"
-                       : a.response.empty() ? "encoded values"
-                                            : "radiance";
+  j["tags_found_on"] = !a.corners.empty()
+                           ? "the corners file"
+                           : ToString(a.response.empty() ? SessionPoses::TagGrey::kEncoded
+                                                         : SessionPoses::TagGrey::kRadiance);
   if (!a.images.empty() && a.response.empty()) NoteTagsOnEncodedValues();
   if (!a.report_json.empty()) WriteJsonAtomically(a.report_json, j);
   PrintJson(j);

@@ -86,8 +86,8 @@ CalibrationResult CalibrateCamera(const Session& session, const Board& board,
   });
   const CalibrationResult cal =
       Calibrate(board, detections, raws->front().cols, raws->front().rows, CalibrationOptions{});
-  *poses = LocateObservations(cal.camera, board, detections, PoseOptions{});
-  poses->tags_found_on = SessionPoses::TagGrey::kRadiance;
+  *poses = LocateObservations(cal.camera, board, detections, PoseOptions{},
+                              SessionPoses::TagGrey::kRadiance);
   return cal;
 }
 

@@ -185,8 +185,8 @@ namespace {
 // model does not fit are warnings (a calibrated model fits by construction).
 void LocateFrames(const RunInputs& in, const RunOptions& o,
                   const std::vector<BoardObservation>& detections, RunResult* r) {
-  r->poses = LocateObservations(r->camera, in.board, detections, o.pose);
-  r->poses.tags_found_on = SessionPoses::TagGrey::kRadiance;  // DetectBoards
+  r->poses = LocateObservations(r->camera, in.board, detections, o.pose,
+                                SessionPoses::TagGrey::kRadiance);  // DetectBoards
   if (r->poses.frames.empty()) {
     throw InputError(in.session.dir.string() + ": the board was found in no frame");
   }

@@ -223,6 +223,10 @@ nlohmann::json BoardPose::ToJson() const {
   return j;
 }
 
+std::string ToString(SessionPoses::TagGrey grey) {
+  return grey == SessionPoses::TagGrey::kRadiance ? "radiance" : "encoded values";
+}
+
 nlohmann::json SessionPoses::ToJson() const {
   nlohmann::json j = {{"format", "gonio-poses"}, {"version", 1}};
   j["frames"] = nlohmann::json::array();
@@ -233,15 +237,16 @@ nlohmann::json SessionPoses::ToJson() const {
   }
   j["skipped"] = nlohmann::json::array();
   for (const auto& s : skipped) j["skipped"].push_back({{"file", s.file}, {"reason", s.reason}});
-  j["tags_found_on"] = tags_found_on == TagGrey::kRadiance ? "radiance" : "encoded values";
+  j["tags_found_on"] = ToString(tags_found_on);
   return j;
 }
 
 SessionPoses LocateObservations(const CameraModel& camera, const Board& board,
                                 const std::vector<BoardObservation>& observations,
-                                const PoseOptions& options) {
+                                const PoseOptions& options, SessionPoses::TagGrey tags_found_on) {
   options.Check();
   SessionPoses out;
+  out.tags_found_on = tags_found_on;
   for (const auto& obs : observations) {
     try {
       out.frames.push_back({obs.image, EstimateBoardPose(camera, board, obs, options)});
@@ -304,9 +309,9 @@ SessionPoses LocateSession(const fs::path& session_dir, const CameraModel& camer
     }
     observations.push_back(DetectBoard(grey, board, options.detector, session.frames[i].file));
   });
-  SessionPoses poses = LocateObservations(camera, board, observations, options);
-  if (!radiance.empty()) poses.tags_found_on = SessionPoses::TagGrey::kRadiance;
-  return poses;
+  return LocateObservations(
+      camera, board, observations, options,
+      radiance.empty() ? SessionPoses::TagGrey::kEncoded : SessionPoses::TagGrey::kRadiance);
 }
 
 }  // namespace gonio

@@ -65,12 +65,14 @@ struct SessionPoses {
   TagGrey tags_found_on = TagGrey::kEncoded;
   nlohmann::json ToJson() const;  // poses.json (docs/formats.md)
 };
+std::string ToString(SessionPoses::TagGrey grey);  // "encoded values" or "radiance"
 
 // The pose of every observation (one per frame, in frame order), as detected once by the
-// caller: frames whose observation cannot give a pose are listed in `skipped` with the reason.
+// caller on the grey `tags_found_on` says: frames whose observation cannot give a pose are
+// listed in `skipped` with the reason.
 SessionPoses LocateObservations(const CameraModel& camera, const Board& board,
                                 const std::vector<BoardObservation>& observations,
-                                const PoseOptions& options);
+                                const PoseOptions& options, SessionPoses::TagGrey tags_found_on);
 
 // The camera model against a session's frames (docs/pipeline.md "Checks"): a model whose RMS
 // reprojection error on the located frames (their median) is above kFarAbove times what its

@@ -387,22 +387,17 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   return out;
 }
 
-// The terms `drop` names left out of `out`: the search without nuisances (`without`) restored
-// when none is left, its selected model refitted on `final_use` (warm), else the selected model
-// refitted with the term that is left. `search`: the options without the kAuto terms.
-void ApplyNuisanceDrop(const ObservationSet& data, const std::vector<size_t>& final_use,
-                       const JointFitOptions& search, const NuisanceDrop& drop,
-                       const JointSelectionResult& without, JointSelectionResult* out) {
-  JointFitOptions o = search;
-  if (drop.ambient_kept && !drop.ambient) o.ambient = AmbientTerm::kFit;
-  if (drop.height_kept && !drop.height) o.sample_height = NuisanceTerm::kFit;
-  const bool none_left = o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit;
-  if (none_left) *out = without;
-  // The restored selection's fit has these options and starts the refit; a fit with another
-  // term set does not (FitCandidate's warm start).
-  const JointFitResult& chosen = out->fits[out->selection.selected];
-  out->final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o,
-                                false, none_left ? &chosen : nullptr);
+// The search without nuisances (`without`) restored, its selected model refitted on
+// `final_use` from its own solution; `search`: the options without the kAuto terms.
+JointSelectionResult RestoreWithoutNuisances(const ObservationSet& data,
+                                             const std::vector<size_t>& final_use,
+                                             const JointFitOptions& search,
+                                             const JointSelectionResult& without) {
+  JointSelectionResult out = without;
+  const JointFitResult& chosen = out.fits[out.selection.selected];
+  out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, search,
+                               false, &chosen);
+  return out;
 }
 
 // A nuisance kept on the selection subsample must stand out of its error bar in the final fit
@@ -421,7 +416,18 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
   *reason += fmt::format("; on all {} observations {} within {:g} standard deviations: dropped",
                          final_use.size(), drop.Named(), options.nuisance_min_z);
   spdlog::info("nuisances: {}", *reason);
-  ApplyNuisanceDrop(data, final_use, search, drop, without, out);
+  JointFitOptions o = search;
+  if (drop.ambient_kept && !drop.ambient) o.ambient = AmbientTerm::kFit;
+  if (drop.height_kept && !drop.height) o.sample_height = NuisanceTerm::kFit;
+  if (o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit) {
+    *out = RestoreWithoutNuisances(data, final_use, search, without);
+    return;
+  }
+  // One term of two stays: the selected model refitted with it (a fit with another term set
+  // does not start from the selection's solution: FitCandidate's warm start).
+  const JointFitResult& chosen = out->fits[out->selection.selected];
+  out->final_fit =
+      FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
 }
 
 // `options` with its kAuto nuisance terms off: what the model search fits.
@@ -502,7 +508,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   const JointFitOptions chosen_options =
       ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
                       options, &nuisance_reason, &unresolved);
-  const JointSelectionResult without_nuisances = out;
+  auto without_nuisances = std::make_shared<const JointSelectionResult>(out);
   if (chosen_options.ambient != search.ambient ||
       chosen_options.sample_height != search.sample_height) {
     // A kept nuisance can change which model explains the data: search again with it, at
@@ -525,7 +531,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   final_options.patch_model = refit.patch_model;
   out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position,
                                final_options, false, &chosen);
-  DropUnsupportedNuisances(data, final_use, refit, options, without_nuisances, &nuisance_reason,
+  DropUnsupportedNuisances(data, final_use, refit, options, *without_nuisances, &nuisance_reason,
                            &out);
   out.final_fit.unresolved_nuisance = unresolved;
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
@@ -534,7 +540,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   }
   const NuisanceDrop kept = NuisancesWithinTheirBars(options, out.final_fit);
   if (kept.ambient_kept || kept.height_kept) {
-    out.without_nuisances = std::make_shared<const JointSelectionResult>(without_nuisances);
+    out.without_nuisances = std::move(without_nuisances);
   }
   return out;
 }
@@ -555,11 +561,8 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
   if (!selection.without_nuisances) {
     throw std::logic_error("DropNuisances: the selection holds no search without its nuisances");
   }
-  JointSelectionResult out = selection;
-  out.without_nuisances.reset();
-  ApplyNuisanceDrop(data, Subsample(data, options.final_max_observations),
-                    WithoutAutoNuisances(options), drop, *selection.without_nuisances, &out);
-  return out;
+  return RestoreWithoutNuisances(data, Subsample(data, options.final_max_observations),
+                                 WithoutAutoNuisances(options), *selection.without_nuisances);
 }
 
 }  // namespace gonio

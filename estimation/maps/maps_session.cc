@@ -89,9 +89,8 @@ SessionPoses LocateFrames(const MapsSessionInputs& in, const std::vector<cv::Mat
     detections.push_back(DetectBoard(GreyForDetection(frames[i], in.session.bit_depth, radiance),
                                      in.board, PoseOptions().detector, in.session.frames[i].file));
   }
-  SessionPoses poses = LocateObservations(in.camera, in.board, detections, PoseOptions());
-  poses.tags_found_on = SessionPoses::TagGrey::kRadiance;
-  return poses;
+  return LocateObservations(in.camera, in.board, detections, PoseOptions(),
+                            SessionPoses::TagGrey::kRadiance);
 }
 
 // The options of the maps' uniform fit and of the white reference's lamp.
