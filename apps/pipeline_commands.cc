@@ -58,6 +58,7 @@ struct RunArgs {
   int patch = 4;
   bool assume_linear = false;
   bool maps = false;  // also the per-texel maps into OUT/maps (docs/maps.md)
+  bool error_budget = false;
   double maps_texel_mm = 0;
   FitArgs fit;
 };
@@ -68,6 +69,7 @@ void RunRun(const RunArgs& a) {
   o.noise_floor_from_calibration = a.fit.noise_floor.empty();
   o.extract.patch = a.patch;
   o.extract.threads = a.fit.threads;
+  o.error_budget = a.error_budget;
   if (a.maps) {
     o.maps = MapsOptions();
     o.maps->sampling.texel_m = 1e-3 * a.maps_texel_mm;
@@ -146,6 +148,9 @@ void AddPipelineCommands(CLI::App& app) {
   run->add_flag("--maps", ra->maps,
                 "Also per-texel albedo, normal, height, roughness and material maps of a textured "
                 "sample into OUT/maps, lamp from the fit (docs/maps.md)");
+  run->add_flag("--error-budget", ra->error_budget,
+                "Also propagate each calibration error source alone (response, vignetting, "
+                "poses): which part sets each bar, in the report and fit.json (docs/pipeline.md)");
   run->add_option("--maps-texel", ra->maps_texel_mm, "--maps: texel size in mm (0: the pixels')")
       ->capture_default_str();
   AddFitArgs(run, &ra->fit);

@@ -400,6 +400,33 @@ std::string ModelComparisonTable(const JointSelectionResult& fit) {
   return h.str();
 }
 
+// `gonio run --error-budget` (estimation/joint/error_budget.h): each quantity's standard
+// deviation by part, each cell with a bar of its share of the variance, so the part to shrink
+// stands out without reading the numbers.
+std::string BudgetTable(const CalibrationErrorBudget& b) {
+  std::ostringstream h;
+  h << "<h2>Error budget</h2><p>Each calibration error source refitted alone; the parts add in "
+       "quadrature to the total (within the refits' own spread). Bars: share of the "
+       "variance.</p><table><tr><th>quantity</th><th>total</th><th>statistical</th>";
+  for (auto s : b.sources) h << "<th>" << ToString(s) << "</th>";
+  h << "<th>largest</th></tr>";
+  const auto cell = [](double sd, double total) {
+    const double share = total > 0 ? std::min(1.0, sd * sd / (total * total)) : 0.0;
+    return fmt::format(
+        "<td>{:.2g}<div style='background:#48c;height:4px;width:{:.0f}%'></div></td>", sd,
+        100 * share);
+  };
+  for (const auto& row : b.rows) {
+    h << "<tr><td>" << Escape(row.quantity) << "</td><td>" << fmt::format("{:.2g}", row.total)
+      << "</td>" << cell(row.statistical, row.total);
+    for (const auto& v : row.by_source) h << (v ? cell(*v, row.total) : "<td>-</td>");
+    h << "<td>" << Escape(row.Largest(b.sources)) << "</td></tr>";
+  }
+  h << "</table>";
+  for (const auto& n : b.notes) h << "<p>Not measured: " << Escape(n) << "</p>";
+  return h.str();
+}
+
 }  // namespace
 
 void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, const Board& board,
@@ -427,6 +454,7 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   for (std::string line; std::getline(angle_lines, line);) h << " " << Escape(line) << "<br>";
   h << "</p>";
   h << ParameterTable(f, warnings, bars) << ErrorBarNote(f, bars);
+  if (bars.budget) h << BudgetTable(*bars.budget);
   if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
   h << ModelComparisonTable(fit);
   h << "<p>Residual image per frame (tile = frame, blue: model darker, red: model brighter than "

@@ -9,6 +9,7 @@
 #include "calib/geometry/board.h"
 #include "estimation/extract/observations.h"
 #include "estimation/joint/calibration_error.h"
+#include "estimation/joint/error_budget.h"
 #include "estimation/joint/joint_fit.h"
 #include "pipeline/checks.h"
 
@@ -22,6 +23,7 @@ struct ReportErrorBars {
   std::string noise_floor_source;
   double statistical_rescale = 1;
   std::optional<CalibrationPropagation> calibration;
+  std::optional<CalibrationErrorBudget> budget;  // `gonio run --error-budget`
 };
 
 // `notes` (what the run had to assume, e.g. a linear camera, and why the parameters may not be

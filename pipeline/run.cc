@@ -127,6 +127,10 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
         RescaleForPropagatedFloor(r->observations, r->noise_floor, &r->fit.final_fit);
   }
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
+  if (o.error_budget) {
+    r->error_budget = BudgetCalibrationError(r->observations, r->fit.final_fit, fit_options, *e,
+                                             *r->calibration_error, o.calibration_error);
+  }
 }
 
 // The calibration's part for `gonio run --maps`: the photometric one alone. The maps register
@@ -251,6 +255,7 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
   const JointFitOptions refit_options = WithChosenNuisances(fit_options, r->fit.final_fit);
   r->checks = CheckFit(r->fit, r->observations, refit_options, in.session.dir.string(), o.checks);
   r->calibration_error.reset();
+  r->error_budget.reset();
   PropagateCalibration(in, o, refit_options, r);
   NoteDrop(drop, kept, fit_options.nuisance_min_z, &r->fit.final_fit);
 }
@@ -375,6 +380,7 @@ std::string RunResult::Report() const {
   }
   if (calibration_error) {
     s += calibration_error->Report();
+    if (error_budget) s += error_budget->Report();
   } else {
     s += "calibration error: not propagated (the photometric calibration reports no accuracy, "
          "the poses no covariance)\n";
@@ -397,6 +403,7 @@ nlohmann::json RunResult::ToJson() const {
                       {"source", noise_floor_source},
                       {"statistical_rescale", statistical_rescale}};
   j["calibration_error"] = calibration_error ? calibration_error->ToJson() : nlohmann::json();
+  j["error_budget"] = error_budget ? error_budget->ToJson() : nlohmann::json();
   j["checks"] = checks.ToJson();
   nlohmann::json warnings_json = nlohmann::json::array();
   std::vector<std::string> messages;

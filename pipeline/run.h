@@ -26,6 +26,7 @@
 #include "estimation/extract/extract.h"
 #include "estimation/extract/observations.h"
 #include "estimation/joint/calibration_error.h"
+#include "estimation/joint/error_budget.h"
 #include "estimation/joint/joint_fit.h"
 #include "estimation/maps/maps.h"
 #include "pipeline/checks.h"
@@ -75,6 +76,10 @@ struct RunOptions {
   // When photometric.json reports its accuracy, the calibration's error is propagated into
   // the reported uncertainty by this many refits (estimation/joint/calibration_error.h); 0: off.
   CalibrationPropagationOptions calibration_error;
+  // `gonio run --error-budget`: each source of that error propagated alone as well, so the
+  // report says which part sets each bar (estimation/joint/error_budget.h). One more
+  // propagation per source.
+  bool error_budget = false;
   // `gonio run --maps`: the per-texel maps of the sample after the fit, from the same poses and
   // the fit's lamp (estimation/maps/maps.h); lamp frame, white albedo and threads from `fit`.
   std::optional<MapsOptions> maps;
@@ -103,6 +108,7 @@ struct RunResult {
   double statistical_rescale = 1;
   // The calibration part of the uncertainty (already added to fit.final_fit's), when measured.
   std::optional<CalibrationPropagation> calibration_error;
+  std::optional<CalibrationErrorBudget> error_budget;  // RunOptions::error_budget
   std::string noise_floor_source;  // "photometric.json", "--noise-floor" or "default"
   // Everything a person must see before the numbers (frames skipped, the fit's and the checks'
   // warnings), each with the results it touches; first in the console, the report and fit.json.

@@ -109,7 +109,7 @@ void WriteRunOutputs(const RunResult& r, const RunInputs& in, const fs::path& ou
   for (const auto& a : r.assumptions) notes.push_back("Assumed: " + a);
   if (!r.checks.Measured()) notes.push_back("NOT A MEASUREMENT: see the warnings.");
   const ReportErrorBars bars = {r.noise_floor, r.noise_floor_source, r.statistical_rescale,
-                                r.calibration_error};
+                                r.calibration_error, r.error_budget};
   WriteReport(r.fit, r.observations, in.board, notes, r.warnings, bars, tmp / "report");
   nlohmann::json j = r.ToJson();
   j["timing"]["report_s"] =

@@ -54,5 +54,26 @@ TEST(PipelineCli, NoBoardAndSaturatedSampleAreClearErrors) {
   }
 }
 
+// `--error-budget` reaches the chain: with the renderer's calibration, which states no accuracy,
+// the poses are the only calibration error source, and fit.json and the console give their part.
+TEST(PipelineCli, ErrorBudgetFlagGivesEachBarsParts) {
+  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  scene.views.per_ring = 1;
+  testing::TempDir dir;
+  synth::RenderBoardSession(scene, dir.path() / "session", 0);
+  WriteTruePhotometric(dir.path() / "session");
+  const auto r = testing::RunGonio("run --session " + (dir.path() / "session").string() +
+                                   " --out " + (dir.path() / "out").string() +
+                                   " --models lambert --white-albedo 0.8 --error-budget");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // A matte sample barely feels a pose error: its statistical part sets every bar.
+  EXPECT_NE((r.out + r.err).find("the statistical part is the largest of albedo"),
+            std::string::npos)
+      << r.out;
+  const nlohmann::json budget = ReadJsonFile(dir.path() / "out" / "fit.json")["error_budget"];
+  EXPECT_EQ(budget["sources"], nlohmann::json::array({"poses"}));
+  EXPECT_GT(budget["stddev"]["lamp_z"]["sources"]["poses"].get<double>(), 0.0);
+}
+
 }  // namespace
 }  // namespace gonio

@@ -2,6 +2,7 @@
 // same Run() that `gonio run` and `gonio demo` call.
 // Tolerances are stated per test; each is justified by the noise of the render and the
 // measured figures recorded in docs/pipeline.md.
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -456,6 +457,49 @@ TEST(Pipeline, ReportSaysWhatTheErrorBarsHold) {
             std::string::npos)
       << html;
   EXPECT_NE(html.find("multiplied by 0.50"), std::string::npos) << html;
+}
+
+// `gonio run --error-budget` (estimation/joint/error_budget.h): every source the calibration
+// error holds is refitted alone, and the report and fit.json give each bar by part, the
+// statistical one the total's remainder; without the flag fit.json says there is none.
+TEST(Pipeline, ErrorBudgetSaysWhichPartSetsEachBar) {
+  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  scene.views.per_ring = 1;
+  testing::TempDir dir;
+  const auto session = dir.path() / "session";
+  synth::RenderBoardSession(scene, session, 0);
+  WriteTruePhotometric(session);
+  RunInputs in = LoadRunInputs(session, "", "");
+  in.photometric.relative_accuracy = 0.005;  // the renderer's chain states none
+  RunOptions o;
+  o.fit.candidates = {"lambert"};
+  o.fit.white_albedo = 0.8;
+  o.calibration_error.draws = 6;
+  o.error_budget = true;
+  RunResult r = gonio::Run(in, o);
+  ASSERT_TRUE(r.error_budget && r.calibration_error);
+  const CalibrationErrorBudget& b = *r.error_budget;
+  const auto has = [&](CalibrationErrorSource s) {
+    return std::find(b.sources.begin(), b.sources.end(), s) != b.sources.end();
+  };
+  EXPECT_TRUE(has(CalibrationErrorSource::kVignetting) && has(CalibrationErrorSource::kPoses));
+  ASSERT_FALSE(b.rows.empty());
+  EXPECT_EQ(b.rows[0].quantity, "albedo");
+  const double total = r.fit.final_fit.material.stddev[0].value();
+  const double joint = r.calibration_error->param_stddev[0];
+  EXPECT_DOUBLE_EQ(b.rows[0].total, total);
+  EXPECT_NEAR(b.rows[0].statistical, std::sqrt(total * total - joint * joint), 1e-12);
+  for (const auto& part : b.rows[0].by_source) EXPECT_TRUE(part && *part > 0);
+  EXPECT_NE(r.Report().find("error budget"), std::string::npos);
+  WriteRunOutputs(r, in, dir.path() / "with");
+  const nlohmann::json fit = ReadJsonFile(dir.path() / "with" / "fit.json");
+  EXPECT_GT(fit["error_budget"]["stddev"]["albedo"]["sources"]["poses"].get<double>(), 0.0);
+  std::ifstream html(dir.path() / "with" / "report" / "index.html");
+  EXPECT_NE(std::string((std::istreambuf_iterator<char>(html)), {}).find("<h2>Error budget</h2>"),
+            std::string::npos);
+  r.error_budget.reset();
+  WriteRunOutputs(r, in, dir.path() / "without");
+  EXPECT_TRUE(ReadJsonFile(dir.path() / "without" / "fit.json")["error_budget"].is_null());
 }
 
 // A response whose curve rests on its prior where the sample's values fall (a whole-stop sweep
