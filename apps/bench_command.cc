@@ -27,6 +27,7 @@ struct BenchArgs {
   std::string apriltag_ref;
   int threads = 0;
   int seeds = 0, first_seed = 1;           // --coverage: 0 seeds = the size's default
+  bool by_parts = false;                   // --coverage: each run's error by source
   std::vector<std::string> kinds, sweeps;  // --coverage: empty = the size's default
 };
 
@@ -115,6 +116,7 @@ void RunBench(const BenchArgs& args) {
     bench::CoveragePlan plan = bench::CoveragePlanFor(opt);
     if (args.seeds > 0) plan.seeds = args.seeds;
     plan.first_seed = args.first_seed;
+    plan.by_parts = args.by_parts;
     if (!args.kinds.empty()) plan.kinds = bench::CoverageKindsNamed(args.kinds);
     if (!args.sweeps.empty()) plan.sweeps = args.sweeps;
     RunInWorkFolder(
@@ -188,6 +190,9 @@ void AddBenchCommand(CLI::App& app) {
                   "--coverage: only these scene kinds, by name or material (oren-nayar/gamma12, "
                   "tson, pitted-exact, dark-oren-nayar, flash; comma-separated)")
       ->delimiter(',');
+  cmd->add_flag("--by-parts", args->by_parts,
+                "--coverage: also each run's error by source (response, vignetting, the rest) "
+                "against the error budget's draws of it; two more runs per run (docs/bench.md)");
   cmd->add_option("--sweeps", args->sweeps, "--coverage: only these sweeps (third, whole)")
       ->delimiter(',')
       ->check(CLI::IsMember({"third", "whole"}));

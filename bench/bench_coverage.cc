@@ -259,6 +259,7 @@ struct SharedChain {
   bool flat_field = false;  // the vignetting from a flat field: no poses to locate
   synth::Scene scene;
   double white_albedo = 0;
+  bool by_parts = false;  // CoveragePlan::by_parts
 };
 
 // Renders the session (and a flat field for a lamp on the camera); StepFailed when a step fails.
@@ -330,8 +331,21 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
                                    "--out",
                                    out.string()};
   if (kind.flash) args.insert(args.end(), {"--lamp-frame", "camera"});
+  if (s.by_parts) args.push_back("--error-budget");
   chain->Step("run-" + r->sweep, args, true);
-  Judge(ReadJsonFile(out / "fit.json"), ReadJsonFile(s.session / "truth.json"), r);
+  const json fit = ReadJsonFile(out / "fit.json");
+  Judge(fit, ReadJsonFile(s.session / "truth.json"), r);
+  if (!s.by_parts) return;
+  args.pop_back();  // the variants need no budget
+  try {
+    JudgeParts(
+        s.session, sc / "photometric.json", fit, args, vignette, dir / ("parts-" + r->sweep),
+        [&](const std::string& name, std::vector<std::string> a) { chain->Step(name, a, true); },
+        r);
+  } catch (const std::runtime_error& e) {  // a diagnostic: the run itself stands
+    spdlog::warn("coverage: {} seed {} {} stops: no parts: {}", r->kind, r->seed, r->sweep,
+                 e.what());
+  }
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point t0) {
@@ -357,6 +371,7 @@ std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePla
   SharedChain shared;
   try {
     shared = RunSharedSteps(kind, plan, seed, dir, &chain);
+    shared.by_parts = plan.by_parts;
   } catch (const StepFailed& e) {
     for (auto& r : runs) r.failed = e.what();
     return runs;

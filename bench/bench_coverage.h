@@ -11,6 +11,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -45,6 +46,9 @@ struct CoveragePlan {
   std::vector<std::string> sweeps = {"third", "whole"};  // third stops (40 frames), whole (14)
   int width = 640, height = 480;                         // the camera, intrinsics scaled
   int views_per_ring = 3;                                // board scenes: 4 rings
+  // `--by-parts`: each run's error split by source and set against the error budget's draws
+  // (CoveragePart); two more runs and a vignetting per run.
+  bool by_parts = false;
 };
 CoveragePlan CoveragePlanFor(const BenchOptions& options);
 
@@ -68,12 +72,39 @@ struct CoverageValue {
   bool Determined() const { return stddev > 0; }
 };
 
+// One judged quantity's error split by source (`--by-parts`, docs/bench.md): the chain again
+// with the renderer's response (V fitted through it, run B) and with the renderer's response
+// and V (run C), each with the user's stated accuracy as its floor, so that
+//   response   = user - B   (the response's error, with its share through V),
+//   vignetting = B - C      (V's own error: its noise and a radial model's truncation),
+//   rest       = C - truth  (the noise, the located poses, mrcal's camera),
+// which sum to the run's error; and the user run's error budget (estimation/joint/
+// error_budget.h) for what the bars drew of each: response, vignetting, and the statistical
+// and poses' parts in quadrature. A drawn part < 0: not in the budget.
+struct CoveragePart {
+  std::string parameter;
+  double response = 0, vignetting = 0, rest = 0;
+  double drawn_response = -1, drawn_vignetting = -1, drawn_rest = -1;
+  nlohmann::json ToJson() const;
+};
+
+// Over the runs with parts and no warning on the parameter: each part's RMS error against its
+// RMS draw, and the parts' correlations (the draws take them as independent).
+struct CoveragePartStat {
+  std::string parameter;
+  int n = 0;
+  double error[3] = {0, 0, 0}, drawn[3] = {0, 0, 0};  // response, vignetting, rest
+  double correlation[3] = {0, 0, 0};  // response-vignetting, response-rest, vignetting-rest
+  nlohmann::json ToJson() const;
+};
+
 struct CoverageRun {
   std::string kind, sweep;
   int seed = 0;
   std::string failed;  // empty, or the step that failed and its message
   std::string true_model, selected_model;
   std::vector<CoverageValue> values;
+  std::vector<CoveragePart> parts;    // `--by-parts`
   std::vector<std::string> warnings;  // fit.json checks.warnings: "cause: message"
   bool results_warned = false;        // some warning touches some result
   double seconds = 0;                 // the whole chain of this run, rendering included
@@ -119,6 +150,7 @@ struct CoverageReport {
   std::vector<CoverageRun> runs;
   std::vector<CoverageStat> stats;           // per parameter and "all", without and with warnings
   std::vector<std::string> unwarned_misses;  // runs that missed without a warning
+  std::vector<CoveragePartStat> part_stats;  // `--by-parts`
   double seconds = 0;
   // Every parameter's statistic without warnings, and "all", within the targets, and no
   // unwarned miss.
@@ -129,6 +161,21 @@ struct CoverageReport {
 
 // The statistics and unwarned misses of `runs` (fills stats and unwarned_misses).
 void SummarizeCoverage(CoverageReport* report);
+
+// The parts' statistics of `runs` (bench_coverage_parts.cc).
+std::vector<CoveragePartStat> SummarizeParts(const std::vector<CoverageRun>& runs);
+
+// `--by-parts`: runs B and C of CoveragePart into `parts_dir` with `run_args` (the user run's
+// arguments; its --photometric and --out replaced) and the parts of `run` from the user's
+// photometric.json `user_photometric`, its fit.json `user_fit` (with an error budget), the
+// session's truth.json and the session. `step` runs a gonio command (its name, its arguments),
+// throwing when it fails.
+void JudgeParts(const std::filesystem::path& session, const std::filesystem::path& user_photometric,
+                const nlohmann::json& user_fit, const std::vector<std::string>& run_args,
+                const std::vector<std::string>& vignette_args,
+                const std::filesystem::path& parts_dir,
+                const std::function<void(const std::string&, std::vector<std::string>)>& step,
+                CoverageRun* run);
 
 // Renders and runs the plan with `gonio_exe` into `work` (one folder per kind and seed, removed
 // after each), progress on stderr.

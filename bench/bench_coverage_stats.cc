@@ -92,6 +92,12 @@ bool CoverageRun::MissWarned() const {
   return true;
 }
 
+json PartsJson(const std::vector<CoveragePart>& parts) {
+  json j = json::array();
+  for (const auto& p : parts) j.push_back(p.ToJson());
+  return j;
+}
+
 json CoverageRun::ToJson() const {
   json values_json = json::array();
   for (const auto& v : values) {
@@ -109,6 +115,7 @@ json CoverageRun::ToJson() const {
           {"true_model", true_model},
           {"selected_model", selected_model},
           {"values", values_json},
+          {"parts", PartsJson(parts)},
           {"warnings", warnings},
           {"missed", Missed()},
           {"miss_reason", MissReason()},
@@ -163,6 +170,7 @@ void SummarizeCoverage(CoverageReport* rep) {
   for (bool warned : {false, true}) {
     for (const auto& n : names) rep->stats.push_back(Stat(n, warned, z[{n, warned}]));
   }
+  rep->part_stats = SummarizeParts(rep->runs);
   rep->unwarned_misses.clear();
   for (const auto& r : rep->runs) {
     if (r.Missed() && !r.MissWarned()) {
@@ -215,6 +223,8 @@ json CoverageReport::ToJson() const {
     if (v == CoverageVerdict::kMissed) missed.push_back(s.parameter);
     if (v == CoverageVerdict::kUndecided) undecided.push_back(s.parameter);
   }
+  json part_stats_json = json::array();
+  for (const auto& s : part_stats) part_stats_json.push_back(s.ToJson());
   const CoverageTargets t;
   return {{"size", size},
           {"kinds", kinds},
@@ -231,6 +241,7 @@ json CoverageReport::ToJson() const {
           {"targets_undecided", undecided},
           {"stats", stats_json},
           {"unwarned_misses", unwarned_misses},
+          {"parts", part_stats_json},
           {"runs", runs_json},
           {"seconds", Finite(seconds)}};
 }

@@ -1,6 +1,7 @@
 // `gonio bench` end to end at the smoke size: the files each bench writes (the evaluation and
 // fitting bench, --stability, --pipeline, --plan, --sfs, --coverage and --maps), no timing asserts,
 // and the options it refuses. The benches' statistics are tested in tests/bench.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -180,6 +181,38 @@ TEST(CoverageCli, SmokeRunsTheUsersChain) {
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "coverage_z.png"));
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "work"));
   EXPECT_NE(r.err.find("coverage 1/1"), std::string::npos) << r.err;  // progress on stderr
+}
+
+// `--by-parts`: the smoke run's error split by source (bench/bench_coverage.h CoveragePart).
+// The chain runs again with the renderer's response (V fitted through it) and with its response
+// and V, so each judged value's parts sum to its error; the user run's error budget gives what
+// the bars drew of each part, and coverage.json their statistics.
+TEST(CoverageCli, ByPartsSplitsEachErrorBySource) {
+  testing::TempDir dir;
+  const auto r =
+      testing::RunGonio("bench --coverage --smoke --by-parts --out " + dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "coverage.json");
+  ASSERT_EQ(j["runs"].size(), 1u);
+  const auto& run = j["runs"][0];
+  ASSERT_EQ(run["failed"], "") << run;
+  ASSERT_EQ(run["parts"].size(), run["values"].size()) << run;
+  for (const auto& v : run["values"]) {
+    const auto part = std::find_if(run["parts"].begin(), run["parts"].end(),
+                                   [&](const auto& p) { return p["parameter"] == v["parameter"]; });
+    ASSERT_NE(part, run["parts"].end()) << v;
+    const auto& p = *part;
+    const double sum =
+        p["response"].get<double>() + p["vignetting"].get<double>() + p["rest"].get<double>();
+    const double error = v["value"].get<double>() - v["truth"].get<double>();
+    EXPECT_NEAR(sum, error, 1e-9 * (1 + std::abs(v["truth"].get<double>()))) << p;
+    EXPECT_GT(p["drawn"]["rest"].get<double>(), 0.0) << p;
+    EXPECT_GT(p["drawn"]["response"].get<double>(), 0.0) << p;  // the sweep's stated error
+  }
+  for (const auto& stat : j["parts"]) {  // the parameters no warning touches, over one run
+    EXPECT_EQ(stat["n"], 1) << stat;
+    EXPECT_TRUE(stat["parts"]["vignetting"].contains("error_over_drawn")) << stat;
+  }
 }
 
 // A calibration error bends the radiance the way room light does, and the selection, which
