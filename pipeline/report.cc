@@ -420,7 +420,7 @@ std::string BudgetTable(const CalibrationErrorBudget& b) {
     h << "<tr><td>" << Escape(row.quantity) << "</td><td>" << fmt::format("{:.2g}", row.total)
       << "</td>" << cell(row.statistical, row.total);
     for (const auto& v : row.by_source) h << (v ? cell(*v, row.total) : "<td>-</td>");
-    h << "<td>" << Escape(row.Largest(b.sources)) << "</td></tr>";
+    h << "<td>" << PartName(row.Largest(b.sources)) << "</td></tr>";
   }
   h << "</table>";
   for (const auto& n : b.notes) h << "<p>Not measured: " << Escape(n) << "</p>";

@@ -20,16 +20,19 @@ constexpr OptionWord<CalibrationErrorSource> kSourceWords[] = {
     {CalibrationErrorSource::kVignetting, "vignetting"},
     {CalibrationErrorSource::kPoses, "poses"}};
 
-// What narrows each part, as docs/capture-guide.md and docs/photometric.md say.
-std::string NarrowedBy(const std::string& part) {
-  if (part == "response") {
-    return "a sweep in third stops, a scene with more radiance levels, or RAW frames";
+// What narrows each part (none: the statistical one), as docs/capture-guide.md and
+// docs/photometric.md say.
+std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part) {
+  if (!part) return "more frames, or frames from more directions";
+  switch (*part) {
+    case CalibrationErrorSource::kResponse:
+      return "a sweep in third stops, a scene with more radiance levels, or RAW frames";
+    case CalibrationErrorSource::kVignetting:
+      return "the board shown closer so its paper reaches the image corners, or a flat field";
+    case CalibrationErrorSource::kPoses:
+      return "more tags in view and sharper frames";
   }
-  if (part == "vignetting") {
-    return "the board shown closer so its paper reaches the image corners, or a flat field";
-  }
-  if (part == "poses") return "more tags in view and sharper frames";
-  return "more frames, or frames from more directions";
+  return "";
 }
 
 // The quantities of `fit` with their reported and propagated standard deviations, in the
@@ -99,11 +102,16 @@ CalibrationErrorModel OnlySource(const CalibrationErrorModel& e, CalibrationErro
   return only;
 }
 
-std::string ErrorBudgetRow::Largest(const std::vector<CalibrationErrorSource>& sources) const {
-  std::string largest = "statistical";
+std::string PartName(const std::optional<CalibrationErrorSource>& source) {
+  return source ? ToString(*source) : "statistical";
+}
+
+std::optional<CalibrationErrorSource> ErrorBudgetRow::Largest(
+    const std::vector<CalibrationErrorSource>& sources) const {
+  std::optional<CalibrationErrorSource> largest;
   double size = statistical;
   for (size_t s = 0; s < sources.size() && s < by_source.size(); ++s) {
-    if (by_source[s] && *by_source[s] > size) size = *by_source[s], largest = ToString(sources[s]);
+    if (by_source[s] && *by_source[s] > size) size = *by_source[s], largest = sources[s];
   }
   return largest;
 }
@@ -152,12 +160,13 @@ std::string CalibrationErrorBudget::Report() const {
   s += fmt::format("  {:<12} {:>10} {:>11}", "", "total", "statistical");
   for (auto src : sources) s += fmt::format(" {:>11}", ToString(src));
   s += "\n";
-  std::vector<std::pair<std::string, std::string>> largest;  // part, the quantities it leads
+  // Each part that is the largest somewhere, with the quantities it leads.
+  std::vector<std::pair<std::optional<CalibrationErrorSource>, std::string>> largest;
   for (const auto& row : rows) {
     s += fmt::format("  {:<12} {:>10.3g} {:>11.3g}", row.quantity, row.total, row.statistical);
     for (const auto& v : row.by_source) s += v ? fmt::format(" {:>11.3g}", *v) : "           -";
     s += "\n";
-    const std::string part = row.Largest(sources);
+    const std::optional<CalibrationErrorSource> part = row.Largest(sources);
     auto it = std::find_if(largest.begin(), largest.end(),
                            [&](const auto& l) { return l.first == part; });
     if (it == largest.end()) {
@@ -167,8 +176,8 @@ std::string CalibrationErrorBudget::Report() const {
     }
   }
   for (const auto& [part, quantities] : largest) {
-    s += fmt::format("  the {} part is the largest of {}: narrowed by {}\n", part, quantities,
-                     NarrowedBy(part));
+    s += fmt::format("  the {} part is the largest of {}: narrowed by {}\n", PartName(part),
+                     quantities, NarrowedBy(part));
   }
   for (const auto& n : notes) s += "  not measured: " + n + "\n";
   return s;
@@ -185,7 +194,7 @@ nlohmann::json CalibrationErrorBudget::ToJson() const {
     table[row.quantity] = {{"total", row.total},
                            {"statistical", row.statistical},
                            {"sources", by},
-                           {"largest", row.Largest(sources)}};
+                           {"largest", PartName(row.Largest(sources))}};
   }
   return {{"sources", names}, {"stddev", table}, {"notes", notes}};
 }

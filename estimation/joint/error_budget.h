@@ -46,9 +46,13 @@ struct ErrorBudgetRow {
   double statistical = 0;
   // Per source of CalibrationErrorBudget::sources; nullopt where its refits did not converge.
   std::vector<std::optional<double>> by_source;
-  // The largest part: a source's name, or "statistical".
-  std::string Largest(const std::vector<CalibrationErrorSource>& sources) const;
+  // The largest part: a source, or none when the statistical part is.
+  std::optional<CalibrationErrorSource> Largest(
+      const std::vector<CalibrationErrorSource>& sources) const;
 };
+
+// A part's name: the source's, or "statistical" for none.
+std::string PartName(const std::optional<CalibrationErrorSource>& source);
 
 struct CalibrationErrorBudget {
   std::vector<CalibrationErrorSource> sources;  // those the error model holds, in enum order
