@@ -410,17 +410,22 @@ TEST(Pipeline, OutputFolderIsCheckedAndReplacedAsAWhole) {
   }
 }
 
+// A lambert sample seen once per ring, with the renderer's photometric chain: DIR/session.
+std::filesystem::path SmallLambertSession(const testing::TempDir& dir) {
+  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
+  scene.views.per_ring = 1;
+  const auto session = dir.path() / "session";
+  synth::RenderBoardSession(scene, session, 0);
+  WriteTruePhotometric(session);
+  return session;
+}
+
 // The report says what its error bars hold: each standard deviation split into the statistical
 // part and the propagated calibration part (in quadrature, so 0.6 of the total leaves 0.8), the
 // noise floor and rescale, and what the bars leave out; without a propagation, that it was not.
 TEST(Pipeline, ReportSaysWhatTheErrorBarsHold) {
-  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
-  scene.views.per_ring = 1;
   testing::TempDir dir;
-  const auto session = dir.path() / "session";
-  synth::RenderBoardSession(scene, session, 0);
-  WriteTruePhotometric(session);
-  const RunInputs in = LoadRunInputs(session, "", "");
+  const RunInputs in = LoadRunInputs(SmallLambertSession(dir), "", "");
   RunOptions o;
   o.fit.candidates = {"lambert"};
   o.fit.white_albedo = 0.8;
@@ -463,13 +468,8 @@ TEST(Pipeline, ReportSaysWhatTheErrorBarsHold) {
 // error holds is refitted alone, and the report and fit.json give each bar by part, the
 // statistical one the total's remainder; without the flag fit.json says there is none.
 TEST(Pipeline, ErrorBudgetSaysWhichPartSetsEachBar) {
-  synth::Scene scene = SmallScene("lambert", {{"albedo", 0.6}});
-  scene.views.per_ring = 1;
   testing::TempDir dir;
-  const auto session = dir.path() / "session";
-  synth::RenderBoardSession(scene, session, 0);
-  WriteTruePhotometric(session);
-  RunInputs in = LoadRunInputs(session, "", "");
+  RunInputs in = LoadRunInputs(SmallLambertSession(dir), "", "");
   in.photometric.relative_accuracy = 0.005;  // the renderer's chain states none
   RunOptions o;
   o.fit.candidates = {"lambert"};
