@@ -21,12 +21,18 @@ constexpr OptionWord<CalibrationErrorSource> kSourceWords[] = {
     {CalibrationErrorSource::kPoses, "poses"}};
 
 // What narrows each part (none: the statistical one), as docs/capture-guide.md and
-// docs/photometric.md say.
-std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part) {
+// docs/photometric.md say; a sweep already in third stops (`step_octaves`, 0: not known) is
+// sent to the other remedies.
+std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part, double step_octaves) {
   if (!part) return "more frames, or frames from more directions";
   switch (*part) {
     case CalibrationErrorSource::kResponse:
-      return "a sweep in third stops, a scene with more radiance levels, or RAW frames";
+      return step_octaves > 0 && step_octaves < 0.4
+                 ? fmt::format(
+                       "a scene with more radiance levels, or RAW frames (the sweep "
+                       "already steps {:.2f} stops)",
+                       step_octaves)
+                 : "a sweep in third stops, a scene with more radiance levels, or RAW frames";
     case CalibrationErrorSource::kVignetting:
       return "the board shown closer so its paper reaches the image corners, or a flat field";
     case CalibrationErrorSource::kPoses:
@@ -122,6 +128,7 @@ CalibrationErrorBudget BudgetCalibrationError(const ObservationSet& data, const 
                                               const CalibrationPropagation& joint,
                                               const CalibrationPropagationOptions& options) {
   CalibrationErrorBudget b;
+  b.response_step_octaves = error.response_prior_period_octaves;
   std::vector<std::optional<std::vector<double>>> parts;
   for (auto s : {CalibrationErrorSource::kResponse, CalibrationErrorSource::kVignetting,
                  CalibrationErrorSource::kPoses}) {
@@ -177,7 +184,7 @@ std::string CalibrationErrorBudget::Report() const {
   }
   for (const auto& [part, quantities] : largest) {
     s += fmt::format("  the {} part is the largest of {}: narrowed by {}\n", PartName(part),
-                     quantities, NarrowedBy(part));
+                     quantities, NarrowedBy(part, response_step_octaves));
   }
   for (const auto& n : notes) s += "  not measured: " + n + "\n";
   return s;

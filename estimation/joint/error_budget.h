@@ -58,8 +58,11 @@ struct CalibrationErrorBudget {
   std::vector<CalibrationErrorSource> sources;  // those the error model holds, in enum order
   std::vector<ErrorBudgetRow> rows;  // each determined parameter, the lamp's axes, intensity
   std::vector<std::string> notes;    // a source whose refits did not converge
-  std::string Report() const;        // a table, then what narrows the largest parts
-  nlohmann::json ToJson() const;     // docs/formats.md, fit.json `error_budget`
+  // The response's sweep step in octaves (CalibrationErrorModel::response_prior_period_octaves;
+  // 0: not known): a sweep already in third stops is not told to shoot third stops.
+  double response_step_octaves = 0;
+  std::string Report() const;     // a table, then what narrows the largest parts
+  nlohmann::json ToJson() const;  // docs/formats.md, fit.json `error_budget`
 };
 
 // The budget of `fit` (its standard deviations already holding `joint`, the propagation of

@@ -101,6 +101,15 @@ TEST(ErrorBudget, OneSourceIsTheWholeCalibrationPart) {
   EXPECT_DOUBLE_EQ(*albedo.by_source[0], b.joint.param_stddev[0]);
   EXPECT_NEAR(albedo.statistical, statistical_albedo, 1e-12);
   EXPECT_DOUBLE_EQ(RowOf(b.budget, "lamp_z").by_source[0].value(), b.joint.lamp_stddev.z());
+  // A response drawn as the sole and largest part sends the user to a finer sweep, unless the
+  // sweep already steps in third stops.
+  EXPECT_NE(b.budget.Report().find("a sweep in third stops"), std::string::npos);
+  CalibrationErrorBudget third = b.budget;
+  third.response_step_octaves = 1.0 / 3;
+  EXPECT_EQ(third.Report().find("a sweep in third stops"), std::string::npos);
+  EXPECT_NE(third.Report().find("RAW frames (the sweep already steps 0.33 stops)"),
+            std::string::npos)
+      << third.Report();
   const nlohmann::json j = b.budget.ToJson();
   EXPECT_EQ(j["sources"], nlohmann::json::array({"response"}));
   EXPECT_EQ(j["stddev"]["albedo"]["largest"], PartName(albedo.Largest(b.budget.sources)));
