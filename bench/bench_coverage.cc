@@ -209,7 +209,9 @@ Eigen::Vector3d Vec3(const json& j) {
 
 // fit.json against truth.json: every material parameter of the true model (when it was
 // selected) and the lamp position per axis, each with the warnings that touch it.
-void Judge(const json& fit, const json& truth, CoverageRun* run) {
+}  // namespace
+
+void JudgeFit(const json& fit, const json& truth, CoverageRun* run) {
   const json& fin = fit.at("final");
   run->true_model = truth.at("material").at("model").get<std::string>();
   run->selected_model = fin.at("model").get<std::string>();
@@ -251,6 +253,8 @@ void Judge(const json& fit, const json& truth, CoverageRun* run) {
     add(axes[k], "lamp", lamp_true[k], lamp[k], sd.is_array() ? sd.at(k) : json());
   }
 }
+
+namespace {
 
 // What the sweeps of one kind and seed share: the session and the vignetting's source (the
 // session, or a tag-free flat field).
@@ -331,13 +335,13 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
                                    "--out",
                                    out.string()};
   if (kind.flash) args.insert(args.end(), {"--lamp-frame", "camera"});
-  if (s.by_parts) args.push_back("--error-budget");
-  chain->Step("run-" + r->sweep, args, true);
+  std::vector<std::string> user_args = args;
+  if (s.by_parts) user_args.push_back("--error-budget");
+  chain->Step("run-" + r->sweep, user_args, true);
   const json fit = ReadJsonFile(out / "fit.json");
-  Judge(fit, ReadJsonFile(s.session / "truth.json"), r);
+  JudgeFit(fit, ReadJsonFile(s.session / "truth.json"), r);
   if (!s.by_parts) return;
-  args.pop_back();  // the variants need no budget
-  try {
+  try {  // the variants with `args`: they need no budget
     JudgeParts(
         s.session, sc / "photometric.json", fit, args, vignette, dir / ("parts-" + r->sweep),
         [&](const std::string& name, std::vector<std::string> a) { chain->Step(name, a, true); },

@@ -159,6 +159,10 @@ struct CoverageReport {
   nlohmann::json ToJson() const;
 };
 
+// fit.json against truth.json into `run`: every material parameter of the true model (when it
+// was selected) and the lamp position per axis, each with the warnings that touch it.
+void JudgeFit(const nlohmann::json& fit, const nlohmann::json& truth, CoverageRun* run);
+
 // The statistics and unwarned misses of `runs` (fills stats and unwarned_misses).
 void SummarizeCoverage(CoverageReport* report);
 

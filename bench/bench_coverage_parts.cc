@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -32,16 +31,14 @@ std::vector<std::string> WithOption(std::vector<std::string> args, const std::st
   return args;
 }
 
-// A judged quantity's value in a fit.json (bench_coverage.cc Judge): a parameter of the final
-// model, or lamp_x, lamp_y, lamp_z; none when the fit does not hold it.
-std::optional<double> ValueOf(const json& fit, const std::string& name) {
-  const json& fin = fit.at("final");
-  if (name.rfind("lamp_", 0) == 0 && name.size() == 6) {
-    return fin.at("lamp").at("position").at(name[5] - 'x').get<double>();
-  }
-  const json& params = fin.at("params");
-  if (!params.contains(name)) return std::nullopt;
-  return params.at(name).get<double>();
+// The judged values of a variant's fit.json (JudgeFit: the true model's parameters when it
+// was selected, the lamp's axes), by parameter.
+std::map<std::string, double> ValuesOf(const json& fit, const json& truth) {
+  CoverageRun judged;
+  JudgeFit(fit, truth, &judged);
+  std::map<std::string, double> values;
+  for (const auto& v : judged.values) values[v.parameter] = v.value;
+  return values;
 }
 
 // What the user's error budget drew of each part: response, vignetting, and the statistical
@@ -166,7 +163,7 @@ void JudgeParts(const fs::path& session, const fs::path& user_photometric, const
   json b = ReadJsonFile(parts_dir / "b_photometric.json");
   b["relative_accuracy"] = accuracy;
   WriteJsonAtomically(parts_dir / "b_photometric.json", b);
-  json fits[2];
+  std::map<std::string, double> variant[2];
   const char* names[] = {"b", "c"};
   for (int k = 0; k < 2; ++k) {
     const fs::path out = parts_dir / fmt::format("run-{}", names[k]);
@@ -175,17 +172,16 @@ void JudgeParts(const fs::path& session, const fs::path& user_photometric, const
                    (parts_dir / fmt::format("{}_photometric.json", names[k])).string());
     step(fmt::format("parts-run-{}-{}", names[k], run->sweep),
          WithOption(args, "--out", out.string()));
-    fits[k] = ReadJsonFile(out / "fit.json");
+    variant[k] = ValuesOf(ReadJsonFile(out / "fit.json"), truth);
   }
   for (const CoverageValue& v : run->values) {
-    const auto user = ValueOf(user_fit, v.parameter), vb = ValueOf(fits[0], v.parameter),
-               vc = ValueOf(fits[1], v.parameter);
-    if (!user || !vb || !vc) continue;  // a variant chose another model
+    const auto b = variant[0].find(v.parameter), c = variant[1].find(v.parameter);
+    if (b == variant[0].end() || c == variant[1].end()) continue;  // another model chosen
     CoveragePart p;
     p.parameter = v.parameter;
-    p.response = *user - *vb;
-    p.vignetting = *vb - *vc;
-    p.rest = *vc - v.truth;
+    p.response = v.value - b->second;
+    p.vignetting = b->second - c->second;
+    p.rest = c->second - v.truth;
     Drawn(user_fit, &p);
     run->parts.push_back(p);
   }

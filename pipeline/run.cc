@@ -109,13 +109,15 @@ PoseErrorModel PoseErrorOf(const Session& session, const SessionPoses& poses) {
 }
 
 // The calibration's own error into the reported uncertainty (estimation/joint/calibration_error.h),
-// when photometric.json says how accurate it is, and the board poses' (pose_error.h).
-void PropagateCalibration(const RunInputs& in, const RunOptions& o,
-                          const JointFitOptions& fit_options, RunResult* r) {
-  if (o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return;
-  const std::optional<CalibrationErrorModel> e = CalibrationErrorModelAt(
+// when photometric.json says how accurate it is, and the board poses' (pose_error.h). Returns
+// the error model it propagated (none: nothing was).
+std::optional<CalibrationErrorModel> PropagateCalibration(const RunInputs& in, const RunOptions& o,
+                                                          const JointFitOptions& fit_options,
+                                                          RunResult* r) {
+  if (o.calibration_error.draws == 0 || !r->fit.final_fit.material.converged) return std::nullopt;
+  std::optional<CalibrationErrorModel> e = CalibrationErrorModelAt(
       in.photometric, r->observations, r->camera, PoseErrorOf(in.session, r->poses));
-  if (!e) return;
+  if (!e) return std::nullopt;
   spdlog::info("propagating the {}error ({} refits)",
                e->photometric ? "calibration's and the poses' " : "poses' ",
                o.calibration_error.draws);
@@ -127,10 +129,7 @@ void PropagateCalibration(const RunInputs& in, const RunOptions& o,
         RescaleForPropagatedFloor(r->observations, r->noise_floor, &r->fit.final_fit);
   }
   AddCalibrationUncertainty(*r->calibration_error, &r->fit.final_fit);
-  if (o.error_budget) {
-    r->error_budget = BudgetCalibrationError(r->observations, r->fit.final_fit, fit_options, *e,
-                                             *r->calibration_error, o.calibration_error);
-  }
+  return e;
 }
 
 // The calibration's part for `gonio run --maps`: the photometric one alone. The maps register
@@ -246,18 +245,24 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
   CheckedFit checked = FitChecked(r->observations, fit_options, in.session.dir.string(), o.checks);
   r->fit = std::move(checked.fit);
   r->checks = std::move(checked.checks);
-  PropagateCalibration(in, o, checked.options, r);
-  if (!r->calibration_error) return;
+  std::optional<CalibrationErrorModel> error = PropagateCalibration(in, o, checked.options, r);
+  if (!error) return;
+  JointFitOptions propagated = checked.options;
   const NuisanceDrop drop = NuisancesWithinTheirBars(fit_options, r->fit.final_fit);
-  if (!drop.Any()) return;
-  const JointFitResult kept = r->fit.final_fit;
-  r->fit = DropNuisances(r->observations, fit_options, drop, r->fit);
-  const JointFitOptions refit_options = WithChosenNuisances(fit_options, r->fit.final_fit);
-  r->checks = CheckFit(r->fit, r->observations, refit_options, in.session.dir.string(), o.checks);
-  r->calibration_error.reset();
-  r->error_budget.reset();
-  PropagateCalibration(in, o, refit_options, r);
-  NoteDrop(drop, kept, fit_options.nuisance_min_z, &r->fit.final_fit);
+  if (drop.Any()) {
+    const JointFitResult kept = r->fit.final_fit;
+    r->fit = DropNuisances(r->observations, fit_options, drop, r->fit);
+    propagated = WithChosenNuisances(fit_options, r->fit.final_fit);
+    r->checks = CheckFit(r->fit, r->observations, propagated, in.session.dir.string(), o.checks);
+    r->calibration_error.reset();
+    error = PropagateCalibration(in, o, propagated, r);
+    NoteDrop(drop, kept, fit_options.nuisance_min_z, &r->fit.final_fit);
+  }
+  // The budget of the bars the run reports, once: after a drop, not before it.
+  if (o.error_budget && error) {
+    r->error_budget = BudgetCalibrationError(r->observations, r->fit.final_fit, propagated, *error,
+                                             *r->calibration_error, o.calibration_error);
+  }
 }
 
 // Where the sample's raw values fall, the response between the sweep's exposures is its
