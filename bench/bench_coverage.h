@@ -93,7 +93,10 @@ struct CoveragePart {
 struct CoveragePartStat {
   std::string parameter;
   int n = 0;
-  double error[3] = {0, 0, 0}, drawn[3] = {0, 0, 0};  // response, vignetting, rest
+  double error[3] = {0, 0, 0}, drawn[3] = {0, 0, 0};  // RMS: response, vignetting, rest
+  // The mean: the lean the runs share. The draws give every part either sign, so a part that
+  // leans one way on every run is right in size (error ~ drawn) but not in sign.
+  double mean[3] = {0, 0, 0};
   double correlation[3] = {0, 0, 0};  // response-vignetting, response-rest, vignetting-rest
   nlohmann::json ToJson() const;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -93,6 +94,7 @@ json CoveragePartStat::ToJson() const {
   const char* names[] = {"response", "vignetting", "rest"};
   for (int k = 0; k < 3; ++k) {
     parts[names[k]] = {{"rms_error", error[k]},
+                       {"mean_error", mean[k]},
                        {"rms_drawn", drawn[k]},
                        {"error_over_drawn", drawn[k] > 0 ? json(error[k] / drawn[k]) : json()}};
   }
@@ -129,7 +131,11 @@ std::vector<CoveragePartStat> SummarizeParts(const std::vector<CoverageRun>& run
       const double draws[] = {p->drawn_response, p->drawn_vignetting, p->drawn_rest};
       for (int k = 0; k < 3; ++k) e[k].push_back(errors[k]), d[k].push_back(draws[k]);
     }
-    for (int k = 0; k < 3; ++k) s.error[k] = Rms(e[k]), s.drawn[k] = Rms(d[k]);
+    for (int k = 0; k < 3; ++k) {
+      s.error[k] = Rms(e[k]);
+      s.mean[k] = std::accumulate(e[k].begin(), e[k].end(), 0.0) / static_cast<double>(s.n);
+      s.drawn[k] = Rms(d[k]);
+    }
     s.correlation[0] = Correlation(e[0], e[1]);
     s.correlation[1] = Correlation(e[0], e[2]);
     s.correlation[2] = Correlation(e[1], e[2]);

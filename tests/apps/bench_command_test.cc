@@ -212,6 +212,16 @@ TEST(CoverageCli, ByPartsSplitsEachErrorBySource) {
   for (const auto& stat : j["parts"]) {  // the parameters no warning touches, over one run
     EXPECT_EQ(stat["n"], 1) << stat;
     EXPECT_TRUE(stat["parts"]["vignetting"].contains("error_over_drawn")) << stat;
+    // Over one run a part's mean (the lean runs share) is that run's part, its RMS the size.
+    const auto part = std::find_if(run["parts"].begin(), run["parts"].end(), [&](const auto& p) {
+      return p["parameter"] == stat["parameter"];
+    });
+    ASSERT_NE(part, run["parts"].end()) << stat;
+    for (const char* name : {"response", "vignetting", "rest"}) {
+      const double value = (*part)[name].get<double>();
+      EXPECT_NEAR(stat["parts"][name]["mean_error"].get<double>(), value, 1e-12) << stat;
+      EXPECT_NEAR(stat["parts"][name]["rms_error"].get<double>(), std::abs(value), 1e-12) << stat;
+    }
   }
 }
 
