@@ -73,8 +73,10 @@ TEST_F(BadInputCli, NoPhotometricCalibrationIsRefusedOrRecorded) {
   const auto ok = testing::RunGonio(Run(s, out, "--assume-linear"));
   ASSERT_EQ(ok.exit_code, 0) << ok.err;
   const nlohmann::json fit = ReadJsonFile(out / "fit.json");
-  ASSERT_EQ(fit["assumptions"].size(), 1u);
+  // The linear camera, and the default noise floor no calibration stated (pipeline/run.cc).
+  ASSERT_EQ(fit["assumptions"].size(), 2u) << fit["assumptions"];
   EXPECT_NE(fit["assumptions"][0].get<std::string>().find("linear camera"), std::string::npos);
+  EXPECT_NE(fit["assumptions"][1].get<std::string>().find("(the default"), std::string::npos);
   EXPECT_NE(ReadTextFile(out / "report" / "index.html").find("Assumed: no photometric"),
             std::string::npos);
   EXPECT_NE(ok.out.find("ASSUMED:"), std::string::npos) << ok.out;

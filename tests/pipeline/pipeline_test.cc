@@ -228,6 +228,16 @@ TEST(Pipeline, SelectionTakesNoMoreModelThanTheSceneNeeds) {
   o.white_albedo = 0.8;
   const RunResult r_flat = RunSession(a.path(), o, 4);
   EXPECT_EQ(r_flat.fit.final_fit.material.model, "lambert") << r_flat.Report();
+  // The default floor is an assumption that sizes the bars, said with its ratio to the
+  // residuals' scatter when it dominates them (pipeline/run.cc AssumedFloorNote): here noise
+  // 100x below the preset's.
+  const double ratio = r_flat.noise_floor / r_flat.fit.final_fit.material.rel_rms;
+  ASSERT_GT(ratio, 1.6) << r_flat.Report();
+  ASSERT_EQ(r_flat.assumptions.size(), 1u) << r_flat.Report();
+  EXPECT_NE(r_flat.assumptions[0].find("1.00% (the default"), std::string::npos);
+  EXPECT_NE(r_flat.assumptions[0].find(fmt::format("up to {:.1f} times wider", ratio)),
+            std::string::npos)
+      << r_flat.assumptions[0];
 
   synth::Scene rough = SmallScene("oren-nayar", {{"albedo", 0.6}, {"sigma", DegToRad(5)}});
   rough.views.per_ring = 2;
@@ -247,12 +257,15 @@ TEST(Pipeline, SelectionTakesNoMoreModelThanTheSceneNeeds) {
   EXPECT_DOUBLE_EQ(r_rough.noise_floor, RunOptions::kMinNoiseFloor);
   EXPECT_EQ(r_rough.noise_floor_source, (b.path() / "photometric.json").string());
   ASSERT_EQ(r_rough.fit.final_fit.material.model, "oren-nayar") << r_rough.Report();
+  EXPECT_TRUE(r_rough.assumptions.empty()) << r_rough.Report();  // the floor was measured
   EXPECT_NEAR(RadToDeg(Param(r_rough.fit.final_fit, "sigma")), 5.0, 1.5);
   // An explicit floor (`--noise-floor`) wins over the calibration's.
   ro.noise_floor_from_calibration = false;
   ro.fit.relative_noise_floor = 0.01;
   const RunResult r_explicit = gonio::Run(in, ro);
   EXPECT_EQ(r_explicit.noise_floor_source, "--noise-floor");
+  ASSERT_EQ(r_explicit.assumptions.size(), 1u) << r_explicit.Report();
+  EXPECT_NE(r_explicit.assumptions[0].find("1.00% (--noise-floor)"), std::string::npos);
   EXPECT_EQ(r_explicit.fit.final_fit.material.model, "lambert");
 }
 
