@@ -43,7 +43,9 @@ void RunFit(const FitArgs& a, const std::string& observations, const std::string
   const JointFitOptions o = ToJointFitOptions(a);
   const std::vector<std::string> files = SplitComma(observations);
   CheckOutputIsNotInput(out, files);
-  const FitOfFiles f = FitObservationFiles(files, observations, o);
+  const FitOfFiles f = FitObservationFiles(
+      files, observations, o,
+      a.noise_floor.empty() ? NoiseFloorSource::kDefault : NoiseFloorSource::kOption);
   WriteFitOfFiles(f, observations, out);
   const CheckedFit& r = f.checked;
   for (const auto& a : f.data.assumptions) std::cout << "ASSUMED: " << a << "\n";

@@ -2,6 +2,7 @@
 // Each either refuses (InputError, exit 2, naming the file or frames) or labels the result.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -118,5 +119,19 @@ struct CheckedFit {
 };
 CheckedFit FitChecked(const ObservationSet& data, const JointFitOptions& fit_options,
                       const std::string& what, const FitChecksOptions& options);
+
+// Where the fit's relative noise floor came from: a calibration's stated accuracy
+// (photometric.json `relative_accuracy`), the default, or `--noise-floor`.
+enum class NoiseFloorSource { kCalibration, kDefault, kOption };
+
+// A floor that is not a calibration's measured accuracy is an assumption that sizes every error
+// bar: the fit weighs each radiance as if the calibration were off by that much, and nothing
+// measured stands behind it. The note `gonio run` and `gonio fit` record (fit.json
+// `assumptions`, `ASSUMED:`, the report): the floor, its source and, when the fit's residuals
+// scatter less than 1 / kFloorOverResiduals of it, how many times wider than the data need the
+// bars may be (the floor over the residuals' relative RMS). None for kCalibration.
+inline constexpr double kFloorOverResiduals = 1.6;
+std::optional<std::string> AssumedNoiseFloorNote(double floor, NoiseFloorSource source,
+                                                 double residual_rel_rms);
 
 }  // namespace gonio

@@ -265,41 +265,11 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
   }
 }
 
-// A noise floor that is not the calibration's measured accuracy (the default, or
-// `--noise-floor`) is an assumption that sizes every error bar: the fit weighs each radiance as
-// if the calibration were off by that much, and without a stated accuracy nothing is propagated
-// to stand for it. When the residuals scatter well below it the bars say more about the
-// assumption than about the data: on a pitted sample rendered with exact calibrations (12 noise
-// seeds of one capture, docs/pipeline.md "Coverage of the error bars") the default 1 % against
-// residuals of 0.28 % gave bars 3.4-5 times the values' spread. The run says so, with the ratio.
-// Bars sized by the floor and errors by the residuals read RMS z below the coverage target's
-// 0.6 (docs/pipeline.md "Coverage of the error bars") once the floor is this many times the
-// residuals' relative scatter.
-constexpr double kFloorOverResiduals = 1.6;
-
-std::optional<std::string> AssumedFloorNote(const RunResult& r) {
-  if (r.noise_floor_source != "default" && r.noise_floor_source != "--noise-floor") {
-    return std::nullopt;
-  }
-  const bool by_default = r.noise_floor_source == "default";
-  std::string note = fmt::format(
-      "the calibration's relative error is taken as {:.2f}% ({}); every error bar rests on it",
-      100 * r.noise_floor,
-      by_default ? "the default: the photometric calibration states no relative_accuracy"
-                 : "--noise-floor");
-  const double rel_rms = r.fit.final_fit.material.rel_rms;
-  if (std::isfinite(rel_rms) && rel_rms > 0 && r.noise_floor > kFloorOverResiduals * rel_rms) {
-    note += fmt::format(
-        ", and the residuals scatter {:.2f}%, so the bars may be up to {:.1f} times wider than "
-        "the data need",
-        100 * rel_rms, r.noise_floor / rel_rms);
-  }
-  if (by_default) {
-    note +=
-        "; `gonio photometric vignette --photometric-out` writes the measured one "
-        "(docs/photometric.md)";
-  }
-  return note;
+// The floor's source as gonio run records it (RunResult::noise_floor_source).
+NoiseFloorSource FloorSourceOf(const RunResult& r) {
+  if (r.noise_floor_source == "default") return NoiseFloorSource::kDefault;
+  if (r.noise_floor_source == "--noise-floor") return NoiseFloorSource::kOption;
+  return NoiseFloorSource::kCalibration;
 }
 
 // Where the sample's raw values fall, the response between the sweep's exposures is its
@@ -362,7 +332,8 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
   FitWithChecks(in, o, fit_options, &r);
-  if (auto note = AssumedFloorNote(r)) {
+  if (auto note = AssumedNoiseFloorNote(r.noise_floor, FloorSourceOf(r),
+                                        r.fit.final_fit.material.rel_rms)) {
     r.assumptions.push_back(*note);
     spdlog::warn("assumed: {}", *note);
   }

@@ -38,7 +38,8 @@ ObservationSet ExtractSessionObservations(const ExtractFiles& f, const ExtractOp
 }
 
 FitOfFiles FitObservationFiles(const std::vector<std::string>& files,
-                               const std::string& observations, const JointFitOptions& o) {
+                               const std::string& observations, const JointFitOptions& o,
+                               NoiseFloorSource floor_source) {
   FitOfFiles r;
   std::vector<ObservationSet> sets;
   for (const auto& f : files) sets.push_back(ReadObservations(f));
@@ -50,6 +51,10 @@ FitOfFiles FitObservationFiles(const std::vector<std::string>& files,
     const std::string what = e.what();
     if (what.rfind(observations, 0) == 0) throw;
     throw InputError(observations + ": " + what);  // the fit's own words lack the file
+  }
+  if (auto note = AssumedNoiseFloorNote(o.relative_noise_floor, floor_source,
+                                        r.checked.fit.final_fit.material.rel_rms)) {
+    r.data.assumptions.push_back(*note);
   }
   return r;
 }

@@ -28,8 +28,11 @@ struct FitOfFiles {
   ObservationSet data;
   CheckedFit checked;
 };
+// `floor_source`: kDefault, or kOption when `--noise-floor` set o.relative_noise_floor; either
+// way an assumption the fit records (AssumedNoiseFloorNote) with the observations' own.
 FitOfFiles FitObservationFiles(const std::vector<std::string>& files,
-                               const std::string& observations, const JointFitOptions& o);
+                               const std::string& observations, const JointFitOptions& o,
+                               NoiseFloorSource floor_source = NoiseFloorSource::kDefault);
 
 // fit.json: the fit with the observations' name, their assumptions and the checks.
 void WriteFitOfFiles(const FitOfFiles& r, const std::string& observations, const std::string& out);

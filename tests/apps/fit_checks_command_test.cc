@@ -152,8 +152,18 @@ TEST_F(FitChecksCli, TheExtractionsAssumptionReachesFitJson) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("ASSUMED: no photometric calibration"), std::string::npos) << r.out;
   const nlohmann::json fit = ReadJsonFile(out);
-  ASSERT_EQ(fit["assumptions"].size(), 1u);
+  // The linear camera, then the noise floor no calibration stated (pipeline/checks.h
+  // AssumedNoiseFloorNote); `--noise-floor` names itself as the source.
+  ASSERT_EQ(fit["assumptions"].size(), 2u) << fit["assumptions"];
   EXPECT_NE(fit["assumptions"][0].get<std::string>().find("linear camera"), std::string::npos);
+  EXPECT_NE(fit["assumptions"][1].get<std::string>().find("1.00% (the default"), std::string::npos);
+  const auto floored =
+      testing::RunGonio(Fit((s / "obs.csv").string(), out) + " --noise-floor 0.005");
+  ASSERT_EQ(floored.exit_code, 0) << floored.err;
+  const nlohmann::json with_option = ReadJsonFile(out);
+  ASSERT_EQ(with_option["assumptions"].size(), 2u) << with_option["assumptions"];
+  EXPECT_NE(with_option["assumptions"][1].get<std::string>().find("0.50% (--noise-floor)"),
+            std::string::npos);
 }
 
 // Output names: one the system cannot create (a 300-character name, a 5000-character path) is
