@@ -78,17 +78,31 @@ ObservationSet ExtractAll(const RunInputs& in, const RunOptions& o, const RunRes
   return extractor.Finish(in.session.dir.string());
 }
 
+// Where the floor comes from: the calibration when it states its accuracy (and no
+// `--noise-floor` overrides it), else the option or the default.
+NoiseFloorSource FloorSourceFor(const RunInputs& in, const RunOptions& o) {
+  if (!o.noise_floor_from_calibration) return NoiseFloorSource::kOption;
+  return in.photometric.relative_accuracy ? NoiseFloorSource::kCalibration
+                                          : NoiseFloorSource::kDefault;
+}
+
 // The fit's relative noise floor: the photometric calibration's own accuracy when it reports
 // one (never below kMinNoiseFloor: paper reflectance uniformity and shutter repeatability are
 // not known better than that on a printed bench), else the option's value.
 JointFitOptions FitOptionsFor(const RunInputs& in, const RunOptions& o, RunResult* r) {
   JointFitOptions fit = o.fit;
-  if (o.noise_floor_from_calibration && in.photometric.relative_accuracy) {
-    fit.relative_noise_floor =
-        std::max(*in.photometric.relative_accuracy, RunOptions::kMinNoiseFloor);
-    r->noise_floor_source = in.photometric_source;
-  } else {
-    r->noise_floor_source = o.noise_floor_from_calibration ? "default" : "--noise-floor";
+  switch (FloorSourceFor(in, o)) {
+    case NoiseFloorSource::kCalibration:
+      fit.relative_noise_floor =
+          std::max(*in.photometric.relative_accuracy, RunOptions::kMinNoiseFloor);
+      r->noise_floor_source = in.photometric_source;
+      break;
+    case NoiseFloorSource::kDefault:
+      r->noise_floor_source = "default";
+      break;
+    case NoiseFloorSource::kOption:
+      r->noise_floor_source = "--noise-floor";
+      break;
   }
   r->noise_floor = fit.relative_noise_floor;
   return fit;
@@ -265,13 +279,6 @@ void FitWithChecks(const RunInputs& in, const RunOptions& o, const JointFitOptio
   }
 }
 
-// The floor's source as gonio run records it (RunResult::noise_floor_source).
-NoiseFloorSource FloorSourceOf(const RunResult& r) {
-  if (r.noise_floor_source == "default") return NoiseFloorSource::kDefault;
-  if (r.noise_floor_source == "--noise-floor") return NoiseFloorSource::kOption;
-  return NoiseFloorSource::kCalibration;
-}
-
 // Where the sample's raw values fall, the response between the sweep's exposures is its
 // smoothing prior's (calib/photometry/response.h kPriorHeldLimitAtValues): a sweep of few
 // radiances in whole stops pins the curve only at each value's octave neighbours. The error
@@ -332,7 +339,7 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
   spdlog::info("[3/4] fitting {} observations (relative noise floor {:.2f}%, {})",
                r.observations.observations.size(), 100 * r.noise_floor, r.noise_floor_source);
   FitWithChecks(in, o, fit_options, &r);
-  if (auto note = AssumedNoiseFloorNote(r.noise_floor, FloorSourceOf(r),
+  if (auto note = AssumedNoiseFloorNote(r.noise_floor, FloorSourceFor(in, o),
                                         r.fit.final_fit.material.rel_rms)) {
     r.assumptions.push_back(*note);
     spdlog::warn("assumed: {}", *note);

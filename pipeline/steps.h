@@ -32,7 +32,7 @@ struct FitOfFiles {
 // way an assumption the fit records (AssumedNoiseFloorNote) with the observations' own.
 FitOfFiles FitObservationFiles(const std::vector<std::string>& files,
                                const std::string& observations, const JointFitOptions& o,
-                               NoiseFloorSource floor_source = NoiseFloorSource::kDefault);
+                               NoiseFloorSource floor_source);
 
 // fit.json: the fit with the observations' name, their assumptions and the checks.
 void WriteFitOfFiles(const FitOfFiles& r, const std::string& observations, const std::string& out);
