@@ -146,7 +146,8 @@ void AddCaptureCommand(CLI::App& app) {
                   "auto, FOURCC[:WxH] (GREY Y10 Y12 Y16 YUYV NV12 MJPG BGR3 RGB3) or WxH")
       ->capture_default_str();
   cmd->add_option("--exposures", args->exposures,
-                  "Bracket exposures, e.g. 1ms,4ms,16ms (units s, ms, us; or 1/125)");
+                  "Bracket exposures, e.g. 1ms,4ms,16ms (units s, ms, us; or 1/125), or 1ms..1s:14 "
+                  "for 14 in irregular third-stop steps (gonio photometric ladder)");
   cmd->add_option("--gain", args->gain,
                   "Gain: analogue (libcamera) or the driver's units (v4l2); default the lowest");
   cmd->add_option("--frames", args->frames, "Brackets (poses) to capture")->capture_default_str();

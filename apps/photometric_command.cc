@@ -1,5 +1,6 @@
 // gonio photometric: inverse response from an exposure sweep, vignetting from board frames,
 // pixel values -> radiance, HDR merge of brackets. The work is in pipeline/photometric_run.h.
+#include <cmath>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -8,6 +9,7 @@
 
 #include "apps/cli_util.h"
 #include "apps/commands.h"
+#include "capture/bracket.h"
 #include "common/error.h"
 #include "pipeline/photometric_run.h"
 
@@ -130,12 +132,51 @@ void AddResponseCommand(CLI::App* cmd) {
   resp->callback([args] { RunResponse(*args); });
 }
 
+struct LadderArgs {
+  std::string shortest, longest;
+  int frames = 14;
+};
+
+// The sweep to shoot: capture::IrregularLadder, one line per frame with the camera's name for
+// its shutter speed, so a camera set by hand takes the same steps as `gonio capture`.
+void RunLadder(const LadderArgs& args) {
+  const double shortest = capture::ParseDuration(args.shortest, "--shortest");
+  const double longest = capture::ParseDuration(args.longest, "--longest");
+  const std::vector<double> ladder =
+      capture::IrregularLadder(shortest, longest, args.frames, "--frames");
+  std::cout << fmt::format(
+      "{} exposures, {} to {}, in steps of whole thirds of a stop that are not all equal "
+      "(docs/photometric.md \"Irregular steps\"); gonio capture takes the same with "
+      "--exposures {}..{}:{}\n",
+      ladder.size(), capture::FormatDuration(ladder.front()),
+      capture::FormatDuration(ladder.back()), args.shortest, args.longest, args.frames);
+  std::cout << "frame  exposure_s    camera  step (thirds)\n";
+  for (size_t i = 0; i < ladder.size(); ++i) {
+    const std::string step =
+        i == 0 ? "" : fmt::format("+{}", std::lround(3 * std::log2(ladder[i] / ladder[i - 1])));
+    std::cout << fmt::format("{:5d}  {:<12.6g}  {:>6}  {}\n", i + 1, ladder[i],
+                             capture::ShutterSpeedName(ladder[i]), step);
+  }
+}
+
+void AddLadderCommand(CLI::App* cmd) {
+  auto args = std::make_shared<LadderArgs>();
+  auto* ladder = cmd->add_subcommand(
+      "ladder", "The exposure times to shoot a sweep with: irregular steps of third stops");
+  ladder->add_option("--shortest", args->shortest, "Shortest exposure, e.g. 1/4000 or 250us")
+      ->required();
+  ladder->add_option("--longest", args->longest, "Longest exposure, e.g. 4 or 4s")->required();
+  ladder->add_option("--frames", args->frames, "Exposures in the sweep")->capture_default_str();
+  ladder->callback([args] { RunLadder(*args); });
+}
+
 }  // namespace
 
 void AddPhotometricCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("photometric", "Photometric calibration: response, vignetting");
   cmd->require_subcommand(1);
   AddResponseCommand(cmd);
+  AddLadderCommand(cmd);
 
   auto vargs = std::make_shared<VignetteArgs>();
   auto* vig = cmd->add_subcommand(

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
+#include <sstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -47,6 +49,36 @@ TEST(ResponseCli, RealSweepWritesJsonAndPlot) {
   for (const auto& m : j.at("comparison")) EXPECT_GT(m.at("calibrate_s").get<double>(), 0.0) << m;
   EXPECT_DOUBLE_EQ(j.at("comparison")[0].at("calibrate_s").get<double>(),
                    j.at("calibrate_s").get<double>());
+}
+
+// The sweep to shoot (capture::IrregularLadder): one line per frame with the camera's name for
+// its speed and its step in thirds, not all equal; too few thirds for the frames is refused.
+TEST(LadderCli, PrintsTheFramesAndRefusesTooFewThirds) {
+  auto r = RunGonio("photometric ladder --shortest 1/4000 --longest 4 --frames 14");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream lines(r.out);
+  std::string line;
+  std::set<std::string> steps;
+  int frames = 0;
+  while (std::getline(lines, line)) {
+    std::istringstream words(line);
+    int frame = 0;
+    double seconds = 0;
+    std::string name, step;
+    if (!(words >> frame >> seconds >> name)) continue;
+    ++frames;
+    if (frame == 1) EXPECT_EQ(name, "1/4000");
+    if (frame == 14) EXPECT_EQ(name, "4");
+    if (words >> step) steps.insert(step);
+  }
+  EXPECT_EQ(frames, 14) << r.out;
+  EXPECT_GE(steps.size(), 3u) << r.out;  // +2 .. +5 thirds, not one step
+  r = RunGonio("photometric ladder --shortest 1/4000 --longest 4 --frames 50");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--frames: 50 frames need at least 49 thirds"), std::string::npos) << r.err;
+  r = RunGonio("photometric ladder --shortest fast --longest 4");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--shortest"), std::string::npos) << r.err;
 }
 
 TEST(ResponseCli, BadSweepsExitTwo) {

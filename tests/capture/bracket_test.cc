@@ -1,6 +1,10 @@
 #include "capture/bracket.h"
 
+#include <algorithm>
+#include <cmath>
 #include <map>
+#include <numeric>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -33,6 +37,75 @@ TEST(ParseExposureList, KeepsOrderAndRejectsDuplicates) {
   EXPECT_DOUBLE_EQ(list[2], 0.016);
   EXPECT_THROW(ParseExposureList("1ms,0.001", "--exposures"), InputError);
   EXPECT_THROW(ParseExposureList("1ms,,2ms", "--exposures"), InputError);
+}
+
+// The gaps of a ladder in thirds of a stop, checked to be whole thirds on the lattice 2^(k/3).
+std::vector<int> ThirdsOf(const std::vector<double>& ladder) {
+  std::vector<int> gaps;
+  for (size_t i = 0; i < ladder.size(); ++i) {
+    const double k = 3 * std::log2(ladder[i]);
+    EXPECT_NEAR(k, std::round(k), 1e-9) << i;
+    if (i > 0)
+      gaps.push_back(static_cast<int>(std::lround(3 * std::log2(ladder[i] / ladder[i - 1]))));
+  }
+  return gaps;
+}
+
+int GcdOf(const std::vector<int>& v) {
+  int g = 0;
+  for (int x : v) g = std::gcd(g, x);
+  return g;
+}
+
+// A sweep whose steps are whole thirds of a stop, not all equal and with no common factor
+// above one third, from the shortest to the longest exposure rounded to the lattice
+// (docs/photometric.md "Irregular steps"); the same for the same arguments.
+TEST(IrregularLadder, WholeThirdsNotAllEqualWithNoCommonPeriod) {
+  for (int frames : {3, 5, 14, 20, 40}) {
+    const auto ladder = IrregularLadder(1.0 / 4000, 4.0, frames, "--exposures");
+    ASSERT_EQ(ladder.size(), static_cast<size_t>(frames));
+    EXPECT_DOUBLE_EQ(ladder.front(), std::exp2(-12.0));  // 1/4000 on the lattice
+    EXPECT_DOUBLE_EQ(ladder.back(), 4.0);
+    const std::vector<int> gaps = ThirdsOf(ladder);
+    for (int g : gaps) EXPECT_GE(g, 1);
+    EXPECT_EQ(GcdOf(gaps), 1) << frames;
+    if (frames < 40) {
+      EXPECT_GT(*std::max_element(gaps.begin(), gaps.end()),
+                *std::min_element(gaps.begin(), gaps.end()))
+          << frames;
+    }
+    EXPECT_EQ(IrregularLadder(1.0 / 4000, 4.0, frames, "x"), ladder);
+  }
+  // 14 frames over the whole-stop sweep's 13 stops: steps of 2 to 4 or 5 thirds.
+  const std::vector<int> gaps = ThirdsOf(IrregularLadder(0.0005, 4.096, 14, "x"));
+  EXPECT_GE(*std::min_element(gaps.begin(), gaps.end()), 2);
+  EXPECT_LE(*std::max_element(gaps.begin(), gaps.end()), 5);
+  // Where equal steps would share a factor (2 frames' worth of 6 thirds), one moves.
+  EXPECT_EQ(GcdOf(ThirdsOf(IrregularLadder(1.0, 4.0, 3, "x"))), 1);
+}
+
+TEST(IrregularLadder, TheRangeSyntaxAndItsErrors) {
+  EXPECT_EQ(ParseExposureList("1/4000..4:14", "--exposures"),
+            IrregularLadder(1.0 / 4000, 4.0, 14, "--exposures"));
+  EXPECT_EQ(ParseExposureList("250us .. 4s : 14", "--exposures").size(), 14u);
+  for (const char* bad : {"1ms..2ms:14", "1ms..1s:2", "0..1s:5", "1s..1ms:5", "1ms..:5"}) {
+    try {
+      ParseExposureList(bad, "--exposures");
+      FAIL() << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("--exposures"), std::string::npos) << bad;
+    }
+  }
+}
+
+TEST(ShutterSpeedName, TheCamerasThirdStopNames) {
+  EXPECT_EQ(ShutterSpeedName(1.0 / 4096), "1/4000");
+  EXPECT_EQ(ShutterSpeedName(std::exp2(-25 / 3.0)), "1/320");
+  EXPECT_EQ(ShutterSpeedName(std::exp2(-2 / 3.0)), "0.6");
+  EXPECT_EQ(ShutterSpeedName(1.0), "1");
+  EXPECT_EQ(ShutterSpeedName(std::exp2(11 / 3.0)), "13");
+  EXPECT_EQ(ShutterSpeedName(60.0), "");
+  EXPECT_EQ(ShutterSpeedName(0.0), "");
 }
 
 TEST(ScheduleBrackets, EveryBracketTakesEveryExposureOnce) {
