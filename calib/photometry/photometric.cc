@@ -150,7 +150,11 @@ double PhotometricCalibration::ResponseFieldRmsAt(const ResponseResult& response
                    values, ResponseFieldRms(response));
 }
 
-double PhotometricCalibration::ExposureStepOctaves(const ResponseResult& response) {
+namespace {
+
+// log2 of the ratio of neighbouring used frames' times, equal times left out (they say nothing
+// about the response; MeasurePairConsistency skips them too).
+std::vector<double> ExposureSteps(const ResponseResult& response) {
   std::vector<double> times;
   for (const auto& f : response.frames) {
     if (f.used && f.estimated_s > 0) times.push_back(f.estimated_s);
@@ -158,10 +162,45 @@ double PhotometricCalibration::ExposureStepOctaves(const ResponseResult& respons
   std::sort(times.begin(), times.end());
   std::vector<double> octaves;
   for (size_t k = 1; k < times.size(); ++k) {
-    // Equal exposures say nothing about the response (MeasurePairConsistency skips them too).
     if (times[k] / times[k - 1] > 1.01) octaves.push_back(std::log2(times[k] / times[k - 1]));
   }
+  return octaves;
+}
+
+}  // namespace
+
+double PhotometricCalibration::ExposureStepOctaves(const ResponseResult& response) {
+  const std::vector<double> octaves = ExposureSteps(response);
   return octaves.empty() ? 1.0 : Median(octaves);
+}
+
+double PhotometricCalibration::ExposurePeriodOctaves(const ResponseResult& response) {
+  const std::vector<double> octaves = ExposureSteps(response);
+  if (octaves.empty()) return 1.0;
+  const double median = Median(octaves);
+  constexpr double kTolerance = 0.03;  // octaves; a camera's shutter holds its steps closer
+  for (int k = 1; k <= 6; ++k) {
+    const double period = median / k;
+    if (std::all_of(octaves.begin(), octaves.end(), [&](double o) {
+          const double multiple = std::max(1.0, std::round(o / period));
+          return std::abs(o - multiple * period) <= kTolerance;
+        })) {
+      return period;
+    }
+  }
+  return median;
+}
+
+std::string PhotometricCalibration::SweepRemedy(double period_octaves) {
+  // Irregular steps of whole thirds keep a period of a third, as third stops do.
+  if (period_octaves > 0 && period_octaves < 0.4) {
+    return fmt::format(
+        "a scene with more radiance levels, or RAW frames (the sweep already steps {:.2f} stops)",
+        period_octaves);
+  }
+  return "a sweep in third stops or with steps that are not all equal (gonio photometric "
+         "ladder: 14 frames in steps of 2-5 thirds), a scene with more radiance levels, or RAW "
+         "frames";
 }
 
 double PhotometricCalibration::ResponseTrendAt(const ResponseResult& response,
@@ -216,9 +255,9 @@ std::optional<std::string> PhotometricCalibration::PriorHeldWarning(
       "the response calibration limits the result: where the sample's values are, its curve "
       "moves {:.1f}% under a {:.0f}x stiffer prior (more than {:.1f}%), so between the sweep's "
       "exposures it is the prior's guess, an error every observation at a value shares (the "
-      "error bars draw it from that figure); shoot the exposure sweep in third stops "
-      "(docs/capture-guide.md)",
-      100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues);
+      "error bars draw it from that figure); narrowed by {} (docs/capture-guide.md)",
+      100 * moved, kSmoothingSensitivityFactor, 100 * kPriorHeldLimitAtValues,
+      SweepRemedy(ExposurePeriodOctaves(response)));
 }
 
 double PhotometricCalibration::SmoothingError(const ResponseResult& response) {

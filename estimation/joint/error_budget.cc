@@ -21,18 +21,12 @@ constexpr OptionWord<CalibrationErrorSource> kSourceWords[] = {
     {CalibrationErrorSource::kPoses, "poses"}};
 
 // What narrows each part (none: the statistical one), as docs/capture-guide.md and
-// docs/photometric.md say; a sweep already in third stops (`step_octaves`, 0: not known) is
-// sent to the other remedies.
+// docs/photometric.md say; the response's by its sweep (PhotometricCalibration::SweepRemedy).
 std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part, double step_octaves) {
   if (!part) return "more frames, or frames from more directions";
   switch (*part) {
     case CalibrationErrorSource::kResponse:
-      return step_octaves > 0 && step_octaves < 0.4
-                 ? fmt::format(
-                       "a scene with more radiance levels, or RAW frames (the sweep "
-                       "already steps {:.2f} stops)",
-                       step_octaves)
-                 : "a sweep in third stops, a scene with more radiance levels, or RAW frames";
+      return PhotometricCalibration::SweepRemedy(step_octaves);
     case CalibrationErrorSource::kVignetting:
       return "the board shown closer so its paper reaches the image corners, or a flat field";
     case CalibrationErrorSource::kPoses:

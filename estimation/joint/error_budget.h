@@ -58,8 +58,10 @@ struct CalibrationErrorBudget {
   std::vector<CalibrationErrorSource> sources;  // those the error model holds, in enum order
   std::vector<ErrorBudgetRow> rows;  // each determined parameter, the lamp's axes, intensity
   std::vector<std::string> notes;    // a source whose refits did not converge
-  // The response's sweep step in octaves (CalibrationErrorModel::response_prior_period_octaves;
-  // 0: not known): a sweep already in third stops is not told to shoot third stops.
+  // The period in octaves the response's sweep leaves free (CalibrationErrorModel::
+  // response_prior_period_octaves, its step when the steps are equal; 0: not known): a sweep
+  // already in third stops is not told to shoot third stops (PhotometricCalibration::
+  // SweepRemedy).
   double response_step_octaves = 0;
   std::string Report() const;     // a table, then what narrows the largest parts
   nlohmann::json ToJson() const;  // docs/formats.md, fit.json `error_budget`

@@ -272,6 +272,33 @@ TEST(ResponseJson, TheExposureStepSurvivesTheFile) {
   EXPECT_NEAR(PhotometricCalibration::ExposureStepOctaves(back), 1.0 / 3, 1e-9);
 }
 
+// The period a sweep leaves free is the largest its steps are all whole multiples of: equal
+// whole stops one octave, also with a frame left out; third stops, or whole thirds of 2-5
+// (capture::IrregularLadder), a third; steps with no common period their median. What the
+// user is told to change follows it.
+TEST(ResponseJson, ThePeriodTheStepsLeaveFree) {
+  const auto sweep = MakeSweep(8, 0.0, 7);
+  ResponseResult r = CalibrateResponse(sweep.frames, {});
+  const auto period_of = [&](const std::vector<double>& log2_times) {
+    r.frames.resize(log2_times.size(), r.frames.back());
+    for (size_t j = 0; j < log2_times.size(); ++j) {
+      r.frames[j].used = true;
+      r.frames[j].estimated_s = std::exp2(log2_times[j]);
+    }
+    return PhotometricCalibration::ExposurePeriodOctaves(r);
+  };
+  EXPECT_NEAR(period_of({0, 1, 2, 3, 4, 5, 6}), 1.0, 1e-9);
+  EXPECT_NEAR(period_of({0, 1, 3, 4, 5, 6}), 1.0, 1e-9);
+  EXPECT_NEAR(period_of({0, 1 / 3., 2 / 3., 1, 4 / 3., 5 / 3.}), 1 / 3., 1e-9);
+  EXPECT_NEAR(period_of({0, 1, 7 / 3., 10 / 3., 4, 16 / 3., 6}), 1 / 3., 1e-9);
+  EXPECT_NEAR(period_of({0, 0.91, 2.07, 2.84, 4.13, 5.02}), 0.91, 1e-9);
+  EXPECT_EQ(PhotometricCalibration::SweepRemedy(1.0).find("already"), std::string::npos);
+  EXPECT_NE(PhotometricCalibration::SweepRemedy(1.0).find("gonio photometric ladder"),
+            std::string::npos);
+  EXPECT_NE(PhotometricCalibration::SweepRemedy(1 / 3.).find("already steps 0.33"),
+            std::string::npos);
+}
+
 // Noise-free frames of a horizontal radiance ramp (one value per column, 1..top/2 per unit
 // time) at third-stop exposures, with `channels` equal channels of `type`.
 std::vector<ExposureFrame> RampSweep(int type, int channels, double top) {

@@ -110,6 +110,9 @@ TEST(ErrorBudget, OneSourceIsTheWholeCalibrationPart) {
   EXPECT_NE(third.Report().find("RAW frames (the sweep already steps 0.33 stops)"),
             std::string::npos)
       << third.Report();
+  CalibrationErrorBudget whole = b.budget;
+  whole.response_step_octaves = 1.0;
+  EXPECT_NE(whole.Report().find("gonio photometric ladder"), std::string::npos) << whole.Report();
   const nlohmann::json j = b.budget.ToJson();
   EXPECT_EQ(j["sources"], nlohmann::json::array({"response"}));
   EXPECT_EQ(j["stddev"]["albedo"]["largest"], PartName(albedo.Largest(b.budget.sources)));
