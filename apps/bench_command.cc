@@ -193,9 +193,11 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--by-parts", args->by_parts,
                 "--coverage: also each run's error by source (response, vignetting, the rest) "
                 "against the error budget's draws of it; two more runs per run (docs/bench.md)");
-  cmd->add_option("--sweeps", args->sweeps, "--coverage: only these sweeps (third, whole)")
+  cmd->add_option(
+         "--sweeps", args->sweeps,
+         "--coverage: only these sweeps (third, whole, ladder: 14 irregular third-stop steps)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"third", "whole"}));
+      ->check(CLI::IsMember({"third", "whole", "ladder"}));
   cmd->add_flag("--plan", args->plan,
                 "gonio plan's predicted scatter against the scatter measured on sessions "
                 "rendered from the plan and from the default orbit (plan_bench.json + chart)")

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "capture/bracket.h"
 #include "common/error.h"
 #include "common/io.h"
 #include "common/math.h"
@@ -180,16 +181,19 @@ synth::Scene SameCamera(const std::string& preset, const synth::Scene& session) 
   return s;
 }
 
+}  // namespace
+
 // The exposure sweep: the exposure-sweep preset's whole stops (14 frames, 0.5 ms .. 4.1 s, what
-// a camera's auto-bracketing gives) or third stops over the same range (40 frames, as
-// docs/capture-guide.md asks). Seed 1 keeps those times; every later seed shifts them all by
-// a random fraction of a step, as two users' shutters differ: what a sweep leaves to the
-// response's prior repeats with the step in log2 of the exposure (docs/photometric.md
-// "Smoothing sensitivity"), and its phase follows the times, so shared times would draw that
-// error once per camera instead of once per run.
-synth::Scene SweepScene(const std::string& sweep, const synth::Scene& session, int seed) {
+// a camera's auto-bracketing gives), third stops over the same range (40 frames, as
+// docs/capture-guide.md asks) or the 14 irregular third-stop steps of `gonio photometric
+// ladder` over it (capture::IrregularLadder). Seed 1 keeps those times; every later seed
+// shifts them all by a random fraction of a step, as two users' shutters differ: what a sweep
+// leaves to the response's prior repeats with the step in log2 of the exposure
+// (docs/photometric.md "Smoothing sensitivity"), and its phase follows the times, so shared
+// times would draw that error once per camera instead of once per run.
+synth::Scene CoverageSweepScene(const std::string& sweep, const synth::Scene& session, int seed) {
   synth::Scene s = SameCamera("exposure-sweep", session);
-  const double step = sweep == "third" ? 1.0 / 3.0 : 1.0;
+  const double step = sweep == "whole" ? 1.0 : 1.0 / 3.0;
   double shift = 0;  // octaves
   if (seed > 1) {
     std::mt19937_64 rng(0xbf58476d1ce4e5b9ull * static_cast<uint64_t>(seed));
@@ -198,10 +202,14 @@ synth::Scene SweepScene(const std::string& sweep, const synth::Scene& session, i
   if (sweep == "third") {
     s.views.exposures_s.clear();
     for (int k = 0; k < 40; ++k) s.views.exposures_s.push_back(0.0005 * std::exp2(k / 3.0));
+  } else if (sweep == "ladder") {
+    s.views.exposures_s = capture::IrregularLadder(0.0005, 4.096, 14, "coverage ladder");
   }
   for (double& t : s.views.exposures_s) t *= std::exp2(shift);
   return s;
 }
+
+namespace {
 
 Eigen::Vector3d Vec3(const json& j) {
   return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()};
@@ -293,7 +301,7 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
   const fs::path sweep_dir = dir / ("sweep-" + r->sweep), sc = dir / ("cal-" + r->sweep);
   const fs::path out = dir / ("run-" + r->sweep);
   const fs::path camera = sc / "camera.cameramodel", poses = sc / "poses.json";
-  chain->Render("sweep-" + r->sweep, SweepScene(r->sweep, s.scene, r->seed), sweep_dir);
+  chain->Render("sweep-" + r->sweep, CoverageSweepScene(r->sweep, s.scene, r->seed), sweep_dir);
   EnsureDirectory(sc);
   const std::string response = (sc / "response.json").string();
   chain->Step("response-" + r->sweep,
@@ -347,7 +355,7 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
         [&](const std::string& name, std::vector<std::string> a) { chain->Step(name, a, true); },
         r);
   } catch (const std::runtime_error& e) {  // a diagnostic: the run itself stands
-    spdlog::warn("coverage: {} seed {} {} stops: no parts: {}", r->kind, r->seed, r->sweep,
+    spdlog::warn("coverage: {} seed {} {}: no parts: {}", r->kind, r->seed, SweepLabel(r->sweep),
                  e.what());
   }
 }
@@ -489,7 +497,9 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
   }
   if (plan.first_seed < 1) throw InputError("coverage plan: the first seed must be >= 1");
   for (const auto& s : plan.sweeps) {
-    if (s != "third" && s != "whole") throw InputError("coverage plan: sweep '" + s + "'");
+    if (s != "third" && s != "whole" && s != "ladder") {
+      throw InputError("coverage plan: sweep '" + s + "' (third, whole or ladder)");
+    }
   }
   CoverageReport rep;
   rep.size = options.size;
@@ -507,8 +517,8 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
           if (v.Determined())
             zs += fmt::format(" {} {:+.2f}{}", v.parameter, v.z, v.warned ? "*" : "");
         }
-        spdlog::info("coverage {}/{}: {} seed {} {} stops: {} ({:.0f} s){}", rep.runs.size(), total,
-                     r.kind, r.seed, r.sweep,
+        spdlog::info("coverage {}/{}: {} seed {} {}: {} ({:.0f} s){}", rep.runs.size(), total,
+                     r.kind, r.seed, SweepLabel(r.sweep),
                      r.failed.empty() ? r.selected_model + ", z" + zs : "failed: " + r.failed,
                      r.seconds,
                      r.warnings.empty() ? "" : fmt::format(", {} warning(s)", r.warnings.size()));

@@ -43,7 +43,8 @@ struct CoveragePlan {
   // Seed 1 is the presets' capture; every later seed moves the capture and shifts the sweep's
   // times (docs/bench.md), so seeds 5-8 are a grid of their own to check 1-4 against.
   int first_seed = 1;
-  std::vector<std::string> sweeps = {"third", "whole"};  // third stops (40 frames), whole (14)
+  std::vector<std::string> sweeps = {"third", "whole"};  // third stops (40 frames), whole (14);
+                                                         // also "ladder" (14 irregular thirds)
   int width = 640, height = 480;                         // the camera, intrinsics scaled
   int views_per_ring = 3;                                // board scenes: 4 rings
   // `--by-parts`: each run's error split by source and set against the error budget's draws
@@ -61,6 +62,10 @@ std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& nam
 // a capture of its own (the orbit, the lamp on a stand) through a lens of its own (its
 // vignetting); docs/bench.md.
 synth::Scene CoverageSessionScene(const CoverageKind& kind, const CoveragePlan& plan, int seed);
+
+// The exposure sweep of a run's `session` (its camera) for `sweep` ("whole", "third" or
+// "ladder") and `seed`: every later seed's times shifted by a random fraction of a step.
+synth::Scene CoverageSweepScene(const std::string& sweep, const synth::Scene& session, int seed);
 
 // One judged quantity of one run.
 struct CoverageValue {
@@ -133,6 +138,9 @@ struct CoverageTargets {
 // they miss it but do not rule it out; targets_met stays the strict reading.
 enum class CoverageVerdict { kMet, kUndecided, kMissed };
 std::string ToString(CoverageVerdict v);
+
+// A sweep's name for the log: "whole stops", "third stops", "ladder (irregular thirds)".
+std::string SweepLabel(const std::string& sweep);
 
 // z statistics of one parameter (or "all") over one group of runs.
 struct CoverageStat {

@@ -122,6 +122,10 @@ json CoverageRun::ToJson() const {
           {"seconds", Finite(seconds)}};
 }
 
+std::string SweepLabel(const std::string& sweep) {
+  return sweep == "ladder" ? "ladder (irregular thirds)" : sweep + " stops";
+}
+
 std::string ToString(CoverageVerdict v) {
   static constexpr OptionWord<CoverageVerdict> kWords[] = {
       {CoverageVerdict::kMet, "met"},
@@ -175,7 +179,7 @@ void SummarizeCoverage(CoverageReport* rep) {
   for (const auto& r : rep->runs) {
     if (r.Missed() && !r.MissWarned()) {
       rep->unwarned_misses.push_back(
-          fmt::format("{} seed {} {} stops: {}", r.kind, r.seed, r.sweep, r.MissReason()));
+          fmt::format("{} seed {} {}: {}", r.kind, r.seed, SweepLabel(r.sweep), r.MissReason()));
     }
   }
 }

@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 #include <set>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -218,6 +220,38 @@ TEST(Coverage, EveryLaterSeedHasALensOfItsOwn) {
     EXPECT_LT(highest_corner, 0.95);
     // The lenses spread: over 40 seeds the corners span most of the range drawn.
     EXPECT_GT(highest_corner - lowest_corner, 0.25);
+  }
+}
+
+// The three sweeps over one range: 14 equal whole stops, 40 third stops and the 14 steps of
+// gonio photometric ladder (whole thirds, not all equal); a later seed shifts every time by one
+// factor, less than a step (a third for the ladder, whose steps are thirds).
+TEST(Coverage, TheSweepsAndTheirShifts) {
+  const synth::Scene session = CoverageSessionScene(AllCoverageKinds().at(0), CoveragePlan(), 1);
+  const auto steps_of = [](const std::vector<double>& t) {
+    std::vector<double> thirds;
+    for (size_t i = 1; i < t.size(); ++i) thirds.push_back(3 * std::log2(t[i] / t[i - 1]));
+    return thirds;
+  };
+  for (const std::string sweep : {"whole", "third", "ladder"}) {
+    const auto times = CoverageSweepScene(sweep, session, 1).views.exposures_s;
+    ASSERT_EQ(times.size(), sweep == "third" ? 40u : 14u) << sweep;
+    EXPECT_NEAR(times.front(), 0.0005, 1e-4) << sweep;
+    EXPECT_NEAR(std::log2(times.back() / times.front()), 13, sweep == "ladder" ? 0.34 : 1e-9);
+    std::set<long> distinct;
+    for (double t : steps_of(times)) {
+      EXPECT_NEAR(t, std::round(t), 1e-6) << sweep;
+      distinct.insert(std::lround(t));
+    }
+    EXPECT_EQ(distinct.size(), sweep == "ladder" ? 3u : 1u) << sweep;
+    const auto later = CoverageSweepScene(sweep, session, 7).views.exposures_s;
+    ASSERT_EQ(later.size(), times.size());
+    const double shift = std::log2(later[0] / times[0]);
+    EXPECT_GT(shift, 0) << sweep;
+    EXPECT_LT(shift, sweep == "whole" ? 1.0 : 1.0 / 3) << sweep;
+    for (size_t i = 0; i < times.size(); ++i) {
+      EXPECT_NEAR(std::log2(later[i] / times[i]), shift, 1e-9) << sweep << " " << i;
+    }
   }
 }
 
