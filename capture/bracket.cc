@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <numeric>
 #include <optional>
 #include <regex>
 #include <set>
@@ -42,6 +43,7 @@ std::optional<std::vector<double>> ParseLadder(const std::string& text, const st
   static const std::regex kRe(R"(\s*([^.:,][^,:]*?)\s*\.\.\s*([^,:]+?)\s*:\s*([0-9]+)\s*)");
   std::smatch m;
   if (!std::regex_match(text, m, kRe)) return std::nullopt;
+  if (m[3].length() > 4) throw InputError(what + ": '" + text + "' asks for too many frames");
   return IrregularLadder(ParseDuration(m[1], what), ParseDuration(m[2], what), std::stoi(m[3]),
                          what);
 }
@@ -57,12 +59,10 @@ constexpr const char* kSpeedNames[] = {
     "1.3",    "1.6",    "2",      "2.5",    "3.2",    "4",      "5",      "6",
     "8",      "10",     "13",     "15",     "20",     "25",     "30"};
 
-int Gcd(int a, int b) { return b == 0 ? a : Gcd(b, a % b); }
-
 // The largest factor common to every gap between consecutive positions.
 int GapGcd(const std::vector<int>& at) {
   int common = 0;
-  for (size_t j = 1; j < at.size(); ++j) common = Gcd(common, at[j] - at[j - 1]);
+  for (size_t j = 1; j < at.size(); ++j) common = std::gcd(common, at[j] - at[j - 1]);
   return common;
 }
 

@@ -18,7 +18,8 @@ std::vector<double> ParseExposureList(const std::string& text, const std::string
 // An exposure sweep of `frames` exposures for the response fit, on the third-stop lattice
 // 2^(k/3) s (the shutter speeds a camera offers in third stops, ShutterSpeedName), from
 // `shortest_s` to `longest_s` (each rounded to the lattice), its steps whole multiples of a
-// third of a stop but not all equal, and with no common factor larger than one third.
+// third of a stop but not all equal, and with no common factor larger than one third (all one
+// third when the range holds no more than frames - 1 thirds).
 //
 // Why: frames a ratio r apart tie only ln X(z') - ln X(z) = ln r, so an error of the inverse
 // response that is periodic in log2 X with a period dividing every step's passes every tie

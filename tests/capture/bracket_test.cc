@@ -88,7 +88,8 @@ TEST(IrregularLadder, TheRangeSyntaxAndItsErrors) {
   EXPECT_EQ(ParseExposureList("1/4000..4:14", "--exposures"),
             IrregularLadder(1.0 / 4000, 4.0, 14, "--exposures"));
   EXPECT_EQ(ParseExposureList("250us .. 4s : 14", "--exposures").size(), 14u);
-  for (const char* bad : {"1ms..2ms:14", "1ms..1s:2", "0..1s:5", "1s..1ms:5", "1ms..:5"}) {
+  for (const char* bad :
+       {"1ms..2ms:14", "1ms..1s:2", "0..1s:5", "1s..1ms:5", "1ms..:5", "1ms..1s:99999999999"}) {
     try {
       ParseExposureList(bad, "--exposures");
       FAIL() << bad;
