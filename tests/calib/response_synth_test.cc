@@ -195,6 +195,17 @@ TEST(ResponseSynthSweep, SixteenBitLinear) {
   EXPECT_LT(e.end_ratio, 8.0);
 }
 
+// The response `gonio photometric response` calibrates from `scene` rendered as a sweep, its bit
+// depth read from the sweep's session.json.
+ResponseResult ResponseOfRendered(const synth::Scene& scene) {
+  testing::TempDir dir;
+  synth::RenderBoardSession(scene, dir.path());
+  const ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
+  ResponseOptions o;
+  o.bit_depth = sweep.bit_depth;
+  return CalibrateResponse(sweep.frames, o);
+}
+
 // The smoothing sensitivity per band, read where a sample's values are: on the board scene's
 // few radiances a whole-stop sweep leaves the curve between them to the prior (the run warns
 // above kPriorHeldLimitAtValues), third stops over the same range pin it. Measured on the
@@ -210,12 +221,7 @@ TEST(ResponseSynthSweep, ThirdStopsPinTheCurveWhereWholeStopsLeaveItToThePrior) 
       scene.views.exposures_s.clear();
       for (int k = 0; k < 40; ++k) scene.views.exposures_s.push_back(0.0005 * std::exp2(k / 3.0));
     }
-    testing::TempDir dir;
-    synth::RenderBoardSession(scene, dir.path());
-    const ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
-    ResponseOptions o;
-    o.bit_depth = sweep.bit_depth;
-    const ResponseResult r = CalibrateResponse(sweep.frames, o);
+    const ResponseResult r = ResponseOfRendered(scene);
     ASSERT_EQ(r.smoothing_sensitivity_bands.size(), size_t{PairConsistency::kBands});
     moved[third] = PhotometricCalibration::SmoothingSensitivityAt(r, middle);
     std::cout << fmt::format(
@@ -244,12 +250,7 @@ TEST(ResponseSynthSweep, IrregularStepsPinTheCurveWithTheWholeStopsFrameCount) {
         scene.views.exposures_s = capture::IrregularLadder(
             scene.views.exposures_s.front(), scene.views.exposures_s.back(), 14, "test");
       }
-      testing::TempDir dir;
-      synth::RenderBoardSession(scene, dir.path());
-      const ExposureSweep sweep = LoadSweepFolder(dir.path().string(), "");
-      ResponseOptions o;
-      o.bit_depth = sweep.bit_depth;
-      const ResponseResult r = CalibrateResponse(sweep.frames, o);
+      const ResponseResult r = ResponseOfRendered(scene);
       const synth::PhotometricChain chain = chain_of(scene);
       const double range = chain.max_value() - cam.black_level;
       std::vector<double> middle, ln_ratio;
