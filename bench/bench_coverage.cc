@@ -202,8 +202,10 @@ synth::Scene CoverageSweepScene(const std::string& sweep, const synth::Scene& se
   if (sweep == "third") {
     s.views.exposures_s.clear();
     for (int k = 0; k < 40; ++k) s.views.exposures_s.push_back(0.0005 * std::exp2(k / 3.0));
-  } else if (sweep == "ladder") {
-    s.views.exposures_s = capture::IrregularLadder(0.0005, 4.096, 14, "coverage ladder");
+  } else if (sweep == "ladder") {  // as many frames as the preset's whole stops, over their range
+    const std::vector<double> whole = s.views.exposures_s;
+    s.views.exposures_s = capture::IrregularLadder(
+        whole.front(), whole.back(), static_cast<int>(whole.size()), "coverage ladder");
   }
   for (double& t : s.views.exposures_s) t *= std::exp2(shift);
   return s;

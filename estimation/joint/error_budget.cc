@@ -22,11 +22,11 @@ constexpr OptionWord<CalibrationErrorSource> kSourceWords[] = {
 
 // What narrows each part (none: the statistical one), as docs/capture-guide.md and
 // docs/photometric.md say; the response's by its sweep (PhotometricCalibration::SweepRemedy).
-std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part, double step_octaves) {
+std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part, double period_octaves) {
   if (!part) return "more frames, or frames from more directions";
   switch (*part) {
     case CalibrationErrorSource::kResponse:
-      return PhotometricCalibration::SweepRemedy(step_octaves);
+      return PhotometricCalibration::SweepRemedy(period_octaves);
     case CalibrationErrorSource::kVignetting:
       return "the board shown closer so its paper reaches the image corners, or a flat field";
     case CalibrationErrorSource::kPoses:
@@ -122,7 +122,7 @@ CalibrationErrorBudget BudgetCalibrationError(const ObservationSet& data, const 
                                               const CalibrationPropagation& joint,
                                               const CalibrationPropagationOptions& options) {
   CalibrationErrorBudget b;
-  b.response_step_octaves = error.response_prior_period_octaves;
+  b.response_period_octaves = error.response_prior_period_octaves;
   std::vector<std::optional<std::vector<double>>> parts;
   for (auto s : {CalibrationErrorSource::kResponse, CalibrationErrorSource::kVignetting,
                  CalibrationErrorSource::kPoses}) {
@@ -178,7 +178,7 @@ std::string CalibrationErrorBudget::Report() const {
   }
   for (const auto& [part, quantities] : largest) {
     s += fmt::format("  the {} part is the largest of {}: narrowed by {}\n", PartName(part),
-                     quantities, NarrowedBy(part, response_step_octaves));
+                     quantities, NarrowedBy(part, response_period_octaves));
   }
   for (const auto& n : notes) s += "  not measured: " + n + "\n";
   return s;

@@ -62,7 +62,7 @@ struct CalibrationErrorBudget {
   // response_prior_period_octaves, its step when the steps are equal; 0: not known): a sweep
   // already in third stops is not told to shoot third stops (PhotometricCalibration::
   // SweepRemedy).
-  double response_step_octaves = 0;
+  double response_period_octaves = 0;
   std::string Report() const;     // a table, then what narrows the largest parts
   nlohmann::json ToJson() const;  // docs/formats.md, fit.json `error_budget`
 };

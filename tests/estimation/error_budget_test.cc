@@ -105,13 +105,13 @@ TEST(ErrorBudget, OneSourceIsTheWholeCalibrationPart) {
   // sweep already steps in third stops.
   EXPECT_NE(b.budget.Report().find("a sweep in third stops"), std::string::npos);
   CalibrationErrorBudget third = b.budget;
-  third.response_step_octaves = 1.0 / 3;
+  third.response_period_octaves = 1.0 / 3;
   EXPECT_EQ(third.Report().find("a sweep in third stops"), std::string::npos);
   EXPECT_NE(third.Report().find("RAW frames (the sweep already steps 0.33 stops)"),
             std::string::npos)
       << third.Report();
   CalibrationErrorBudget whole = b.budget;
-  whole.response_step_octaves = 1.0;
+  whole.response_period_octaves = 1.0;
   EXPECT_NE(whole.Report().find("gonio photometric ladder"), std::string::npos) << whole.Report();
   const nlohmann::json j = b.budget.ToJson();
   EXPECT_EQ(j["sources"], nlohmann::json::array({"response"}));
