@@ -91,21 +91,6 @@ struct PhotometricCalibration {
   // shows as s/3 per pair). What gonio run's calibration-error propagation draws.
   static double ResponseSlopeErrorAt(const ResponseResult& response,
                                      const std::vector<double>& values);
-  // The sweep's exposure step in octaves: the median log2 ratio of neighbouring used frames'
-  // times (1 without frames: a whole stop). What a ratio check ties, and what it leaves free:
-  // any error periodic in log2 of the exposure with this period.
-  static double ExposureStepOctaves(const ResponseResult& response);
-  // The period an error of the inverse response can have and still pass every tie: the
-  // largest p, among the median step / k for k = 1..6, that every step is a whole multiple of
-  // (within 0.03 octave). Equal whole stops leave one octave, third stops or steps of 2-5
-  // thirds one third (capture::IrregularLadder, docs/photometric.md "Irregular steps"); steps
-  // with no such period give the median step (no periodic error is free then, and the
-  // smoothing sensitivity's bands, which scale its draws, are small). 1 without frames.
-  static double ExposurePeriodOctaves(const ResponseResult& response);
-  // What narrows the response's prior-held error, for a sweep whose steps leave
-  // `period_octaves` free (0: not known): third stops or steps that are not all equal when
-  // that is coarser than a third, else a scene with more radiance levels or RAW.
-  static std::string SweepRemedy(double period_octaves);
   // The response's error between the values the sweep holds: its smoothing sensitivity (0 when
   // not measured). Wiggles over a fraction of an octave: to a fit they are noise from one
   // radiance to the next, so they enter the noise floor, not the smooth error modes.

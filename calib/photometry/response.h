@@ -121,9 +121,10 @@ struct PairConsistency {
 // holds up between data.
 constexpr double kSmoothingSensitivityFactor = 4.0;
 
-// Above this smoothing sensitivity (its worst band) the response report says more exposures
-// would pin the curve (docs/photometric.md "Smoothing sensitivity"). The worst band is mostly
-// the dark end's, which third-stop sweeps also reach (0.13-1.0 % on the coverage bench).
+// Above this smoothing sensitivity (its worst band) the response report names what would pin
+// the curve, by the sweep's steps (SweepRemedy; docs/photometric.md "Smoothing sensitivity"). The
+// worst band is mostly the dark end's, which third-stop sweeps also reach (0.13-1.0 % on the
+// coverage bench).
 constexpr double kSmoothingSensitivityLimit = 0.01;
 
 // Above this smoothing sensitivity where a sample's raw values are (PhotometricCalibration::
@@ -210,6 +211,22 @@ struct ResponseResult {
   // InputError naming `source` on a malformed file.
   static ResponseResult FromJson(const nlohmann::json& j, const std::string& source);
 };
+
+// The sweep's exposure step in octaves: the median log2 ratio of neighbouring used frames'
+// times (1 without frames: a whole stop). What a ratio check ties, and what it leaves free:
+// any error periodic in log2 of the exposure with this period.
+double ExposureStepOctaves(const ResponseResult& response);
+// The period an error of the inverse response can have and still pass every tie: the
+// largest p, among the median step / k for k = 1..6, that every step is a whole multiple of
+// (within 0.03 octave). Equal whole stops leave one octave, third stops or steps of 2-5
+// thirds one third (capture::IrregularLadder, docs/photometric.md "Irregular steps"); steps
+// with no such period give the median step (no periodic error is free then, and the
+// smoothing sensitivity's bands, which scale its draws, are small). 1 without frames.
+double ExposurePeriodOctaves(const ResponseResult& response);
+// What narrows the response's prior-held error, for a sweep whose steps leave
+// `period_octaves` free (0: not known): third stops or steps that are not all equal when
+// that is coarser than a third, else a scene with more radiance levels or RAW.
+std::string SweepRemedy(double period_octaves);
 
 // Frames from a folder and a list file ("file exposure_s [...]" per line, '#' comments), as in
 // hdr_sweep/desktop/image_list.txt. InputError naming the file on unreadable images, mismatched

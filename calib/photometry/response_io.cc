@@ -240,7 +240,7 @@ std::string ResponseResult::Report() const {
         "band: its error between the values the sweep holds){}\n",
         100 * smoothing_sensitivity,
         smoothing_sensitivity > kSmoothingSensitivityLimit
-            ? "; more exposures (third stops) would pin it"
+            ? "; narrowed by " + SweepRemedy(ExposurePeriodOctaves(*this))
             : "");
   }
   for (const auto& e : ends) {
@@ -360,8 +360,8 @@ std::vector<ResponseEnd> EndsFromJson(const nlohmann::json& j, int channels,
 }
 
 // The sweep's frames as ToJson writes them. Read back because what the sweep's exposure step
-// leaves to the smoothing prior repeats with that step (PhotometricCalibration::
-// ExposureStepOctaves, estimation/joint/calibration_error.h): until 2026-12-04 they were
+// leaves to the smoothing prior repeats with that step (ExposureStepOctaves,
+// estimation/joint/calibration_error.h): until 2026-12-04 they were
 // dropped here, so every response read from a file had a step of one octave and a third-stop
 // sweep's prior-held error was drawn three times too long.
 std::vector<FrameExposureReport> FramesFromJson(const nlohmann::json& j,

@@ -183,4 +183,57 @@ void ReportFrames(const std::vector<ChannelFit>& fits, const std::vector<bool>& 
   }
 }
 
+namespace {
+
+// log2 of the ratio of neighbouring used frames' times, equal times left out (they say nothing
+// about the response; MeasurePairConsistency skips them too).
+std::vector<double> ExposureSteps(const ResponseResult& response) {
+  std::vector<double> times;
+  for (const auto& f : response.frames) {
+    if (f.used && f.estimated_s > 0) times.push_back(f.estimated_s);
+  }
+  std::sort(times.begin(), times.end());
+  std::vector<double> octaves;
+  for (size_t k = 1; k < times.size(); ++k) {
+    if (times[k] / times[k - 1] > 1.01) octaves.push_back(std::log2(times[k] / times[k - 1]));
+  }
+  return octaves;
+}
+
+}  // namespace
+
+double ExposureStepOctaves(const ResponseResult& response) {
+  const std::vector<double> octaves = ExposureSteps(response);
+  return octaves.empty() ? 1.0 : Median(octaves);
+}
+
+double ExposurePeriodOctaves(const ResponseResult& response) {
+  const std::vector<double> octaves = ExposureSteps(response);
+  if (octaves.empty()) return 1.0;
+  const double median = Median(octaves);
+  constexpr double kTolerance = 0.03;  // octaves; a camera's shutter holds its steps closer
+  for (int k = 1; k <= 6; ++k) {
+    const double period = median / k;
+    if (std::all_of(octaves.begin(), octaves.end(), [&](double o) {
+          const double multiple = std::max(1.0, std::round(o / period));
+          return std::abs(o - multiple * period) <= kTolerance;
+        })) {
+      return period;
+    }
+  }
+  return median;
+}
+
+std::string SweepRemedy(double period_octaves) {
+  // Irregular steps of whole thirds keep a period of a third, as third stops do.
+  if (period_octaves > 0 && period_octaves < 0.4) {
+    return fmt::format(
+        "a scene with more radiance levels, or RAW frames (the sweep already steps {:.2f} stops)",
+        period_octaves);
+  }
+  return "a sweep in third stops or with steps that are not all equal (gonio photometric "
+         "ladder: 14 frames in steps of 2-5 thirds), a scene with more radiance levels, or RAW "
+         "frames";
+}
+
 }  // namespace gonio

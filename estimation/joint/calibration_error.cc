@@ -526,7 +526,7 @@ std::optional<CalibrationErrorModel> CalibrationErrorModelAt(
     e.response_band_lo = c.range_lo;
     e.response_band_width = (c.range_hi - c.range_lo) / bands.size();
     e.response_prior_inverse = response.inverse_response;
-    e.response_prior_period_octaves = PhotometricCalibration::ExposurePeriodOctaves(response);
+    e.response_prior_period_octaves = ExposurePeriodOctaves(response);
   }
   // The rest of relative_accuracy is the vignetting's: less the response's worst band (its part
   // of relative_accuracy) and its wiggles between the sweep's values (SmoothingError), which

@@ -104,7 +104,7 @@ struct CalibrationErrorModel {
   // relative error s(z) (ResponseResult::smoothing_sensitivity_bands, bands
   // `response_band_width` raw values wide from `response_band_lo`, the band z falls in) times a
   // random function periodic in log2 X(z) with period `response_prior_period_octaves` (the
-  // period the sweep's steps leave free, PhotometricCalibration::ExposurePeriodOctaves: its
+  // period the sweep's steps leave free, ExposurePeriodOctaves (calib/photometry/response.h): its
   // step when they are equal), of variance 1, where X is the inverse response: per channel its
   // table by raw value `response_prior_inverse` (ResponseResult::inverse_response). Empty: none.
   std::vector<double> response_prior_bands;

@@ -21,12 +21,12 @@ constexpr OptionWord<CalibrationErrorSource> kSourceWords[] = {
     {CalibrationErrorSource::kPoses, "poses"}};
 
 // What narrows each part (none: the statistical one), as docs/capture-guide.md and
-// docs/photometric.md say; the response's by its sweep (PhotometricCalibration::SweepRemedy).
+// docs/photometric.md say; the response's by its sweep (SweepRemedy, calib/photometry/response.h).
 std::string NarrowedBy(const std::optional<CalibrationErrorSource>& part, double period_octaves) {
   if (!part) return "more frames, or frames from more directions";
   switch (*part) {
     case CalibrationErrorSource::kResponse:
-      return PhotometricCalibration::SweepRemedy(period_octaves);
+      return SweepRemedy(period_octaves);
     case CalibrationErrorSource::kVignetting:
       return "the board shown closer so its paper reaches the image corners, or a flat field";
     case CalibrationErrorSource::kPoses:

@@ -60,8 +60,8 @@ struct CalibrationErrorBudget {
   std::vector<std::string> notes;    // a source whose refits did not converge
   // The period in octaves the response's sweep leaves free (CalibrationErrorModel::
   // response_prior_period_octaves, its step when the steps are equal; 0: not known): a sweep
-  // already in third stops is not told to shoot third stops (PhotometricCalibration::
-  // SweepRemedy).
+  // already in third stops is not told to shoot third stops (SweepRemedy,
+  // calib/photometry/response.h).
   double response_period_octaves = 0;
   std::string Report() const;     // a table, then what narrows the largest parts
   nlohmann::json ToJson() const;  // docs/formats.md, fit.json `error_budget`

@@ -260,7 +260,7 @@ TEST(ResponseJson, TheExposureStepSurvivesTheFile) {
   const auto sweep = MakeSweep(8, 0.0, 7);
   ResponseResult r = CalibrateResponse(sweep.frames, {});
   ASSERT_EQ(r.frames.size(), 7u);
-  EXPECT_NEAR(PhotometricCalibration::ExposureStepOctaves(r), 1.0, 0.02);
+  EXPECT_NEAR(ExposureStepOctaves(r), 1.0, 0.02);
   for (size_t j = 0; j < r.frames.size(); ++j) r.frames[j].estimated_s = std::exp2(j / 3.0);
   r.frames[2].used = false;  // a frame left out does not count
   const auto back = ResponseResult::FromJson(r.ToJson(), "r.json");
@@ -269,7 +269,7 @@ TEST(ResponseJson, TheExposureStepSurvivesTheFile) {
   EXPECT_EQ(back.rms_log_residual, r.rms_log_residual);
   EXPECT_EQ(back.regional_mapping_difference, r.regional_mapping_difference);
   EXPECT_FALSE(back.frames[2].used);
-  EXPECT_NEAR(PhotometricCalibration::ExposureStepOctaves(back), 1.0 / 3, 1e-9);
+  EXPECT_NEAR(ExposureStepOctaves(back), 1.0 / 3, 1e-9);
 }
 
 // The period a sweep leaves free is the largest its steps are all whole multiples of: equal
@@ -285,18 +285,36 @@ TEST(ResponseJson, ThePeriodTheStepsLeaveFree) {
       r.frames[j].used = true;
       r.frames[j].estimated_s = std::exp2(log2_times[j]);
     }
-    return PhotometricCalibration::ExposurePeriodOctaves(r);
+    return ExposurePeriodOctaves(r);
   };
   EXPECT_NEAR(period_of({0, 1, 2, 3, 4, 5, 6}), 1.0, 1e-9);
   EXPECT_NEAR(period_of({0, 1, 3, 4, 5, 6}), 1.0, 1e-9);
   EXPECT_NEAR(period_of({0, 1 / 3., 2 / 3., 1, 4 / 3., 5 / 3.}), 1 / 3., 1e-9);
   EXPECT_NEAR(period_of({0, 1, 7 / 3., 10 / 3., 4, 16 / 3., 6}), 1 / 3., 1e-9);
   EXPECT_NEAR(period_of({0, 0.91, 2.07, 2.84, 4.13, 5.02}), 0.91, 1e-9);
-  EXPECT_EQ(PhotometricCalibration::SweepRemedy(1.0).find("already"), std::string::npos);
-  EXPECT_NE(PhotometricCalibration::SweepRemedy(1.0).find("gonio photometric ladder"),
-            std::string::npos);
-  EXPECT_NE(PhotometricCalibration::SweepRemedy(1 / 3.).find("already steps 0.33"),
-            std::string::npos);
+  EXPECT_EQ(SweepRemedy(1.0).find("already"), std::string::npos);
+  EXPECT_NE(SweepRemedy(1.0).find("gonio photometric ladder"), std::string::npos);
+  EXPECT_NE(SweepRemedy(1 / 3.).find("already steps 0.33"), std::string::npos);
+}
+
+// The response's own report names the same remedy as gonio run's warning when the prior holds
+// the curve up, by the sweep's steps, and none when it does not.
+TEST(ResponseJson, TheReportNamesTheRemedyTheStepsCall) {
+  const auto sweep = MakeSweep(8, 0.0, 7);
+  ResponseResult r = CalibrateResponse(sweep.frames, {});
+  ASSERT_EQ(r.frames.size(), 7u);
+  r.smoothing_sensitivity = 2 * kSmoothingSensitivityLimit;
+  const std::string whole_stops = r.Report();
+  EXPECT_NE(whole_stops.find("narrowed by a sweep in third stops"), std::string::npos)
+      << whole_stops;
+  EXPECT_NE(whole_stops.find("gonio photometric ladder"), std::string::npos);
+  for (size_t j = 0; j < r.frames.size(); ++j) r.frames[j].estimated_s = std::exp2(j / 3.0);
+  const std::string third_stops = r.Report();
+  EXPECT_NE(third_stops.find("narrowed by a scene with more radiance levels"), std::string::npos)
+      << third_stops;
+  EXPECT_NE(third_stops.find("already steps 0.33"), std::string::npos);
+  r.smoothing_sensitivity = kSmoothingSensitivityLimit / 2;
+  EXPECT_EQ(r.Report().find("narrowed by"), std::string::npos);
 }
 
 // Noise-free frames of a horizontal radiance ramp (one value per column, 1..top/2 per unit
