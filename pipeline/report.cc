@@ -1,6 +1,7 @@
 #include "pipeline/report.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -455,7 +456,11 @@ void WriteReport(const JointSelectionResult& fit, const ObservationSet& data, co
   h << "</p>";
   h << ParameterTable(f, warnings, bars) << ErrorBarNote(f, bars);
   if (bars.budget) h << BudgetTable(*bars.budget);
-  if (!f.absolute) h << "<p>No white reference: albedo-like values are relative (x intensity).</p>";
+  if (!f.absolute) {
+    std::string note = f.RelativeNote();
+    note[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(note[0])));
+    h << "<p>" << Escape(note) << ".</p>";
+  }
   h << ModelComparisonTable(fit);
   h << "<p>Residual image per frame (tile = frame, blue: model darker, red: model brighter than "
        "measured, full scale +-10%):</p>";

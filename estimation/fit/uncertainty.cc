@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/SVD>
 
@@ -16,6 +17,8 @@ void UncertaintyOptions::Check() const {
     throw InputError("uncertainty: undetermined_fraction must be a positive number");
   if (!(null_loading > 0 && null_loading <= 1))
     throw InputError("uncertainty: null_loading must be in (0, 1]");
+  if (!(null_excursion_sd > 0 && std::isfinite(null_excursion_sd)))
+    throw InputError("uncertainty: null_excursion_sd must be a positive number");
   if (!(min_residual_variance >= 0 && std::isfinite(min_residual_variance)))
     throw InputError("uncertainty: min_residual_variance must be >= 0");
 }
@@ -61,12 +64,27 @@ UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
   cov_scaled *= out.residual_variance;
   out.covariance = range.asDiagonal() * cov_scaled * range.asDiagonal();
 
+  // How far each unseen direction reaches, in its own (unit) length: until the parameter with
+  // a range that loads on it most has crossed the whole range. Infinite when none with a range
+  // loads on it (then only null_loading judges).
+  std::vector<double> reach(p, std::numeric_limits<double>::infinity());
+  for (int j = rank; j < p; ++j) {
+    for (int k = 0; k < p; ++k) {
+      if (check_fraction[k] && std::abs(V(k, j)) > 0) {
+        reach[j] = std::min(reach[j], 1.0 / std::abs(V(k, j)));
+      }
+    }
+  }
   for (int k = 0; k < p; ++k) {
+    const double sd = std::sqrt(std::max(0.0, out.covariance(k, k)));
     bool unseen = false;
     for (int j = rank; j < p; ++j) {
-      if (std::abs(V(k, j)) > options.null_loading) unseen = true;
+      const double excursion = std::abs(V(k, j)) * reach[j] * range[k];  // own units
+      if (std::abs(V(k, j)) > options.null_loading ||
+          (std::isfinite(reach[j]) && excursion > options.null_excursion_sd * sd)) {
+        unseen = true;
+      }
     }
-    const double sd = std::sqrt(std::max(0.0, out.covariance(k, k)));
     const bool too_wide = check_fraction[k] && sd > options.undetermined_fraction * range[k];
     out.undetermined[k] = unseen || too_wide || !std::isfinite(sd);
     if (!out.undetermined[k]) out.stddev[k] = sd;

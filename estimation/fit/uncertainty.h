@@ -19,6 +19,13 @@ struct UncertaintyOptions {
   double undetermined_fraction = 0.25;
   // A parameter loading with |v| above this on an unseen direction is undetermined.
   double null_loading = 0.3;
+  // An unseen direction leaves the parameters free along it, as far as the data can tell, until
+  // a parameter with a range (check_fraction) crosses its whole range. A parameter that moves
+  // along it by more than this many of its own standard deviations is undetermined too: its
+  // value is wherever the solver stopped on that direction, and its bar, which leaves the
+  // direction out, would not hold it (the pitted models' coverage without a white reference
+  // moves with the albedo through the pits' interreflection, docs/pipeline.md).
+  double null_excursion_sd = 1.0;
   // Lower bound of the residual variance that scales the covariance. 0 for residuals in
   // arbitrary units (table fits); 1 where residuals are already divided by their noise model
   // (the joint fit): a fit cannot be more certain than its noise model says, so data that happen
@@ -36,7 +43,8 @@ struct UncertaintyResult {
 };
 
 // jacobian: n x p of the weighted residuals; ranges: natural scale of each parameter (its
-// registry range, or |value| for free scales) used only for conditioning; weighted_ssr: sum of
+// registry range, or |value| for free scales) used for conditioning and for how far an unseen
+// direction reaches (UncertaintyOptions::null_excursion_sd); weighted_ssr: sum of
 // squared weighted residuals. check_fraction[k] false exempts a parameter from the
 // stddev-vs-range test (free scales have no range).
 UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,

@@ -183,6 +183,11 @@ struct JointFitResult {
 
   nlohmann::json ToJson() const;
   nlohmann::json AmbientJson() const;  // fit.json "ambient" (docs/formats.md)
+  // Without a white reference (!absolute), what the reports say: albedo-like values are
+  // relative, and a shared parameter left undetermined with them moves with them (the pitted
+  // models' coverage, through the pits' interreflection: estimation/fit/uncertainty.h
+  // null_excursion_sd), which a white reference of known albedo fixes. "" with one.
+  std::string RelativeNote() const;
 };
 
 struct JointSelectionResult {

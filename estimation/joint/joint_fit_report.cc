@@ -1,4 +1,5 @@
 // JSON and text reports of the joint fit (fit.json extends fit-table's layout).
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -11,6 +12,23 @@ namespace gonio {
 namespace {
 nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 }  // namespace
+
+std::string JointFitResult::RelativeNote() const {
+  if (absolute) return "";
+  std::string moved;
+  for (const auto& name : material.undetermined) {
+    const auto& pc = per_channel_param_names;
+    if (std::find(pc.begin(), pc.end(), name) != pc.end()) continue;
+    moved += (moved.empty() ? "" : ", ") + name;
+  }
+  std::string note = "no white reference: albedo-like values are relative (x intensity)";
+  if (!moved.empty()) {
+    note += "; " + moved +
+            " moves with them, so it is undetermined too: the board's white reference with "
+            "--white-albedo fixes both";
+  }
+  return note;
+}
 
 nlohmann::json JointFitResult::ToJson() const {
   nlohmann::json j = gonio::ToJson(material);
@@ -153,6 +171,7 @@ std::string JointSelectionResult::Report() const {
   }
   s << fmt::format("; intensity {:.5g}{}\n", f.intensity,
                    f.absolute ? "" : " (relative: no white reference)");
+  if (!f.RelativeNote().empty()) s << f.RelativeNote() << "\n";
   s << AmbientReport(f);
   if (f.sample_height_offset) {
     s << fmt::format("sample height: {:+.2f} mm {} from board.json's (fitted)\n",

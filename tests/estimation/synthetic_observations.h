@@ -28,11 +28,13 @@ inline Eigen::Vector3d RingCamera(int f, int views) {
                                                 std::sin(polar) * std::sin(az), -std::cos(polar));
 }
 
-// Oren-Nayar (sigma 30 deg, albedo 0.6 / 0.5 / 0.4 per channel) seen from `views` cameras on
-// rings around the sample, relative noise `noise`; the three left columns of each frame are white
-// reference (albedo 0.8) when `with_white`.
-inline ObservationSet Synthesize(int views, int channels, bool with_white, double noise = 0.01) {
-  const double albedo[3] = {0.6, 0.5, 0.4}, sigma = DegToRad(30), white = 0.8;
+// Observations seen from `views` cameras on rings around the sample, relative noise `noise`;
+// the sample's BRDF is sample_brdf(channel, angles); the three left columns of each frame are
+// white reference (albedo 0.8) when `with_white`.
+template <typename SampleBrdf>
+ObservationSet SynthesizeWith(int views, int channels, bool with_white, double noise,
+                              SampleBrdf sample_brdf) {
+  const double white = 0.8;
   std::mt19937 rng(5);
   std::normal_distribution<double> gauss(0, 1);
   ObservationSet set;
@@ -56,9 +58,8 @@ inline ObservationSet Synthesize(int views, int channels, bool with_white, doubl
         const double ls[3] = {l.x(), -l.y(), -l.z()}, vs[3] = {v.x(), -v.y(), -v.z()};
         const double e = ls[2] / std::pow(l.norm(), 3);
         for (int c = 0; c < channels; ++c) {
-          const double params[2] = {albedo[c], sigma};
           const double f_r =
-              o.white ? white * kInvPi : OrenNayar::Evaluate(params, AnglesFromDirections(ls, vs));
+              o.white ? white * kInvPi : sample_brdf(c, AnglesFromDirections(ls, vs));
           const double radiance = f_r * e;
           o.radiance.push_back(radiance * (1 + noise * gauss(rng)));
           o.variance.push_back(std::pow(noise * radiance, 2));
@@ -69,6 +70,15 @@ inline ObservationSet Synthesize(int views, int channels, bool with_white, doubl
     }
   }
   return set;
+}
+
+// Oren-Nayar (sigma 30 deg, albedo 0.6 / 0.5 / 0.4 per channel), as SynthesizeWith.
+inline ObservationSet Synthesize(int views, int channels, bool with_white, double noise = 0.01) {
+  return SynthesizeWith(views, channels, with_white, noise, [](int c, const Angles<double>& a) {
+    const double albedo[3] = {0.6, 0.5, 0.4};
+    const double params[2] = {albedo[c], DegToRad(30)};
+    return OrenNayar::Evaluate(params, a);
+  });
 }
 
 }  // namespace gonio::testing_obs

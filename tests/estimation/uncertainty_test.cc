@@ -1,6 +1,7 @@
 #include "estimation/fit/uncertainty.h"
 
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <Eigen/LU>
@@ -46,6 +47,44 @@ TEST(Uncertainty, WideStddevRelativeToRangeIsUndetermined) {
   EXPECT_FALSE(v.undetermined[0]);  // exempt (a free scale has no range)
 }
 
+// A parameter that loads only a little on an unseen direction can still move along it by far
+// more than its bar: here the direction is (a, I, c) = (1, 1, 0.2) (c loads 0.14, under
+// null_loading), and as a crosses its range c moves 0.2 while its bar is about 0.002. Like the
+// pitted models' coverage, which follows the albedo through the pits' interreflection when no
+// white reference fixes the albedo, it is undetermined. A parameter that does not load on it,
+// and the free scale I with no range to reach across, keep their judgement.
+TEST(Uncertainty, AParameterThatMovesAlongAnUnseenDirectionIsUndetermined) {
+  const int n = 40;
+  Eigen::MatrixXd J(n, 4);
+  for (int i = 0; i < n; ++i) {
+    const double x = i / (n - 1.0);
+    const double a = 1 + x, c = std::cos(3 * x), d = x * x;
+    J.row(i) << 10 * a, -10 * (a + 0.2 * c), 10 * c, 10 * d;
+  }
+  const std::vector<double> ranges = {1, 1, 1, 1};
+  const std::vector<bool> bounded = {true, false, true, true};
+  const UncertaintyResult u = AnalyzeUncertainty(J, ranges, 0.01 * n, bounded, {});
+  EXPECT_EQ(u.rank, 3);
+  EXPECT_TRUE(u.undetermined[0]);  // a and I load heavily (null_loading)
+  EXPECT_TRUE(u.undetermined[1]);
+  EXPECT_TRUE(u.undetermined[2]) << "c moves 0.2 along the unseen direction";
+  EXPECT_FALSE(u.undetermined[3]);
+  ASSERT_TRUE(u.stddev[3].has_value());
+  // Without the excursion rule c would get a bar far below what the direction moves it.
+  UncertaintyOptions loading_only;
+  loading_only.null_excursion_sd = 1e9;
+  const UncertaintyResult old = AnalyzeUncertainty(J, ranges, 0.01 * n, bounded, loading_only);
+  ASSERT_FALSE(old.undetermined[2]);
+  EXPECT_LT(*old.stddev[2], 0.02);
+  // An exact scale degeneracy (c not on it) leaves c its bar.
+  Eigen::MatrixXd K = J;
+  K.col(1) = -K.col(0);
+  const UncertaintyResult scale = AnalyzeUncertainty(K, ranges, 0.01 * n, bounded, {});
+  EXPECT_TRUE(scale.undetermined[0] && scale.undetermined[1]);
+  EXPECT_FALSE(scale.undetermined[2]);
+  EXPECT_FALSE(scale.undetermined[3]);
+}
+
 TEST(Uncertainty, OptionsOutOfRangeAreInputErrors) {
   const Eigen::MatrixXd j = Eigen::MatrixXd::Identity(3, 2);
   UncertaintyOptions bad;
@@ -53,6 +92,9 @@ TEST(Uncertainty, OptionsOutOfRangeAreInputErrors) {
   EXPECT_THROW(AnalyzeUncertainty(j, {1, 1}, 1.0, {false, false}, bad), InputError);
   bad = {};
   bad.null_loading = 1.5;
+  EXPECT_THROW(bad.Check(), InputError);
+  bad = {};
+  bad.null_excursion_sd = 0;
   EXPECT_THROW(bad.Check(), InputError);
   bad = {};
   bad.min_residual_variance = std::nan("");
