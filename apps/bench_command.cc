@@ -28,6 +28,7 @@ struct BenchArgs {
   int threads = 0;
   int seeds = 0, first_seed = 1;           // --coverage: 0 seeds = the size's default
   bool by_parts = false;                   // --coverage: each run's error by source
+  bool no_white_albedo = false;            // --coverage: runs without --white-albedo
   std::vector<std::string> kinds, sweeps;  // --coverage: empty = the size's default
 };
 
@@ -117,6 +118,7 @@ void RunBench(const BenchArgs& args) {
     if (args.seeds > 0) plan.seeds = args.seeds;
     plan.first_seed = args.first_seed;
     plan.by_parts = args.by_parts;
+    plan.white_albedo = !args.no_white_albedo;
     if (!args.kinds.empty()) plan.kinds = bench::CoverageKindsNamed(args.kinds);
     if (!args.sweeps.empty()) plan.sweeps = args.sweeps;
     RunInWorkFolder(
@@ -193,6 +195,9 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_flag("--by-parts", args->by_parts,
                 "--coverage: also each run's error by source (response, vignetting, the rest) "
                 "against the error budget's draws of it; two more runs per run (docs/bench.md)");
+  cmd->add_flag("--no-white-albedo", args->no_white_albedo,
+                "--coverage: run gonio run without --white-albedo, as a user who does not know the "
+                "white reference's albedo: albedo-like values are relative and not judged");
   cmd->add_option(
          "--sweeps", args->sweeps,
          "--coverage: only these sweeps (third, whole, ladder: 14 irregular third-stop steps)")

@@ -273,7 +273,8 @@ struct SharedChain {
   bool flat_field = false;  // the vignetting from a flat field: no poses to locate
   synth::Scene scene;
   double white_albedo = 0;
-  bool by_parts = false;  // CoveragePlan::by_parts
+  bool by_parts = false;          // CoveragePlan::by_parts
+  bool give_white_albedo = true;  // CoveragePlan::white_albedo
 };
 
 // Renders the session (and a flat field for a lamp on the camera); StepFailed when a step fails.
@@ -340,10 +341,11 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
                                    camera.string(),
                                    "--photometric",
                                    (sc / "photometric.json").string(),
-                                   "--white-albedo",
-                                   fmt::format("{}", s.white_albedo),
                                    "--out",
                                    out.string()};
+  if (s.give_white_albedo) {
+    args.insert(args.end(), {"--white-albedo", fmt::format("{}", s.white_albedo)});
+  }
   if (kind.flash) args.insert(args.end(), {"--lamp-frame", "camera"});
   std::vector<std::string> user_args = args;
   if (s.by_parts) user_args.push_back("--error-budget");
@@ -386,6 +388,7 @@ std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePla
   try {
     shared = RunSharedSteps(kind, plan, seed, dir, &chain);
     shared.by_parts = plan.by_parts;
+    shared.give_white_albedo = plan.white_albedo;
   } catch (const StepFailed& e) {
     for (auto& r : runs) r.failed = e.what();
     return runs;

@@ -50,6 +50,10 @@ struct CoveragePlan {
   // `--by-parts`: each run's error split by source and set against the error budget's draws
   // (CoveragePart); two more runs and a vignetting per run.
   bool by_parts = false;
+  // `--no-white-albedo`: gonio run without --white-albedo, as a user who does not know the white
+  // reference's albedo runs it: albedo-like values are then relative and undetermined (no z), and
+  // what moves with them must be too (docs/pipeline.md).
+  bool white_albedo = true;
 };
 CoveragePlan CoveragePlanFor(const BenchOptions& options);
 

@@ -235,6 +235,7 @@ json CoverageReport::ToJson() const {
           {"seeds", plan.seeds},
           {"first_seed", plan.first_seed},
           {"sweeps", plan.sweeps},
+          {"white_albedo_given", plan.white_albedo},
           {"image", {plan.width, plan.height}},
           {"targets",
            {{"rms_z", {t.min_rms_z, t.max_rms_z}},
