@@ -34,6 +34,7 @@ UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
   out.covariance = Eigen::MatrixXd::Zero(p, p);
   out.stddev.assign(p, std::nullopt);
   out.undetermined.assign(p, false);
+  out.moves_with.assign(p, -1);
   if (p == 0) return out;
 
   Eigen::VectorXd range(p);
@@ -68,10 +69,12 @@ UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
   // a range that loads on it most has crossed the whole range. Infinite when none with a range
   // loads on it (then only null_loading judges).
   std::vector<double> reach(p, std::numeric_limits<double>::infinity());
+  std::vector<int> bound_by(p, -1);
   for (int j = rank; j < p; ++j) {
     for (int k = 0; k < p; ++k) {
-      if (check_fraction[k] && std::abs(V(k, j)) > 0) {
-        reach[j] = std::min(reach[j], 1.0 / std::abs(V(k, j)));
+      if (check_fraction[k] && std::abs(V(k, j)) > 0 && 1.0 / std::abs(V(k, j)) < reach[j]) {
+        reach[j] = 1.0 / std::abs(V(k, j));
+        bound_by[j] = k;
       }
     }
   }
@@ -80,9 +83,11 @@ UncertaintyResult AnalyzeUncertainty(const Eigen::MatrixXd& jacobian,
     bool unseen = false;
     for (int j = rank; j < p; ++j) {
       const double excursion = std::abs(V(k, j)) * reach[j] * range[k];  // own units
-      if (std::abs(V(k, j)) > options.null_loading ||
-          (std::isfinite(reach[j]) && excursion > options.null_excursion_sd * sd)) {
+      if (std::abs(V(k, j)) > options.null_loading) {
         unseen = true;
+      } else if (std::isfinite(reach[j]) && excursion > options.null_excursion_sd * sd) {
+        unseen = true;
+        out.moves_with[k] = bound_by[j];
       }
     }
     const bool too_wide = check_fraction[k] && sd > options.undetermined_fraction * range[k];

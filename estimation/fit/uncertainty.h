@@ -38,6 +38,9 @@ struct UncertaintyResult {
   Eigen::MatrixXd covariance;  // in the parameters' own units
   std::vector<std::optional<double>> stddev;
   std::vector<bool> undetermined;
+  // Per parameter undetermined by null_excursion_sd: the parameter with a range that bounds
+  // the unseen direction it moves along (the one it moves with); -1 otherwise.
+  std::vector<int> moves_with;
   int rank = 0;
   double residual_variance = 0;  // weighted SSR / (n - rank)
 };

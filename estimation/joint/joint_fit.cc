@@ -248,6 +248,12 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
   m.stddev.assign(num_params, std::nullopt);
   Eigen::Vector3d lamp_sd;
   bool lamp_ok = true;
+  // Whether column k is the intensity or an albedo-like parameter (what a white reference fixes).
+  const auto scale_column = [&](int k) {
+    return k >= 0 && (cols[k].block == &s.intensity ||
+                      std::any_of(s.chan.begin(), s.chan.end(),
+                                  [&](const auto& ch) { return cols[k].block == ch.data(); }));
+  };
   for (size_t j = 0; j < cols.size(); ++j) {
     const FreeColumn& c = cols[j];
     if (c.block == s.lamp.data()) {
@@ -265,6 +271,9 @@ void AssignUncertainty(const UncertaintyResult& u, const std::vector<FreeColumn>
     } else if (c.block == s.shared.data() || c.block == s.chan[0].data()) {
       m.stddev[c.index] = u.stddev[j];
       if (u.undetermined[j]) m.undetermined.push_back(c.name);
+      if (c.block == s.shared.data() && scale_column(u.moves_with[j])) {
+        r->moves_with_albedo.push_back(c.name);
+      }
     } else if (u.undetermined[j]) {
       m.undetermined.push_back(c.name);
     }

@@ -157,6 +157,10 @@ struct JointFitResult {
   std::optional<double> intensity_stddev;
   bool absolute = false;                       // a white reference fixed the intensity
   std::vector<std::string> undetermined_lamp;  // "lamp_x", "intensity", ...
+  // Shared material parameters undetermined because they move along an unseen direction that
+  // the albedo-like ones or the intensity bound (UncertaintyResult::moves_with): without a white
+  // reference, the pitted models' coverage.
+  std::vector<std::string> moves_with_albedo;
   // The ambient terms per colour channel (AmbientTerm::kFit; empty otherwise): the sample's
   // ambient radiance and the ambient irradiance on the white reference (empty without a
   // white reference), with their standard deviations; lamp_irradiance: the lamp's mean
@@ -184,9 +188,9 @@ struct JointFitResult {
   nlohmann::json ToJson() const;
   nlohmann::json AmbientJson() const;  // fit.json "ambient" (docs/formats.md)
   // Without a white reference (!absolute), what the reports say: albedo-like values are
-  // relative, and a shared parameter left undetermined with them moves with them (the pitted
-  // models' coverage, through the pits' interreflection: estimation/fit/uncertainty.h
-  // null_excursion_sd), which a white reference of known albedo fixes. "" with one.
+  // relative, and those of moves_with_albedo (the pitted models' coverage, through the pits'
+  // interreflection: estimation/fit/uncertainty.h null_excursion_sd) with them, which a white
+  // reference of known albedo fixes. "" with one.
   std::string RelativeNote() const;
 };
 

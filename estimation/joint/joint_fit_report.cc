@@ -1,5 +1,4 @@
 // JSON and text reports of the joint fit (fit.json extends fit-table's layout).
-#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -15,17 +14,15 @@ nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 std::string JointFitResult::RelativeNote() const {
   if (absolute) return "";
-  std::string moved;
-  for (const auto& name : material.undetermined) {
-    const auto& pc = per_channel_param_names;
-    if (std::find(pc.begin(), pc.end(), name) != pc.end()) continue;
-    moved += (moved.empty() ? "" : ", ") + name;
-  }
   std::string note = "no white reference: albedo-like values are relative (x intensity)";
-  if (!moved.empty()) {
-    note += "; " + moved +
-            " moves with them, so it is undetermined too: the board's white reference with "
-            "--white-albedo fixes both";
+  if (!moves_with_albedo.empty()) {
+    std::string names;
+    for (const auto& name : moves_with_albedo) names += (names.empty() ? "" : ", ") + name;
+    note += fmt::format(
+        "; {} {} with them, so {} undetermined too: the board's white reference with "
+        "--white-albedo fixes them all",
+        names, moves_with_albedo.size() > 1 ? "move" : "moves",
+        moves_with_albedo.size() > 1 ? "they are" : "it is");
   }
   return note;
 }
@@ -43,6 +40,7 @@ nlohmann::json JointFitResult::ToJson() const {
                        ? nlohmann::json({lamp_stddev->x(), lamp_stddev->y(), lamp_stddev->z()})
                        : nlohmann::json();
   j["lamp"] = lamp;
+  j["moves_with_albedo"] = moves_with_albedo;
   j["fit_s"] = Finite(fit_s);
   if (!per_channel_param_names.empty()) {
     nlohmann::json per = nlohmann::json::object();

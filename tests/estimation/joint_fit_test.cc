@@ -106,6 +106,8 @@ TEST(JointFit, WithoutAWhiteReferenceThePittedCoverageMovesWithTheAlbedo) {
   EXPECT_TRUE(has("coverage"));
   EXPECT_FALSE(has("aperture"));
   ASSERT_TRUE(relative.material.stddev[1].has_value());
+  EXPECT_EQ(relative.moves_with_albedo, std::vector<std::string>{"coverage"});
+  EXPECT_EQ(relative.ToJson()["moves_with_albedo"], nlohmann::json::array({"coverage"}));
   EXPECT_NE(relative.RelativeNote().find("coverage moves with them"), std::string::npos)
       << relative.RelativeNote();
 

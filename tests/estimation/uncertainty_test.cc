@@ -68,6 +68,8 @@ TEST(Uncertainty, AParameterThatMovesAlongAnUnseenDirectionIsUndetermined) {
   EXPECT_TRUE(u.undetermined[0]);  // a and I load heavily (null_loading)
   EXPECT_TRUE(u.undetermined[1]);
   EXPECT_TRUE(u.undetermined[2]) << "c moves 0.2 along the unseen direction";
+  EXPECT_EQ(u.moves_with[2], 0);  // with a, which bounds the direction
+  EXPECT_EQ(u.moves_with[0], -1);
   EXPECT_FALSE(u.undetermined[3]);
   ASSERT_TRUE(u.stddev[3].has_value());
   // Without the excursion rule c would get a bar far below what the direction moves it.
