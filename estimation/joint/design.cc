@@ -216,6 +216,9 @@ PredictedUncertainty PredictUncertainty(const DesignInformation& info,
       for (int k = 0; k < p; ++k) unseen[k] = unseen[k] || std::abs(V(k, j)) > uo.null_loading;
     }
   }
+  // A parameter that moves along an unseen direction beyond its bar scatters as far as the
+  // direction reaches (estimation/fit/uncertainty.h null_excursion_sd).
+  for (int k = 0; k < p; ++k) unseen[k] = unseen[k] || u.moves_with[k] >= 0;
   out.scatter_covariance = range.asDiagonal() * (a_pinv * b_scaled * a_pinv) * range.asDiagonal();
   out.scatter.assign(p, INFINITY);
   for (int k = 0; k < p; ++k) {
