@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <stdexcept>
 
@@ -272,9 +273,9 @@ struct SharedChain {
   fs::path session, vignette_session;
   bool flat_field = false;  // the vignetting from a flat field: no poses to locate
   synth::Scene scene;
-  double white_albedo = 0;
-  bool by_parts = false;          // CoveragePlan::by_parts
-  bool give_white_albedo = true;  // CoveragePlan::white_albedo
+  // The white reference's albedo gonio run is given; none with CoveragePlan::white_albedo off.
+  std::optional<double> white_albedo;
+  bool by_parts = false;  // CoveragePlan::by_parts
 };
 
 // Renders the session (and a flat field for a lamp on the camera); StepFailed when a step fails.
@@ -291,7 +292,9 @@ SharedChain RunSharedSteps(const CoverageKind& kind, const CoveragePlan& plan, i
     s.flat_field = true;  // a tag-free flat field has no poses to locate (docs/photometric.md)
     chain->Render("flat", SameCamera("flat-field", s.scene), s.vignette_session);
   }
-  s.white_albedo = ReadJsonFile(s.session / "truth.json").at("white_albedo").get<double>();
+  if (plan.white_albedo) {
+    s.white_albedo = ReadJsonFile(s.session / "truth.json").at("white_albedo").get<double>();
+  }
   return s;
 }
 
@@ -343,8 +346,8 @@ void RunSweep(const CoverageKind& kind, const SharedChain& s, const fs::path& di
                                    (sc / "photometric.json").string(),
                                    "--out",
                                    out.string()};
-  if (s.give_white_albedo) {
-    args.insert(args.end(), {"--white-albedo", fmt::format("{}", s.white_albedo)});
+  if (s.white_albedo) {
+    args.insert(args.end(), {"--white-albedo", fmt::format("{}", *s.white_albedo)});
   }
   if (kind.flash) args.insert(args.end(), {"--lamp-frame", "camera"});
   std::vector<std::string> user_args = args;
@@ -388,7 +391,6 @@ std::vector<CoverageRun> RunKindSeed(const CoverageKind& kind, const CoveragePla
   try {
     shared = RunSharedSteps(kind, plan, seed, dir, &chain);
     shared.by_parts = plan.by_parts;
-    shared.give_white_albedo = plan.white_albedo;
   } catch (const StepFailed& e) {
     for (auto& r : runs) r.failed = e.what();
     return runs;

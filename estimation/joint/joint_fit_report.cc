@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common/geometry.h"
 #include "estimation/joint/joint_fit.h"
@@ -16,13 +17,12 @@ std::string JointFitResult::RelativeNote() const {
   if (absolute) return "";
   std::string note = "no white reference: albedo-like values are relative (x intensity)";
   if (!moves_with_albedo.empty()) {
-    std::string names;
-    for (const auto& name : moves_with_albedo) names += (names.empty() ? "" : ", ") + name;
+    const bool several = moves_with_albedo.size() > 1;
     note += fmt::format(
         "; {} {} with them, so {} undetermined too: the board's white reference with "
         "--white-albedo fixes them all",
-        names, moves_with_albedo.size() > 1 ? "move" : "moves",
-        moves_with_albedo.size() > 1 ? "they are" : "it is");
+        fmt::join(moves_with_albedo, ", "), several ? "move" : "moves",
+        several ? "they are" : "it is");
   }
   return note;
 }
@@ -169,7 +169,7 @@ std::string JointSelectionResult::Report() const {
   }
   s << fmt::format("; intensity {:.5g}{}\n", f.intensity,
                    f.absolute ? "" : " (relative: no white reference)");
-  if (!f.RelativeNote().empty()) s << f.RelativeNote() << "\n";
+  if (const std::string note = f.RelativeNote(); !note.empty()) s << note << "\n";
   s << AmbientReport(f);
   if (f.sample_height_offset) {
     s << fmt::format("sample height: {:+.2f} mm {} from board.json's (fitted)\n",
