@@ -403,7 +403,7 @@ std::string RunResult::Report() const {
         statistical_rescale);
   }
   if (calibration_error) {
-    s += calibration_error->Report();
+    s += calibration_error->Report(fit.final_fit);
     if (error_budget) s += error_budget->Report();
   } else {
     s += "calibration error: not propagated (the photometric calibration reports no accuracy, "

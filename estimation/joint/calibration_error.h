@@ -165,7 +165,9 @@ struct CalibrationPropagation {
   // chosen by evidence").
   std::vector<double> ambient_sample_stddev, ambient_irradiance_stddev;
   std::optional<double> sample_height_stddev;
-  std::string Report() const;  // one line per quantity
+  // One line per quantity; a quantity `fit` reports undetermined (its bar empty) reads so: the
+  // refits' spread along a direction the data do not see is the solver's, not a bar.
+  std::string Report(const JointFitResult& fit) const;
   nlohmann::json ToJson() const;
 };
 

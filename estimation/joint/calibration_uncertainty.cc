@@ -78,16 +78,22 @@ void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* 
   }
 }
 
-std::string CalibrationPropagation::Report() const {
+std::string CalibrationPropagation::Report(const JointFitResult& fit) const {
   const char* what = photometric && poses ? "calibration and pose error"
                      : poses              ? "pose error"
                                           : "calibration error";
   std::string s = fmt::format("{} propagated ({} refits):", what, draws);
+  const auto& total = fit.material.stddev;
   for (size_t i = 0; i < param_names.size(); ++i) {
-    s += fmt::format(" {} +-{:.3g}", param_names[i], param_stddev[i]);
+    const bool determined = i >= total.size() || total[i].has_value();
+    s += determined ? fmt::format(" {} +-{:.3g}", param_names[i], param_stddev[i])
+                    : fmt::format(" {} undetermined", param_names[i]);
   }
-  s += fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m, intensity +-{:.3g}\n", lamp_stddev.x(),
-                   lamp_stddev.y(), lamp_stddev.z(), intensity_stddev);
+  s += fit.lamp_stddev ? fmt::format(", lamp +-({:.2g}, {:.2g}, {:.2g}) m", lamp_stddev.x(),
+                                     lamp_stddev.y(), lamp_stddev.z())
+                       : std::string(", lamp undetermined");
+  s += fit.intensity_stddev ? fmt::format(", intensity +-{:.3g}\n", intensity_stddev)
+                            : std::string(", intensity undetermined\n");
   return s;
 }
 
