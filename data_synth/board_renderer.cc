@@ -160,8 +160,9 @@ class BoardShader {
 // One pixel footprint: the board points of its four corners (z = 0) and, for a raised sample,
 // the points of the same rays on the sample's top plane.
 struct Footprint {
-  const Eigen::Vector2d *a, *b, *c, *d;      // board plane
-  const Eigen::Vector2d *ta, *tb, *tc, *td;  // sample top plane (raised sample only)
+  const Eigen::Vector2d *a, *b, *c, *d;  // board plane
+  const Eigen::Vector2d *ta = nullptr, *tb = nullptr, *tc = nullptr,
+                        *td = nullptr;  // sample top plane (raised sample only)
   Eigen::Vector2d Board(double u, double v) const {
     return (1 - v) * ((1 - u) * *a + u * *b) + v * ((1 - u) * *c + u * *d);
   }

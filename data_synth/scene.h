@@ -26,7 +26,7 @@ namespace gonio::synth {
 
 // The scene's closed sets of words are enums here; scene.json's words are parsed once where
 // the file is read and written back unchanged (SceneFromJson, SceneToJson; the word tables
-// are scene.cc's). ToString gives the word, e.g. for truth.json.
+// are data_synth/scene_fields.h's). ToString gives the word, e.g. for truth.json.
 enum class SceneType { kBoard, kSfs };                // "board", "sfs"
 enum class LampType { kPoint, kDistant };             // "point", "distant"
 enum class ResponseCurve { kLinear, kGamma, kSrgb };  // "linear", "gamma", "srgb"

@@ -67,8 +67,12 @@ TEST(LadderCli, PrintsTheFramesAndRefusesTooFewThirds) {
     std::string name, step;
     if (!(words >> frame >> seconds >> name)) continue;
     ++frames;
-    if (frame == 1) EXPECT_EQ(name, "1/4000");
-    if (frame == 14) EXPECT_EQ(name, "4");
+    if (frame == 1) {
+      EXPECT_EQ(name, "1/4000");
+    }
+    if (frame == 14) {
+      EXPECT_EQ(name, "4");
+    }
     if (words >> step) steps.insert(step);
   }
   EXPECT_EQ(frames, 14) << r.out;

@@ -142,7 +142,9 @@ ResponseResult CalibrateRendered(const Camera& cam, TruthError* error) {
   // What response.json holds is what a reader gets back, accuracy included.
   const ResponseResult back = ResponseResult::FromJson(r.ToJson(), "response.json");
   EXPECT_EQ(back.ends.size(), r.ends.size());
-  if (!back.ends.empty() && !r.ends.empty()) EXPECT_DOUBLE_EQ(back.ends[0].error, r.ends[0].error);
+  if (!back.ends.empty() && !r.ends.empty()) {
+    EXPECT_DOUBLE_EQ(back.ends[0].error, r.ends[0].error);
+  }
   EXPECT_DOUBLE_EQ(back.knot_spacing, r.knot_spacing);
   EXPECT_DOUBLE_EQ(back.smoothing_sensitivity, r.smoothing_sensitivity);
   EXPECT_EQ(back.smoothing_sensitivity_bands.size(), r.smoothing_sensitivity_bands.size());
