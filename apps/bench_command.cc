@@ -26,10 +26,11 @@ struct BenchArgs {
   bool plan = false, tags = false, coverage = false, maps = false, keep_work = false;
   std::string apriltag_ref;
   int threads = 0;
-  int seeds = 0, first_seed = 1;           // --coverage: 0 seeds = the size's default
-  bool by_parts = false;                   // --coverage: each run's error by source
-  bool no_white_albedo = false;            // --coverage: runs without --white-albedo
-  std::vector<std::string> kinds, sweeps;  // --coverage: empty = the size's default
+  int seeds = 0, first_seed = 1;            // --coverage: 0 seeds = the size's default
+  bool by_parts = false;                    // --coverage: each run's error by source
+  bool no_white_albedo = false;             // --coverage: runs without --white-albedo
+  std::vector<std::string> kinds, sweeps;   // --coverage: empty = the size's default
+  int image_width = 0, views_per_ring = 0;  // --coverage: 0 = the size's default
 };
 
 // A bench that renders into OUT/work: run it there, write its outputs into OUT, remove the
@@ -121,6 +122,11 @@ void RunBench(const BenchArgs& args) {
     plan.white_albedo = !args.no_white_albedo;
     if (!args.kinds.empty()) plan.kinds = bench::CoverageKindsNamed(args.kinds);
     if (!args.sweeps.empty()) plan.sweeps = args.sweeps;
+    if (args.image_width > 0) {  // the preset's 4:3 (ScaleCamera keeps its field of view)
+      plan.width = args.image_width;
+      plan.height = args.image_width * 3 / 4;
+    }
+    if (args.views_per_ring > 0) plan.views_per_ring = args.views_per_ring;
     RunInWorkFolder(
         args.out, args.keep_work,
         [&](const auto& work) { return bench::RunCoverageBench(opt, plan, self, work); },
@@ -155,6 +161,40 @@ void RunBench(const BenchArgs& args) {
   }
 }
 
+// The options of --coverage's grid (bench/bench_coverage.h CoveragePlan).
+void AddCoverageOptions(CLI::App* cmd, BenchArgs* args) {
+  cmd->add_option("--seeds", args->seeds,
+                  "--coverage: noise seeds per kind and sweep (default 4; 1 with --quick, --smoke)")
+      ->check(CLI::Range(1, 100));
+  cmd->add_option("--first-seed", args->first_seed,
+                  "--coverage: the first seed; 1 is the presets' capture, every later seed a "
+                  "capture of its own (5 with 4 seeds: a grid to check the default one against)")
+      ->check(CLI::Range(1, 100000));
+  cmd->add_option("--kinds", args->kinds,
+                  "--coverage: only these scene kinds, by name or material (oren-nayar/gamma12, "
+                  "tson, pitted-exact, dark-oren-nayar, flash; comma-separated)")
+      ->delimiter(',');
+  cmd->add_flag("--by-parts", args->by_parts,
+                "--coverage: also each run's error by source (response, vignetting, the rest) "
+                "against the error budget's draws of it; two more runs per run (docs/bench.md)");
+  cmd->add_flag("--no-white-albedo", args->no_white_albedo,
+                "--coverage: run gonio run without --white-albedo, as a user who does not know the "
+                "white reference's albedo: albedo-like values are relative and not judged");
+  cmd->add_option(
+         "--sweeps", args->sweeps,
+         "--coverage: only these sweeps (third, whole, ladder: 14 irregular third-stop steps)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"third", "whole", "ladder"}));
+  cmd->add_option("--image-width", args->image_width,
+                  "--coverage: the camera's width in pixels, its height 3/4 of it, the lens and "
+                  "field of view kept (default 640; the user's default preset is 1280)")
+      ->check(CLI::Range(320, 4000));
+  cmd->add_option("--views-per-ring", args->views_per_ring,
+                  "--coverage: views per ring of the board scenes' 4 rings (default 3; the "
+                  "user's default preset has 6)")
+      ->check(CLI::Range(1, 24));
+}
+
 }  // namespace
 
 void AddBenchCommand(CLI::App& app) {
@@ -181,28 +221,7 @@ void AddBenchCommand(CLI::App& app) {
                 "vignette, run); RMS of z = error / reported sd per parameter, with and without "
                 "warnings (coverage.json + chart)")
       ->excludes(stability);
-  cmd->add_option("--seeds", args->seeds,
-                  "--coverage: noise seeds per kind and sweep (default 4; 1 with --quick, --smoke)")
-      ->check(CLI::Range(1, 100));
-  cmd->add_option("--first-seed", args->first_seed,
-                  "--coverage: the first seed; 1 is the presets' capture, every later seed a "
-                  "capture of its own (5 with 4 seeds: a grid to check the default one against)")
-      ->check(CLI::Range(1, 100000));
-  cmd->add_option("--kinds", args->kinds,
-                  "--coverage: only these scene kinds, by name or material (oren-nayar/gamma12, "
-                  "tson, pitted-exact, dark-oren-nayar, flash; comma-separated)")
-      ->delimiter(',');
-  cmd->add_flag("--by-parts", args->by_parts,
-                "--coverage: also each run's error by source (response, vignetting, the rest) "
-                "against the error budget's draws of it; two more runs per run (docs/bench.md)");
-  cmd->add_flag("--no-white-albedo", args->no_white_albedo,
-                "--coverage: run gonio run without --white-albedo, as a user who does not know the "
-                "white reference's albedo: albedo-like values are relative and not judged");
-  cmd->add_option(
-         "--sweeps", args->sweeps,
-         "--coverage: only these sweeps (third, whole, ladder: 14 irregular third-stop steps)")
-      ->delimiter(',')
-      ->check(CLI::IsMember({"third", "whole", "ladder"}));
+  AddCoverageOptions(cmd, args.get());
   cmd->add_flag("--plan", args->plan,
                 "gonio plan's predicted scatter against the scatter measured on sessions "
                 "rendered from the plan and from the default orbit (plan_bench.json + chart)")

@@ -168,12 +168,15 @@ TEST(BenchSfsCli, SfsAndStabilityTogetherIsAnInputError) {
 }
 
 // `gonio bench --coverage --smoke`: one run of the user's chain (synth, calibrate, locate,
-// response, vignette, run), coverage.json with the run judged and the chart.
+// response, vignette, run), coverage.json with the run judged and the chart; the camera at the
+// width asked for, its height 3/4 of it.
 TEST(CoverageCli, SmokeRunsTheUsersChain) {
   testing::TempDir dir;
-  const auto r = testing::RunGonio("bench --coverage --smoke --out " + dir.path().string());
+  const auto r =
+      testing::RunGonio("bench --coverage --smoke --image-width 672 --out " + dir.path().string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = ReadJsonFile(dir.path() / "coverage.json");
+  EXPECT_EQ(j["image"], nlohmann::json({672, 504}));
   ASSERT_EQ(j["runs"].size(), 1u) << j.dump(1);
   const auto& run = j["runs"][0];
   EXPECT_EQ(run["failed"], "") << run;
@@ -283,11 +286,14 @@ TEST(CoverageCli, WithoutTheWhiteAlbedoWhatMovesWithTheAlbedoHasNoBar) {
 }
 
 // --first-seed 0 names no capture (seed 1 is the presets'), --kinds a kind that is none, --sweeps
-// a sweep that is none: a one-line error naming the option, exit 2, nothing written.
+// a sweep that is none, an image too small for mrcal or views per ring beyond the orbit: a
+// one-line error naming the option, exit 2, nothing written.
 TEST(CoverageCli, BadOptionsAreInputErrors) {
   const std::pair<const char*, const char*> cases[] = {{"--first-seed 0", "--first-seed"},
                                                        {"--kinds lambert", "--kinds"},
-                                                       {"--sweeps half", "--sweeps"}};
+                                                       {"--sweeps half", "--sweeps"},
+                                                       {"--image-width 100", "--image-width"},
+                                                       {"--views-per-ring 0", "--views-per-ring"}};
   for (const auto& [option, named] : cases) {
     testing::TempDir dir;
     const auto out = dir.path() / "out";
