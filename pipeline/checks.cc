@@ -367,7 +367,7 @@ bool AmbientIsNotRoomLight(const JointFitResult& f) {
 // Nuisances that --ambient auto / --sample-height auto found and fitted: the user did not
 // declare them, and each costs precision (docs/pipeline.md "Nuisances chosen by evidence").
 void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>& all,
-                         std::vector<RunWarning>* m) {
+                         const std::string& response_remedy, std::vector<RunWarning>* m) {
   if (f.ambient == AmbientTerm::kFit && !f.ambient_reason.empty()) {
     std::string size;
     if (!f.ambient_irradiance.empty() && f.lamp_irradiance > 0) {
@@ -408,7 +408,10 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                      1e3 * u->lamp_shift.norm(), u->shift_in_sd,
                      ambient ? "lamp-off frames (session.json lamp_off) settle it; if the room "
                                "was dark, the response's error bends the radiance this way "
-                               "(third stops or RAW narrow it)"
+                               "(narrowed by " +
+                                   (response_remedy.empty() ? std::string("a finer sweep or RAW")
+                                                            : response_remedy) +
+                                   ")"
                              : "measure the sample's thickness into board.json sample_height_m"),
          all});
   }
@@ -481,7 +484,7 @@ std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit) const {
                  all});
   }
   AddStructureWarnings(structure, all, &m);
-  AddNuisanceWarnings(fit, all, &m);
+  AddNuisanceWarnings(fit, all, response_remedy, &m);
   return m;
 }
 

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "calib/photometry/response.h"
 #include "common/math.h"
 #include "pipeline/checks.h"
 #include "pipeline/residual_structure.h"
@@ -211,6 +212,29 @@ TEST(RunWarnings, AnAmbientTheWhiteContradictsIsNotRoomLight) {
   f.ambient_irradiance_stddev = {std::nullopt};  // the white's not determined: room light
   f.ambient_sample = {0.18};
   EXPECT_EQ(FitChecks().Warnings(f).at(0).cause, WarningCause::kAmbientLight);
+}
+
+// Room light that cannot be excluded may be the response's error bending the radiance; the
+// warning sends the user to what narrows that error for the sweep they shot (SweepRemedy): a
+// sweep already in third stops is not sent to third stops.
+TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
+  JointFitResult f = TrueFit();
+  UnresolvedNuisance u;
+  u.z = 2.4;
+  u.lamp_shift = Eigen::Vector3d(0.005, 0.0, 0.001);
+  u.shift_in_sd = 6;
+  f.unresolved_nuisance = u;
+  FitChecks c;
+  c.response_remedy = SweepRemedy(1.0 / 3);
+  const auto third = c.Warnings(f);
+  ASSERT_EQ(third.size(), 1u);
+  EXPECT_EQ(third[0].cause, WarningCause::kAmbientLight);
+  EXPECT_NE(third[0].message.find("already steps 0.33 stops"), std::string::npos)
+      << third[0].message;
+  EXPECT_EQ(third[0].message.find("third stops"), std::string::npos) << third[0].message;
+  c.response_remedy = SweepRemedy(1.0);
+  EXPECT_NE(c.Warnings(f).at(0).message.find("a sweep in third stops"), std::string::npos);
+  EXPECT_NE(FitChecks().Warnings(f).at(0).message.find("a finer sweep or RAW"), std::string::npos);
 }
 
 // `gonio run --maps`: the maps' warnings become run warnings touching the maps, the frames the
