@@ -123,6 +123,9 @@ void RunBench(const BenchArgs& args) {
     if (!args.kinds.empty()) plan.kinds = bench::CoverageKindsNamed(args.kinds);
     if (!args.sweeps.empty()) plan.sweeps = args.sweeps;
     if (args.image_width > 0) {  // the preset's 4:3 (ScaleCamera keeps its field of view)
+      if (args.image_width % 4 != 0) {
+        throw InputError("--image-width must be a multiple of 4 (the height is 3/4 of it)");
+      }
       plan.width = args.image_width;
       plan.height = args.image_width * 3 / 4;
     }
