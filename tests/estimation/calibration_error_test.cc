@@ -584,27 +584,5 @@ TEST(CalibrationError, AnUnresolvedNuisanceIsJudgedAgainstTheWidenedLampBar) {
   EXPECT_FALSE(wide.unresolved_nuisance);
 }
 
-// The refits spread a parameter the data do not see by wherever the solver stops: the console
-// line names it undetermined, as the fit's own bar does, and gives no spread for it.
-TEST(CalibrationError, TheReportGivesNoSpreadForWhatTheFitLeavesUndetermined) {
-  CalibrationPropagation p;
-  p.draws = 20;
-  p.photometric = true;
-  p.param_names = {"albedo", "coverage"};
-  p.param_stddev = {0.0123, 0.0456};
-  p.lamp_stddev = Eigen::Vector3d(0.001, 0.002, 0.003);
-  p.intensity_stddev = 0.0789;
-  JointFitResult fit;
-  fit.material.stddev = {0.02, std::nullopt};
-  fit.lamp_stddev = Eigen::Vector3d(0.01, 0.01, 0.01);
-  const std::string report = p.Report(fit);
-  EXPECT_NE(report.find("albedo +-0.0123"), std::string::npos) << report;
-  EXPECT_NE(report.find("coverage undetermined"), std::string::npos) << report;
-  EXPECT_EQ(report.find("0.0456"), std::string::npos) << report;
-  EXPECT_NE(report.find("lamp +-(0.001, 0.002, 0.003) m"), std::string::npos) << report;
-  EXPECT_NE(report.find("intensity undetermined"), std::string::npos) << report;
-  EXPECT_EQ(report.find("0.0789"), std::string::npos) << report;
-}
-
 }  // namespace
 }  // namespace gonio
