@@ -430,7 +430,8 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
 
 }  // namespace
 
-std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit) const {
+std::vector<RunWarning> FitChecks::Warnings(const JointFitResult& fit,
+                                            const std::string& response_remedy) const {
   std::vector<RunWarning> m;
   const std::vector<std::string> all = AllResults(fit);
   if (!explains_data) {

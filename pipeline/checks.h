@@ -95,14 +95,14 @@ struct FitChecks {
   // "oren-nayar (bic +1.77): lamp 2.1 sd".
   std::vector<std::string> rival_models;
   ResidualStructure structure;  // residuals against irradiance, view, image position
-  // What narrows the response's error, for the warnings that may be it (SweepRemedy of the
-  // calibration's sweep, calib/photometry/response.h: a sweep already in third stops is not sent
-  // to third stops); empty: not known.
-  std::string response_remedy;
   // True when nothing above stands in the way of reading the parameters as a measurement.
   bool Measured() const { return explains_data && at_bounds.empty(); }
   // Plain words for the console and report, with the results of `fit` each touches.
-  std::vector<RunWarning> Warnings(const JointFitResult& fit) const;
+  // `response_remedy`: what narrows the response's error, for the warnings that may be it
+  // (SweepRemedy of the calibration's sweep, calib/photometry/response.h: a sweep already in
+  // third stops is not sent to third stops); empty: not known.
+  std::vector<RunWarning> Warnings(const JointFitResult& fit,
+                                   const std::string& response_remedy = {}) const;
   nlohmann::json ToJson() const;
 };
 

@@ -301,8 +301,8 @@ void CheckResiduals(const RunInputs& in, const RunOptions& o, RunResult* r) {
                                               0.5 * std::hypot(r->camera.width, r->camera.height),
                                               o.checks.structure);
   spdlog::info("{}", r->checks.structure.Report());
-  r->checks.response_remedy = SweepRemedy(ExposurePeriodOctaves(in.photometric.response));
-  for (const auto& w : r->checks.Warnings(r->fit.final_fit)) {
+  const std::string remedy = SweepRemedy(ExposurePeriodOctaves(in.photometric.response));
+  for (const auto& w : r->checks.Warnings(r->fit.final_fit, remedy)) {
     r->warnings.push_back(w);
     spdlog::warn("{}", w.message);
   }

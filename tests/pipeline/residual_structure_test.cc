@@ -224,16 +224,15 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
   u.lamp_shift = Eigen::Vector3d(0.005, 0.0, 0.001);
   u.shift_in_sd = 6;
   f.unresolved_nuisance = u;
-  FitChecks c;
-  c.response_remedy = SweepRemedy(1.0 / 3);
-  const auto third = c.Warnings(f);
+  const FitChecks c;
+  const auto third = c.Warnings(f, SweepRemedy(1.0 / 3));
   ASSERT_EQ(third.size(), 1u);
   EXPECT_EQ(third[0].cause, WarningCause::kAmbientLight);
   EXPECT_NE(third[0].message.find("already steps 0.33 stops"), std::string::npos)
       << third[0].message;
   EXPECT_EQ(third[0].message.find("third stops"), std::string::npos) << third[0].message;
-  c.response_remedy = SweepRemedy(1.0);
-  EXPECT_NE(c.Warnings(f).at(0).message.find("a sweep in third stops"), std::string::npos);
+  EXPECT_NE(c.Warnings(f, SweepRemedy(1.0)).at(0).message.find("a sweep in third stops"),
+            std::string::npos);
   EXPECT_NE(FitChecks().Warnings(f).at(0).message.find("a finer sweep or RAW"), std::string::npos);
 }
 
