@@ -126,6 +126,8 @@ nlohmann::json VignetteJson(const SessionVignette& v, const std::string& out) {
            std::isfinite(r.map_error_rms) ? nlohmann::json(r.map_error_rms) : nlohmann::json()},
           {"map_error_note", r.map_error_note},
           {"map_vs_radial_rms", r.map_vs_radial_rms},
+          {"cell_correction_rms",
+           r.cells_extrapolated ? nlohmann::json(r.cell_correction_rms) : nlohmann::json()},
           {"flat_field", v.flat_field},
           {"lamp_test",
            {{"run", r.lamp_test.run},

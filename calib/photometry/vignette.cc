@@ -14,7 +14,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
-#include "common/io.h"
 #include "common/log.h"
 #include "common/math.h"
 #include "common/parallel.h"
@@ -126,6 +125,7 @@ SampleSet BinOnTextureGrid(const std::vector<std::vector<PaperPixel>>& per_frame
   }
   SampleSet set;
   set.texture_cells = static_cast<size_t>(nx) * ny;
+  set.texture_nx = nx, set.texture_ny = ny;
   set.samples.reserve(total);
   set.cell_count.assign(grid.gw * grid.gh, 0);
   for (const auto& v : per_frame) {
@@ -491,8 +491,9 @@ PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& opti
   return g;
 }
 
-void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
-                   const VignetteOptions& options, bool test_lamp, VignetteResult* result) {
+void SolveVignetteAtCellSize(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
+                             const VignetteOptions& options, bool test_lamp, bool truncation,
+                             VignetteResult* result) {
   ChooseModel(set.cell_count, options, result);
   result->input_raw = InputRawPerCell(grid, set.samples);
   result->input_cell_px = options.cell_px;
@@ -516,7 +517,7 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
     // The next term, which the covered radius does not let the model carry: the fit with it
     // less the fit without, within the covered radius, is the truncation's size, a model error
     // both split halves share (docs/photometric.md "Vignetting accuracy").
-    if (terms < 3) {
+    if (truncation && terms < 3) {
       int iterations = 0;
       const auto next =
           FitRadialJointly(set.samples, grid.pixels, terms + 1, options.threads, &C, &iterations);
@@ -529,48 +530,9 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
 
 using namespace vignette_internal;
 
-const char* ToString(VignetteModel m) { return m == VignetteModel::kMap ? "map" : "radial"; }
-
-VignetteModel ParseVignetteModel(const std::string& word, const std::string& option) {
-  if (word == "map") return VignetteModel::kMap;
-  if (word == "radial") return VignetteModel::kRadial;
-  throw InputError(option + " must be 'map' or 'radial', got '" + word + "'");
-}
-
-void VignetteOptions::Check() const {
-  if (cell_px < 2) throw InputError("vignette cell_px must be >= 2");
-  if (sample_step_px < 1) throw InputError("vignette sample_step_px must be >= 1");
-  if (!(albedo_cell_m > 0)) throw InputError("vignette albedo_cell_m must be > 0");
-  if (!(tag_margin_m >= 0)) throw InputError("vignette tag_margin_m must be >= 0");
-  if (min_samples_per_cell < 1) throw InputError("vignette min_samples_per_cell must be >= 1");
-  if (!(min_coverage >= 0 && min_coverage <= 1)) {
-    throw InputError("vignette min_coverage must be in [0, 1]");
-  }
-  if (max_iterations < 1) throw InputError("vignette max_iterations must be >= 1");
-}
-
 double RadialVignetting(const CameraModel& camera, const std::array<double, 3>& v, double x,
                         double y) {
   return RadialVignettingAtR2(v, VignettingGeometry::Of(camera).R2(x, y));
-}
-
-std::vector<std::pair<std::string, Rigid3d>> ReadPoses(const std::filesystem::path& path) {
-  const nlohmann::json j = ReadJsonFile(path);
-  if (!j.contains("frames") || !j["frames"].is_array()) {
-    throw InputError(path.string() + ": missing array 'frames'");
-  }
-  std::vector<std::pair<std::string, Rigid3d>> out;
-  for (const auto& f : j["frames"]) {
-    if (!f.contains("file") || !f.contains("cam_from_board")) {
-      throw InputError(path.string() + ": a frame lacks 'file' or 'cam_from_board'");
-    }
-    try {
-      out.emplace_back(f["file"].get<std::string>(), RigidFromJson(f["cam_from_board"]));
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(path.string() + ": malformed cam_from_board: " + e.what());
-    }
-  }
-  return out;
 }
 
 VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& paper,

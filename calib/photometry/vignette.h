@@ -87,6 +87,11 @@ struct VignetteResult {
   // 99th percentile of the samples' r (distance to the principal point / half-diagonal): the
   // radial fit is extrapolated beyond it.
   double covered_radius = 0;
+  // Whether V was extrapolated to texture cells of zero size (board frames; not a flat field),
+  // and how far that moved it: RMS of V / V_cell - 1 within covered_radius (docs/photometric.md
+  // "Texture cells").
+  bool cells_extrapolated = false;
+  double cell_correction_rms = 0;
   // The raw values V was measured from: per vignette cell of input_cell_px pixels (CV_32F), the
   // median raw value of its samples, channels averaged; NaN where it had none. V is a ratio of
   // radiances read through the response, so a response error at these values is in V too, and

@@ -23,10 +23,6 @@
 
 namespace gonio::vignette_internal {
 
-namespace {
-
-// RMS of a / b - 1 over the pixels (every 4th row and column) within `radius` half-diagonals
-// of the principal point; NaN when no pixel qualifies.
 double RmsRelativeDifference(const cv::Mat& a, const cv::Mat& b, const CameraModel& camera,
                              double radius) {
   const double cx = camera.intrinsics[2], cy = camera.intrinsics[3];
@@ -44,8 +40,6 @@ double RmsRelativeDifference(const cv::Mat& a, const cv::Mat& b, const CameraMod
   }
   return n > 0 ? std::sqrt(sum / n) : std::nan("");
 }
-
-}  // namespace
 
 float MeanRawAt(const cv::Mat& image, const cv::Point& xy) {
   const int ch = image.channels();
@@ -126,6 +120,13 @@ std::string VignetteResult::Report() const {
   if (model_used == VignetteModel::kMap)
     s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
   s += "\n";
+  if (cells_extrapolated) {
+    s += fmt::format(
+        "texture cells: V extrapolated to zero cell size from the cells and cells twice their "
+        "size (docs/photometric.md \"Texture cells\"), a change of {:.3f}% RMS within r <= "
+        "{:.2f}\n",
+        100 * cell_correction_rms, covered_radius);
+  }
   s += std::isfinite(map_error_rms)
            ? fmt::format(
                  "V's own error: split halves {:.3f}% RMS, stated as {:.3f}% (twice: the "

@@ -43,13 +43,30 @@ PixelGrid SamplePixelRays(const CameraModel& camera, const VignetteOptions& opti
 struct SampleSet {
   std::vector<Sample> samples;
   size_t texture_cells = 0;
+  // The board's texture cells as a grid of texture_nx x texture_ny (acell = iy * nx + ix); 0
+  // when the cells are not a grid on the board (a flat field's frames).
+  int texture_nx = 0, texture_ny = 0;
   std::vector<int> cell_count;  // samples per vignette cell
 };
 
-// V and the texture from the samples (radial stage, then the map model where the data cover
-// the image); with `test_lamp`, the camera-lamp test on the radial stage's residuals
-// (InputError when the brightness follows a lamp on the camera). Fills everything of `result`
-// but frames_used and poses.
+// The same samples on cells twice the size (2x2 cells merged); the set itself when its cells
+// are not a board grid of more than one cell (vignette_cells.cc).
+SampleSet CoarserTextureCells(const SampleSet& set);
+
+// V and the texture from the samples at one texture-cell size (radial stage, then the map
+// model where the data cover the image); with `test_lamp`, the camera-lamp test on the radial
+// stage's residuals (InputError when the brightness follows a lamp on the camera); with
+// `truncation`, the radial model's truncation (one more fit) beside its response kernel
+// (vignette.cc).
+void SolveVignetteAtCellSize(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
+                             const VignetteOptions& options, bool test_lamp, bool truncation,
+                             VignetteResult* result);
+
+// V extrapolated to cells of zero size (docs/photometric.md "Texture cells"): solved at the
+// texture cell and at twice it, V_0 = V_h + (V_h - V_2h) / 3, since the cells' bias is of order
+// h^2, and the radial model's response kernel alike; the rest as SolveVignetteAtCellSize at
+// the cell; with `test_lamp`, the camera-lamp test.
+// Fills everything of `result` but frames_used and poses (vignette_cells.cc).
 void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
                    const VignetteOptions& options, bool test_lamp, VignetteResult* result);
 
@@ -69,6 +86,11 @@ VignetteResponseKernel RadialResponseKernel(const std::vector<Sample>& samples,
                                             const std::vector<SampledPixel>& pixels,
                                             const std::array<double, 3>& v,
                                             const std::vector<double>& C, int terms);
+
+// RMS of a / b - 1 over the pixels (every 4th row and column) of two CV_32F maps within
+// `radius` half-diagonals of the principal point; NaN when no pixel qualifies.
+double RmsRelativeDifference(const cv::Mat& a, const cv::Mat& b, const CameraModel& camera,
+                             double radius);
 
 // The raw value at `xy` of a frame, channels averaged.
 float MeanRawAt(const cv::Mat& image, const cv::Point& xy);
