@@ -29,9 +29,15 @@ namespace {
 
 // The radial fit's response kernel of the extrapolated V: the same combination of the two
 // fits' kernels, whose bins of raw value are the same (the same samples); the cell's own when
-// they differ. The truncation, a difference of two fits at one cell size, is the cell's.
+// they differ. And the truncation (the fit with the next term less the fit): the cells bias
+// the two fits differently, and at one cell size the difference fell short of V's actual
+// truncation error (noise-free, seed 1's lens of the coverage bench at 1280x960: 0.72 of it at
+// 2 mm, 0.93 at 0.5 mm).
 void ExtrapolateKernel(const VignetteResponseKernel& coarse, const std::array<double, 3>& v,
                        VignetteResponseKernel* fine) {
+  for (int j = 0; j < 3; ++j) {
+    fine->truncation[j] += (fine->truncation[j] - coarse.truncation[j]) / 3.0;
+  }
   if (!fine->empty() && coarse.raw == fine->raw) {
     for (size_t b = 0; b < fine->weight.size(); ++b) {
       for (int j = 0; j < 3; ++j) {
@@ -95,7 +101,7 @@ void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet s
   at_2h.model = result->model_used;  // the same model; the samples and their coverage are
   at_2h.min_coverage = 0;            // the same too
   VignetteResult coarse_result;
-  SolveVignetteAtCellSize(camera, grid, std::move(coarse), at_2h, false, false, &coarse_result);
+  SolveVignetteAtCellSize(camera, grid, std::move(coarse), at_2h, false, true, &coarse_result);
   ExtrapolateToZeroCell(camera, coarse_result, result);
 }
 

@@ -64,8 +64,8 @@ void SolveVignetteAtCellSize(const CameraModel& camera, const PixelGrid& grid, S
 
 // V extrapolated to cells of zero size (docs/photometric.md "Texture cells"): solved at the
 // texture cell and at twice it, V_0 = V_h + (V_h - V_2h) / 3, since the cells' bias is of order
-// h^2, and the radial model's response kernel alike; the rest as SolveVignetteAtCellSize at
-// the cell; with `test_lamp`, the camera-lamp test.
+// h^2, and the radial model's response kernel and truncation alike; the rest as
+// SolveVignetteAtCellSize at the cell; with `test_lamp`, the camera-lamp test.
 // Fills everything of `result` but frames_used and poses (vignette_cells.cc).
 void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
                    const VignetteOptions& options, bool test_lamp, VignetteResult* result);
