@@ -65,7 +65,7 @@ struct VignetteFrame {
 struct VignetteResult {
   cv::Mat map;  // CV_32F, image size, V(pixel), 1 at the principal point
   VignetteModel model_used = VignetteModel::kMap;
-  std::string note;                // why the fallback was taken, if it was
+  std::string note;                // why a fallback was taken (radial model, V at the cell)
   std::array<double, 3> radial{};  // v1, v2, v3 of the radial fit (always fitted)
   double coverage = 0;             // fraction of vignette cells with enough samples
   int frames_used = 0, poses = 0;

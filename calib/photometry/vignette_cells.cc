@@ -50,25 +50,27 @@ void ExtrapolateKernel(const VignetteResponseKernel& coarse, const std::array<do
 
 // `fine` (at the cell h) moved to zero cell size with `coarse` (at 2h): V_h + (V_h - V_2h) / 3
 // for the radial coefficients and the map alike (V is linear in the coefficients, so the
-// radial model's map stays its polynomial's).
+// radial model's map stays its polynomial's). Where that V is not positive somewhere (poses
+// that hardly fix V, so the two cells' fits part far beyond the data: a board slid in one plane
+// facing the camera), the cell's V stands and the note says why.
 void ExtrapolateToZeroCell(const CameraModel& camera, const VignetteResult& coarse,
                            VignetteResult* fine) {
+  const cv::Mat at_cell = fine->map;
+  const cv::Mat extrapolated = at_cell + (at_cell - coarse.map) * (1.0 / 3.0);
+  double lowest = 0;
+  cv::minMaxLoc(extrapolated, &lowest);
+  if (!(lowest > 0) || !cv::checkRange(extrapolated)) {
+    fine->note += fmt::format(
+        "{}V not extrapolated to zero cell size: it would reach {:.3g} somewhere (the fits at "
+        "the cell and twice it differ by more than the data hold); V at the cell stands",
+        fine->note.empty() ? "" : "; ", lowest);
+    return;
+  }
   for (int j = 0; j < 3; ++j) fine->radial[j] += (fine->radial[j] - coarse.radial[j]) / 3.0;
   ExtrapolateKernel(coarse.response_kernel, fine->radial, &fine->response_kernel);
-  const cv::Mat at_cell = fine->map.clone();
-  fine->map = at_cell + (at_cell - coarse.map) * (1.0 / 3.0);
-  for (int y = 0; y < fine->map.rows; ++y) {
-    for (int x = 0; x < fine->map.cols; ++x) {
-      const float v = fine->map.at<float>(y, x);
-      if (!(v > 0) || !std::isfinite(v)) {
-        throw NumericalError(fmt::format(
-            "vignetting: V extrapolated to zero cell size is not positive at pixel ({}, {})", x,
-            y));
-      }
-    }
-  }
+  fine->map = extrapolated;
   fine->cells_extrapolated = true;
-  const double moved = RmsRelativeDifference(fine->map, at_cell, camera, fine->covered_radius);
+  const double moved = RmsRelativeDifference(extrapolated, at_cell, camera, fine->covered_radius);
   fine->cell_correction_rms = std::isfinite(moved) ? moved : 0.0;
 }
 

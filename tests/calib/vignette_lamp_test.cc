@@ -86,6 +86,11 @@ TEST(VignetteLamp, PosesThatCannotTellAreReported) {
   const VignetteResult v = Calibrate(Render(s, dir.path()));
   EXPECT_FALSE(v.lamp_test.detectable) << v.lamp_test.Report();
   EXPECT_NE(v.lamp_test.Report().find("too little to tell"), std::string::npos);
+  // Poses that hardly fix V: the fits at the cell and twice it part so far that V extrapolated
+  // to zero cell size would vanish in the corners; V at the cell stands, and the note says so
+  // (docs/photometric.md "Texture cells").
+  EXPECT_FALSE(v.cells_extrapolated) << v.Report();
+  EXPECT_NE(v.note.find("not extrapolated"), std::string::npos) << v.note;
 }
 
 }  // namespace
