@@ -127,7 +127,7 @@ nlohmann::json VignetteJson(const SessionVignette& v, const std::string& out) {
           {"map_error_note", r.map_error_note},
           {"map_vs_radial_rms", r.map_vs_radial_rms},
           {"cell_correction_rms",
-           r.cells_extrapolated ? nlohmann::json(r.cell_correction_rms) : nlohmann::json()},
+           r.cell_correction_rms ? nlohmann::json(*r.cell_correction_rms) : nlohmann::json()},
           {"flat_field", v.flat_field},
           {"lamp_test",
            {{"run", r.lamp_test.run},

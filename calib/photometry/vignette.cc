@@ -549,7 +549,7 @@ VignetteResult CalibrateVignette(const CameraModel& camera, const PaperRegion& p
   const auto per_frame = ReadPaperPixels(frames, linear, paper, grid, options);
   for (const auto& v : per_frame) result.frames_used += !v.empty();
   SolveVignette(camera, grid, BinOnTextureGrid(per_frame, grid, paper, options), options, true,
-                &result);
+                true, &result);
   // Alternate frames with paper in view, so each half sees the board from several poses.
   std::array<std::vector<std::vector<PaperPixel>>, 2> halves;
   for (const auto& v : per_frame) {

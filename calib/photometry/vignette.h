@@ -20,6 +20,7 @@
 
 #include <array>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -87,11 +88,10 @@ struct VignetteResult {
   // 99th percentile of the samples' r (distance to the principal point / half-diagonal): the
   // radial fit is extrapolated beyond it.
   double covered_radius = 0;
-  // Whether V was extrapolated to texture cells of zero size (board frames; not a flat field),
-  // and how far that moved it: RMS of V / V_cell - 1 within covered_radius (docs/photometric.md
-  // "Texture cells").
-  bool cells_extrapolated = false;
-  double cell_correction_rms = 0;
+  // How far extrapolating V to texture cells of zero size moved it: RMS of V / V_cell - 1
+  // within covered_radius (docs/photometric.md "Texture cells"); empty where V was not
+  // extrapolated (a flat field, a uniform paper, or V at the cell stands: `note` says why).
+  std::optional<double> cell_correction_rms;
   // The raw values V was measured from: per vignette cell of input_cell_px pixels (CV_32F), the
   // median raw value of its samples, channels averaged; NaN where it had none. V is a ratio of
   // radiances read through the response, so a response error at these values is in V too, and

@@ -86,7 +86,7 @@ void MeasureMapError(const CameraModel& camera, const PixelGrid& grid,
     o.model = result->model_used;  // both halves in the whole fit's model
     o.min_coverage = 0;            // a half covers less; the model is already chosen
     try {
-      SolveVignette(camera, grid, std::move(halves[h]), o, false, &half[h]);
+      SolveVignette(camera, grid, std::move(halves[h]), o, false, false, &half[h]);
     } catch (const std::runtime_error& e) {  // InputError, NumericalError
       result->map_error_note =
           fmt::format("split halves: half {} could not be fitted: {}", h + 1, e.what());
@@ -120,12 +120,12 @@ std::string VignetteResult::Report() const {
   if (model_used == VignetteModel::kMap)
     s += fmt::format(", map vs radial RMS {:.2f}%", 100 * map_vs_radial_rms);
   s += "\n";
-  if (cells_extrapolated) {
+  if (cell_correction_rms) {
     s += fmt::format(
         "texture cells: V extrapolated to zero cell size from the cells and cells twice their "
         "size (docs/photometric.md \"Texture cells\"), a change of {:.3f}% RMS within r <= "
         "{:.2f}\n",
-        100 * cell_correction_rms, covered_radius);
+        100 * *cell_correction_rms, covered_radius);
   }
   s += std::isfinite(map_error_rms)
            ? fmt::format(

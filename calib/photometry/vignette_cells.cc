@@ -69,7 +69,6 @@ void ExtrapolateToZeroCell(const CameraModel& camera, const VignetteResult& coar
   for (int j = 0; j < 3; ++j) fine->radial[j] += (fine->radial[j] - coarse.radial[j]) / 3.0;
   ExtrapolateKernel(coarse.response_kernel, fine->radial, &fine->response_kernel);
   fine->map = extrapolated;
-  fine->cells_extrapolated = true;
   const double moved = RmsRelativeDifference(extrapolated, at_cell, camera, fine->covered_radius);
   fine->cell_correction_rms = std::isfinite(moved) ? moved : 0.0;
 }
@@ -77,7 +76,6 @@ void ExtrapolateToZeroCell(const CameraModel& camera, const VignetteResult& coar
 }  // namespace
 
 SampleSet CoarserTextureCells(const SampleSet& set) {
-  if (set.texture_nx < 1 || set.texture_ny < 1 || set.texture_cells <= 1) return set;
   SampleSet coarse = set;
   coarse.texture_nx = (set.texture_nx + 1) / 2;
   coarse.texture_ny = (set.texture_ny + 1) / 2;
@@ -90,20 +88,23 @@ SampleSet CoarserTextureCells(const SampleSet& set) {
 }
 
 void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
-                   const VignetteOptions& options, bool test_lamp, VignetteResult* result) {
+                   const VignetteOptions& options, bool test_lamp, bool truncation,
+                   VignetteResult* result) {
   if (set.texture_nx < 1 || set.texture_ny < 1 || set.texture_cells <= 1) {
     // A flat field's cells are its frames, and a uniform paper's one cell spans the board:
     // nothing to extrapolate.
-    SolveVignetteAtCellSize(camera, grid, std::move(set), options, test_lamp, true, result);
+    SolveVignetteAtCellSize(camera, grid, std::move(set), options, test_lamp, truncation, result);
     return;
   }
   SampleSet coarse = CoarserTextureCells(set);
-  SolveVignetteAtCellSize(camera, grid, std::move(set), options, test_lamp, true, result);
+  SolveVignetteAtCellSize(camera, grid, std::move(set), options, test_lamp, truncation, result);
+  // The coarse fit in the model the fine one chose (the same samples cover the same cells).
   VignetteOptions at_2h = options;
-  at_2h.model = result->model_used;  // the same model; the samples and their coverage are
-  at_2h.min_coverage = 0;            // the same too
+  at_2h.model = result->model_used;
+  at_2h.min_coverage = 0;
   VignetteResult coarse_result;
-  SolveVignetteAtCellSize(camera, grid, std::move(coarse), at_2h, false, true, &coarse_result);
+  SolveVignetteAtCellSize(camera, grid, std::move(coarse), at_2h, false, truncation,
+                          &coarse_result);
   ExtrapolateToZeroCell(camera, coarse_result, result);
 }
 

@@ -105,7 +105,7 @@ VignetteResult CalibrateFlatFieldVignette(const CameraModel& camera,
   }
   result.poses = 0;  // not known: no poses
   result.lamp_test.run = false;
-  SolveVignette(camera, grid, std::move(set), options, false, &result);
+  SolveVignette(camera, grid, std::move(set), options, false, true, &result);
   MeasureFlatFieldError(camera, grid, per_frame, options, &result);
   return result;
 }

@@ -49,8 +49,8 @@ struct SampleSet {
   std::vector<int> cell_count;  // samples per vignette cell
 };
 
-// The same samples on cells twice the size (2x2 cells merged); the set itself when its cells
-// are not a board grid of more than one cell (vignette_cells.cc).
+// The same samples on cells twice the size (2x2 cells merged); `set`'s cells must be a board
+// grid (texture_nx, texture_ny > 0; vignette_cells.cc).
 SampleSet CoarserTextureCells(const SampleSet& set);
 
 // V and the texture from the samples at one texture-cell size (radial stage, then the map
@@ -65,10 +65,12 @@ void SolveVignetteAtCellSize(const CameraModel& camera, const PixelGrid& grid, S
 // V extrapolated to cells of zero size (docs/photometric.md "Texture cells"): solved at the
 // texture cell and at twice it, V_0 = V_h + (V_h - V_2h) / 3, since the cells' bias is of order
 // h^2, and the radial model's response kernel and truncation alike; the rest as
-// SolveVignetteAtCellSize at the cell; with `test_lamp`, the camera-lamp test.
-// Fills everything of `result` but frames_used and poses (vignette_cells.cc).
+// SolveVignetteAtCellSize at the cell; with `test_lamp`, the camera-lamp test; with
+// `truncation`, the radial model's truncation (the split halves need neither). Fills
+// everything of `result` but frames_used and poses (vignette_cells.cc).
 void SolveVignette(const CameraModel& camera, const PixelGrid& grid, SampleSet set,
-                   const VignetteOptions& options, bool test_lamp, VignetteResult* result);
+                   const VignetteOptions& options, bool test_lamp, bool truncation,
+                   VignetteResult* result);
 
 // V's own error by split halves (docs/photometric.md "Vignetting accuracy"): `halves` are the
 // samples of alternate frames; each is solved alone, and since each half's error has twice the

@@ -89,7 +89,7 @@ TEST(VignetteLamp, PosesThatCannotTellAreReported) {
   // Poses that hardly fix V: the fits at the cell and twice it part so far that V extrapolated
   // to zero cell size would vanish in the corners; V at the cell stands, and the note says so
   // (docs/photometric.md "Texture cells").
-  EXPECT_FALSE(v.cells_extrapolated) << v.Report();
+  EXPECT_FALSE(v.cell_correction_rms.has_value()) << v.Report();
   EXPECT_NE(v.note.find("not extrapolated"), std::string::npos) << v.note;
 }
 
