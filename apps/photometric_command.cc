@@ -118,7 +118,9 @@ void AddResponseCommand(CLI::App* cmd) {
       ->capture_default_str();
   resp->add_option("--knots", args->options.num_knots, "Knots of the inverse response")
       ->capture_default_str();
-  resp->add_option("--pixels", args->options.num_pixels, "Sampled pixels per channel")
+  resp->add_option("--pixels", args->options.num_pixels,
+                   "Sampled pixels per channel (default 0: on 8-bit frames 1500 per 640x480 within "
+                   "1500-20000, on deeper ones 1500)")
       ->capture_default_str();
   resp->add_option("--smoothness", args->options.smoothness,
                    "Weight of the curve's curvature (the same at any --knots)")

@@ -405,7 +405,9 @@ void ResponseOptions::Check() const {
     if (!(b >= 0)) throw InputError("black level must be >= 0");
   }
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
-  if (num_pixels < 50) throw InputError("at least 50 pixels are needed");
+  if (num_pixels != 0 && num_pixels < 50) {
+    throw InputError("at least 50 pixels are needed (0: by the frames' size)");
+  }
   if (bootstrap_refits < 0 || bootstrap_refits > 1000) {
     throw InputError("bootstrap refits must be in [0, 1000]");
   }
@@ -414,6 +416,13 @@ void ResponseOptions::Check() const {
   if (!(saturation_margin >= 0 && saturation_margin < 0.5)) {
     throw InputError("saturation margin must be in [0, 0.5)");
   }
+}
+
+int ResponseOptions::PixelsFor(int width, int height, int bits) const {
+  if (num_pixels > 0) return num_pixels;
+  if (bits > 8) return kMinPixels;
+  const double by_size = kPixelsPerFramePixel * width * height;
+  return static_cast<int>(std::lround(std::clamp<double>(by_size, kMinPixels, kMaxPixels)));
 }
 
 ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
@@ -448,6 +457,7 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
     throw InputError(fmt::format("{} black levels for {}-channel frames",
                                  o.channel_black_level.size(), result.channels));
   }
+  result.sampled_pixels = o.PixelsFor(frames[0].image.cols, frames[0].image.rows, s.bit_depth);
   for (int c = 0; c < result.channels; ++c) {
     if (!o.channel_black_level.empty()) {
       setups[c].dark_limit = o.channel_black_level[c] + 0.02 * s.max_value;
@@ -459,7 +469,7 @@ ResponseResult CalibrateResponse(const std::vector<ExposureFrame>& input,
       setups[c].dark_limit = setups[c].darkest_value + 0.02 * s.max_value;
     }
     setups[c].saturation_limit = ChannelSaturation(planes[c], s, listed);
-    pixels[c] = SamplePixels(planes[c], frames, setups[c], o.num_pixels);
+    pixels[c] = SamplePixels(planes[c], frames, setups[c], result.sampled_pixels);
   }
   std::vector<bool> free_time(frames.size(), false);
   const auto fits = FitWithTimeScreening(planes, frames, setups, pixels, o, &s, &free_time);

@@ -61,8 +61,23 @@ struct ResponseOptions {
   std::optional<double> black_level;
   std::vector<double> channel_black_level;  // per channel (dark frames); overrides black_level
   BlackLevelSource black_level_source = BlackLevelSource::kOption;
-  int num_knots = 128;    // knots of h over [0, 2^bit_depth)
-  int num_pixels = 1500;  // sampled pixels per channel
+  int num_knots = 128;  // knots of h over [0, 2^bit_depth)
+  // Sampled pixels per channel; 0: by the frames (PixelsFor, docs/photometric.md "How many
+  // pixels"). On 8-bit frames a value's quantization is a large part of each pixel's error, the
+  // part more pixels average out, and the session's statistical bars shrink with its frames'
+  // pixel count: with a fixed sample the response's noise part, the one whose draws a single
+  // sweep gets most wrong, grew to the largest share of the bars at 1280x960 (the coverage
+  // bench's sRGB kinds: lamp z RMS z 1.58, 75 % within 2; at 6000 pixels 1.30 with a third to two
+  // fifths less error). On 12- and 16-bit sweeps 6000 pixels left the errors as they were and
+  // took 4 times as long on the demo's sweep, so those keep 1500.
+  int num_pixels = 0;
+  // On 8-bit frames when num_pixels is 0: 1500 per 640x480 frame (the fixed default until
+  // 2026-12-06, where the coverage bench's bars were measured right), within these bounds (about
+  // 9 s per channel at the top).
+  static constexpr double kPixelsPerFramePixel = 1500.0 / (640 * 480);
+  static constexpr int kMinPixels = 1500, kMaxPixels = 20000;
+  // The sample for frames of `width` x `height` holding `bits` significant bits.
+  int PixelsFor(int width, int height, int bits) const;
   // Refits on the pixels drawn again with replacement: the table's statistical error
   // (ResponseResult::bootstrap_ln_change; 0: not measured). Twenty: one per draw of the
   // calibration's propagation (CalibrationPropagationOptions::draws,
@@ -195,6 +210,7 @@ struct ResponseResult {
   // refit and channel, the change of ln X at every knot (knot k at value k * knot_spacing), the
   // common offset removed. Empty in older files and with ResponseOptions::bootstrap_refits 0.
   std::vector<std::vector<std::vector<double>>> bootstrap_ln_change;
+  int sampled_pixels = 0;  // per channel, the sample the curve was fitted to (0: older files)
 
   // Relative exposure of a (possibly fractional) pixel value, linear between table entries.
   double Linearize(int channel, double value) const;

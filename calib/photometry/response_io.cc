@@ -222,8 +222,10 @@ std::string ResponseResult::Report() const {
   std::ostringstream s;
   s << fmt::format("inverse response: {} channel(s), {} bit, black level", channels, bit_depth);
   for (double b : black_level) s << fmt::format(" {:.1f}", b);
-  s << fmt::format(" ({}); fit rms {:.4f} (ln units)\n", BlackLevelSourceName(black_level_source),
-                   rms_log_residual);
+  s << fmt::format(" ({}); fit rms {:.4f} (ln units){}\n", BlackLevelSourceName(black_level_source),
+                   rms_log_residual,
+                   sampled_pixels > 0 ? fmt::format(" on {} pixels per channel", sampled_pixels)
+                                      : std::string());
   if (black_level_source == BlackLevelSource::kEstimated) {
     s << "  black level estimated from the curve's shape; the data allow";
     for (const auto& r : black_level_range) s << fmt::format(" {:.1f}..{:.1f}", r[0], r[1]);
@@ -453,6 +455,12 @@ void FitFiguresFromJson(const nlohmann::json& j, const std::string& source, Resp
   OptionalNumberFromJson(j, "regional_mapping_difference", false, source,
                          &r->regional_mapping_difference);
   OptionalNumberFromJson(j, "knot_spacing", true, source, &r->knot_spacing);
+  double sampled = 0;
+  OptionalNumberFromJson(j, "sampled_pixels", false, source, &sampled);
+  if (sampled != std::floor(sampled) || sampled > 1e9) {
+    throw InputError(source + ": 'sampled_pixels' must be a whole number");
+  }
+  r->sampled_pixels = static_cast<int>(sampled);
   if (j.contains("bootstrap_ln_change")) {
     r->bootstrap_ln_change = BootstrapFromJson(j["bootstrap_ln_change"], r->channels, source);
     if (!r->bootstrap_ln_change.empty() && !std::isfinite(r->knot_spacing)) {
@@ -510,6 +518,7 @@ nlohmann::json ResponseResult::ToJson() const {
           {"knot_spacing",
            std::isfinite(knot_spacing) ? nlohmann::json(knot_spacing) : nlohmann::json()},
           {"bootstrap_ln_change", bootstrap_ln_change},
+          {"sampled_pixels", sampled_pixels},
           {"rms_log_residual", rms_log_residual}};
 }
 
