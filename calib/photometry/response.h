@@ -72,8 +72,8 @@ struct ResponseOptions {
   // took 4 times as long on the demo's sweep, so those keep 1500.
   int num_pixels = 0;
   // On 8-bit frames when num_pixels is 0: 1500 per 640x480 frame (the fixed default until
-  // 2026-12-06, where the coverage bench's bars were measured right), within these bounds (about
-  // 9 s per channel at the top).
+  // 2026-12-06, at the size of the coverage bench's grid, whose bars are measured at it), within
+  // these bounds (about 9 s per channel at the top).
   static constexpr double kPixelsPerFramePixel = 1500.0 / (640 * 480);
   static constexpr int kMinPixels = 1500, kMaxPixels = 20000;
   // The sample for frames of `width` x `height` holding `bits` significant bits.
