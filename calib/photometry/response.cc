@@ -406,7 +406,7 @@ void ResponseOptions::Check() const {
   }
   if (num_knots < 8 || num_knots > 4096) throw InputError("knots must be in [8, 4096]");
   if (num_pixels != 0 && num_pixels < 50) {
-    throw InputError("at least 50 pixels are needed (or 0: chosen by the frames)");
+    throw InputError("pixels must be 0 (chosen by the frames) or at least 50");
   }
   if (bootstrap_refits < 0 || bootstrap_refits > 1000) {
     throw InputError("bootstrap refits must be in [0, 1000]");
