@@ -60,7 +60,7 @@ void SessionWriter::Add(const cv::Mat& image, double exposure_s, double gain, do
   const std::string file = fmt::format("frame_{:04d}.png", session_.frames.size());
   const fs::path& work = folder_.tmp();
   WriteImage(work / file, image);
-  session_.frames.push_back({file, exposure_s, gain, timestamp_s, bracket});
+  session_.frames.push_back({file, exposure_s, gain, timestamp_s, bracket, ""});  // lamp on
   try {
     WriteSession(work, session_);
   } catch (...) {

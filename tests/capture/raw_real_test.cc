@@ -126,7 +126,9 @@ TEST_P(RealRawFile, MatchesLibRawsUnprocessedValuesAndStatedMetadata) {
   ASSERT_TRUE(m.exposure_s);
   EXPECT_NEAR(*m.exposure_s, truth.exposure_s, 1e-3 * truth.exposure_s);
   EXPECT_EQ(m.iso.has_value(), truth.iso_read);
-  if (m.iso) EXPECT_DOUBLE_EQ(*m.iso, truth.iso);
+  if (m.iso) {
+    EXPECT_DOUBLE_EQ(*m.iso, truth.iso);
+  }
   EXPECT_DOUBLE_EQ(m.black_level, truth.black);
   EXPECT_DOUBLE_EQ(m.white_level, truth.white);
   EXPECT_EQ(m.sensor_width, truth.width);

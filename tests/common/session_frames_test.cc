@@ -23,7 +23,7 @@ Session ThreeFrameSession(const fs::path& dir) {
   for (int i = 0; i < 3; ++i) {
     const std::string file = "frame_" + std::to_string(i) + ".png";
     cv::imwrite((dir / file).string(), cv::Mat(4, 6, CV_8U, cv::Scalar(i)));
-    s.frames.push_back({file, 0.01, 1.0, 0.0, 0});
+    s.frames.push_back({file, 0.01, 1.0, 0.0, 0, ""});
   }
   cv::imwrite((dir / "off_1.png").string(), cv::Mat(4, 6, CV_8U, cv::Scalar(100)));
   s.frames[1].lamp_off = "off_1.png";

@@ -23,7 +23,8 @@ Session TwoFrameSession(const fs::path& dir) {
   s.camera_id = "v4l2:/dev/video0:Test Cam";
   s.board = "board.json";
   s.gain_unit = Session::kGainDevice;
-  s.frames = {{"frame_0000.png", 0.001, 0.0, 0.0, 0}, {"frame_0001.png", 0.004, 12.0, 0.25, 0}};
+  s.frames = {{"frame_0000.png", 0.001, 0.0, 0.0, 0, ""},
+              {"frame_0001.png", 0.004, 12.0, 0.25, 0, ""}};
   return s;
 }
 
@@ -98,7 +99,7 @@ TEST(Session, FailedWriteKeepsThePreviousFile) {
   const std::string before = ReadTextFile(dir.path() / "session.json");
   // A frame that is not in the folder: the write must fail and leave the old file untouched,
   // with no temporary left behind.
-  s.frames.push_back({"frame_0002.png", 0.016, 1.0, 0.5, 0});
+  s.frames.push_back({"frame_0002.png", 0.016, 1.0, 0.5, 0, ""});
   EXPECT_THROW(WriteSession(dir.path(), s), InputError);
   EXPECT_EQ(ReadTextFile(dir.path() / "session.json"), before);
   size_t files = 0;
