@@ -1,7 +1,9 @@
 // Reading exposure sweeps and response.json, and what a ResponseResult says of itself
 // (calib/photometry/response.h); the calibration itself is response.cc.
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -455,12 +457,13 @@ void FitFiguresFromJson(const nlohmann::json& j, const std::string& source, Resp
   OptionalNumberFromJson(j, "regional_mapping_difference", false, source,
                          &r->regional_mapping_difference);
   OptionalNumberFromJson(j, "knot_spacing", true, source, &r->knot_spacing);
-  double sampled = 0;
-  OptionalNumberFromJson(j, "sampled_pixels", false, source, &sampled);
-  if (sampled != std::floor(sampled) || sampled > 1e9) {
-    throw InputError(source + ": 'sampled_pixels' must be a whole number");
+  if (j.contains("sampled_pixels")) {
+    const auto& v = j["sampled_pixels"];
+    if (!v.is_number_integer() || v.get<std::int64_t>() < 0 || v.get<std::int64_t>() > INT_MAX) {
+      throw InputError(source + ": 'sampled_pixels' must be a whole number >= 0");
+    }
+    r->sampled_pixels = v.get<int>();
   }
-  r->sampled_pixels = static_cast<int>(sampled);
   if (j.contains("bootstrap_ln_change")) {
     r->bootstrap_ln_change = BootstrapFromJson(j["bootstrap_ln_change"], r->channels, source);
     if (!r->bootstrap_ln_change.empty() && !std::isfinite(r->knot_spacing)) {
