@@ -528,4 +528,28 @@ std::optional<std::string> AssumedNoiseFloorNote(double floor, NoiseFloorSource 
   return note;
 }
 
+std::vector<std::string> AssumedAbsentNuisanceNotes(const JointFitResult& fit) {
+  std::vector<std::string> notes;
+  if (!fit.lamp_stddev) return notes;
+  for (const NuisanceSensitivity& n : fit.nuisance_sensitivity) {
+    const bool ambient = n.term == UnresolvedNuisance::Term::kAmbient;
+    const bool kept = ambient ? !fit.ambient_sample.empty() : fit.sample_height_offset.has_value();
+    const bool warned = fit.unresolved_nuisance && fit.unresolved_nuisance->term == n.term;
+    const Eigen::Vector3d shift = kAssumedAbsentSd * n.lamp_per_term_sd;
+    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *fit.lamp_stddev);
+    if (kept || warned || !(in_sd > 1.0)) continue;
+    notes.push_back(fmt::format(
+        "{}: the data hold it within its error bar, but cannot exclude it at {:g} of its standard "
+        "deviations, which would move the lamp by up to {:.1f} mm, {:.1f} times its standard "
+        "deviation (the lamp's bar holds it at zero); {}",
+        ambient ? "no room light" : "the sample's top where board.json sample_height_m puts it",
+        kAssumedAbsentSd, 1e3 * shift.norm(), in_sd,
+        ambient ? "lamp-off frames (session.json lamp_off) remove the doubt; --ambient fit "
+                  "widens the bars to hold it"
+                : "the sample's measured thickness in board.json sample_height_m removes the "
+                  "doubt; --sample-height fit widens the bars to hold it"));
+  }
+  return notes;
+}
+
 }  // namespace gonio

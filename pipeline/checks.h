@@ -138,4 +138,14 @@ inline constexpr double kFloorOverResiduals = 1.6;
 std::optional<std::string> AssumedNoiseFloorNote(double floor, NoiseFloorSource source,
                                                  double residual_rel_rms);
 
+// A nuisance term --ambient auto / --sample-height auto left out within its bar is an
+// assumption the lamp's bar rests on: the bar holds the term at zero, and the data cannot
+// exclude it at kAssumedAbsentSd of its standard deviations. The notes `gonio run` and `gonio
+// fit` record (fit.json `assumptions`, `ASSUMED:`, the report), one per such term that would move
+// the lamp beyond its reported bar on some axis (JointFitResult::nuisance_sensitivity), with the
+// shift and what removes the doubt. None for a kept term, for one warned as unresolved, and
+// without the lamp's bar.
+inline constexpr double kAssumedAbsentSd = 2.0;
+std::vector<std::string> AssumedAbsentNuisanceNotes(const JointFitResult& fit);
+
 }  // namespace gonio

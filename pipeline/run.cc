@@ -235,14 +235,7 @@ void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, J
   if (!kept.ambient_reason.empty()) f->ambient_reason = kept.ambient_reason + note;
   if (!kept.sample_height_reason.empty())
     f->sample_height_reason = kept.sample_height_reason + note;
-  if (!f->lamp_stddev) return;
-  const Eigen::Vector3d shift = kept.lamp_position - f->lamp_position;
-  const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *f->lamp_stddev);
-  if (in_sd > UnresolvedNuisance::kShiftInSd) {
-    f->unresolved_nuisance = UnresolvedNuisance{
-        d.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight,
-        d.ambient ? d.z_ambient : d.z_height, shift, in_sd};
-  }
+  if (auto u = UnresolvedAfterDrop(d, kept, *f)) f->unresolved_nuisance = u;
 }
 
 // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the
@@ -344,6 +337,10 @@ RunResult Run(const RunInputs& in, const RunOptions& o) {
                                         r.fit.final_fit.material.rel_rms)) {
     r.assumptions.push_back(*note);
     spdlog::warn("assumed: {}", *note);
+  }
+  for (const std::string& note : AssumedAbsentNuisanceNotes(r.fit.final_fit)) {
+    r.assumptions.push_back(note);
+    spdlog::warn("assumed: {}", note);
   }
   r.timings.fit_s = clock.Lap();
   CheckResiduals(in, o, &r);

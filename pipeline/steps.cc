@@ -56,6 +56,9 @@ FitOfFiles FitObservationFiles(const std::vector<std::string>& files,
                                         r.checked.fit.final_fit.material.rel_rms)) {
     r.data.assumptions.push_back(*note);
   }
+  for (const std::string& note : AssumedAbsentNuisanceNotes(r.checked.fit.final_fit)) {
+    r.data.assumptions.push_back(note);
+  }
   return r;
 }
 

@@ -144,6 +144,21 @@ struct UnresolvedNuisance {
   }
 };
 
+// How far a nuisance term --ambient auto / --sample-height auto could move the lamp if it
+// were fitted: per axis, the lamp's shift per standard deviation of the term at the final size,
+// sqrt(sd_free^2 - sd_fixed^2) with sd_free the lamp's statistical standard deviation in the
+// trial that fitted the term alone (ChooseNuisances) and sd_fixed the fit's without it. For a
+// linear model that is |cov(lamp, term)| / sd(term): the part of the lamp's bar the term adds
+// when free. A term the data leave out within its bar is an assumption, not a finding: room
+// light at 2 of its standard deviations is what they cannot exclude, and where the lamp and the
+// term trade strongly (room light at 0.5 % of the lamp: the term at z 0.2, the lamp 5 bars
+// off; docs/pipeline.md "Ambient light") the result rests on it (pipeline/checks.h
+// AssumedAbsentNuisanceNotes).
+struct NuisanceSensitivity {
+  UnresolvedNuisance::Term term = UnresolvedNuisance::Term::kAmbient;
+  Eigen::Vector3d lamp_per_term_sd = Eigen::Vector3d::Zero();
+};
+
 struct JointFitResult {
   BrdfFitResult material;  // grey or channel-0 parameters, their stddev, metrics
   // The parameters fitted per colour channel (ParamInfo::per_channel: albedo-like ones) and,
@@ -175,6 +190,8 @@ struct JointFitResult {
   std::optional<double> sample_height_offset, sample_height_offset_stddev;
   std::string sample_height_reason;  // kAuto: why the correction was kept or left out
   std::optional<UnresolvedNuisance> unresolved_nuisance;  // kAuto: see UnresolvedNuisance
+  // kAuto: every term's trial, whether the term was kept or not (NuisanceSensitivity).
+  std::vector<NuisanceSensitivity> nuisance_sensitivity;
   // The patch model the fit used (kCentre or kAverage) and, when it was chosen (kAuto), the
   // bound on the centre's bias in standard deviations that chose it.
   PatchModel patch_model = PatchModel::kCentre;
@@ -247,6 +264,17 @@ struct NuisanceDrop {
   std::string Named() const;  // "ambient (z 2.39)", "height (z ...)" or both joined by "and"
 };
 NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const JointFitResult& f);
+
+// After `drop` left every kept term out: the term as unresolved when the fit that kept it
+// (`kept`) put the lamp more than kShiftInSd of the lamp's standard deviations (`without`'s,
+// worst axis) from where the fit without it (`without`) puts it. The term stood out on the
+// noise's bar and sits within nuisance_min_z of a wider one (all observations, or the
+// calibration's part added), so the data neither keep nor exclude it, and the lamp depends on
+// it (docs/pipeline.md "Ambient light": room light at 1 % of the lamp kept on the selection's
+// subsample and dropped at z 2.2-2.6 on all observations left the lamp 11 bars off).
+std::optional<UnresolvedNuisance> UnresolvedAfterDrop(const NuisanceDrop& drop,
+                                                      const JointFitResult& kept,
+                                                      const JointFitResult& without);
 
 // Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).

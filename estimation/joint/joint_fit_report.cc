@@ -77,6 +77,15 @@ nlohmann::json JointFitResult::ToJson() const {
         sample_height_offset_stddev ? Finite(*sample_height_offset_stddev) : nlohmann::json();
   }
   if (!sample_height_reason.empty()) j["sample_height_reason"] = sample_height_reason;
+  if (!nuisance_sensitivity.empty()) {
+    nlohmann::json sens = nlohmann::json::array();
+    for (const NuisanceSensitivity& n : nuisance_sensitivity) {
+      const Eigen::Vector3d& v = n.lamp_per_term_sd;
+      sens.push_back({{"term", n.term == UnresolvedNuisance::Term::kAmbient ? "ambient" : "height"},
+                      {"lamp_shift_per_term_sd_m", {Finite(v.x()), Finite(v.y()), Finite(v.z())}}});
+    }
+    j["nuisance_sensitivity"] = sens;
+  }
   j["patch_model"] = {{"evaluation", ToString(patch_model)},
                       {"centre_bias_bound_sd",
                        patch_bias_bound_sd ? Finite(*patch_bias_bound_sd) : nlohmann::json()}};

@@ -259,8 +259,27 @@ struct NuisanceTrial {
   double value = INFINITY;  // the criterion; INFINITY: a term within its error bar
   double z = 0;             // the first term's |value| / sd at the final size
   Eigen::Vector3d lamp = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> lamp_sd;  // the lamp's statistical sd, the terms free
   bool converged = false;
 };
+
+// Each single term's NuisanceSensitivity from its trial against the fit without terms
+// (`chosen`), at the final size (the bars divided by `scale`).
+std::vector<NuisanceSensitivity> SensitivityOf(const std::vector<NuisanceTrial>& trials,
+                                               const JointFitResult& chosen, double scale) {
+  std::vector<NuisanceSensitivity> out;
+  if (!chosen.lamp_stddev) return out;
+  for (const NuisanceTrial& t : trials) {
+    if (t.ambient == t.height || !t.converged || !t.lamp_sd) continue;
+    const Eigen::Vector3d added =
+        (t.lamp_sd->array().square() - chosen.lamp_stddev->array().square()).max(0.0).sqrt() /
+        scale;
+    out.push_back(
+        {t.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight,
+         added});
+  }
+  return out;
+}
 
 // When no term was kept: a single term whose trial stood between 2 and nuisance_min_z of its
 // final standard deviations out, and moved the lamp by more than 3 of the lamp's (the chosen
@@ -323,8 +342,8 @@ std::string NuisanceReason(const std::vector<NuisanceTrial>& trials, const Nuisa
 JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
                                 size_t final_n, const JointFitResult& chosen,
                                 const JointFitOptions& search, const JointFitOptions& options,
-                                std::string* reason,
-                                std::optional<UnresolvedNuisance>* unresolved) {
+                                std::string* reason, std::optional<UnresolvedNuisance>* unresolved,
+                                std::vector<NuisanceSensitivity>* sensitivity) {
   const bool ambient = options.ambient == AmbientTerm::kAuto && data.lamp_off_frames == 0;
   const bool height = options.sample_height == NuisanceTerm::kAuto;
   if (options.ambient == AmbientTerm::kAuto && data.lamp_off_frames > 0) {
@@ -358,6 +377,7 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
     t.value = significant ? criterion(f) : INFINITY;
     t.z = scale * NuisanceZ(f, t.ambient);
     t.lamp = f.lamp_position;
+    t.lamp_sd = f.lamp_stddev;
     t.converged = f.material.converged;
     spdlog::info(
         "nuisance trial {}{}: {} {:.1f}, z ambient {:.2f}, height {:.2f} (x {:.2f} at the "
@@ -381,6 +401,7 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   *reason = NuisanceReason(trials, *pick, chosen, use.size(), options);
   spdlog::info("{}", *reason);
   if (terms(*pick) == 0) *unresolved = NoteUnresolved(trials, chosen, scale, options);
+  *sensitivity = SensitivityOf(trials, chosen, scale);
   JointFitOptions out = search;
   if (pick->ambient) out.ambient = AmbientTerm::kFit;
   if (pick->height) out.sample_height = NuisanceTerm::kFit;
@@ -406,13 +427,16 @@ JointSelectionResult RestoreWithoutNuisances(const ObservationSet& data,
 // within its bar on all observations (an 8-bit sRGB camera's ambient radiance: z 1.5 at the end
 // after a predicted 3+; the constant traded against the lamp, albedo -1.2 %, lamp 1.1 %). Such a
 // term is dropped: the selection without the kept terms, and its final fit, are restored (one
-// term of two: the other stays, refitted).
+// term of two: the other stays, refitted), and when the kept term had moved the lamp beyond
+// kShiftInSd of its bars, the term is noted as unresolved (UnresolvedAfterDrop).
 void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size_t>& final_use,
                               const JointFitOptions& search, const JointFitOptions& options,
                               const JointSelectionResult& without, std::string* reason,
-                              JointSelectionResult* out) {
+                              JointSelectionResult* out,
+                              std::optional<UnresolvedNuisance>* unresolved) {
   const NuisanceDrop drop = NuisancesWithinTheirBars(options, out->final_fit);
   if (!drop.Any()) return;
+  const JointFitResult kept = out->final_fit;
   *reason += fmt::format("; on all {} observations {} within {:g} standard deviations: dropped",
                          final_use.size(), drop.Named(), options.nuisance_min_z);
   spdlog::info("nuisances: {}", *reason);
@@ -421,13 +445,14 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
   if (drop.height_kept && !drop.height) o.sample_height = NuisanceTerm::kFit;
   if (o.ambient != AmbientTerm::kFit && o.sample_height != NuisanceTerm::kFit) {
     *out = RestoreWithoutNuisances(data, final_use, search, without);
-    return;
+  } else {
+    // One term of two stays: the selected model refitted with it (a fit with another term set
+    // does not start from the selection's solution: FitCandidate's warm start).
+    const JointFitResult& chosen = out->fits[out->selection.selected];
+    out->final_fit =
+        FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
   }
-  // One term of two stays: the selected model refitted with it (a fit with another term set
-  // does not start from the selection's solution: FitCandidate's warm start).
-  const JointFitResult& chosen = out->fits[out->selection.selected];
-  out->final_fit =
-      FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
+  *unresolved = UnresolvedAfterDrop(drop, kept, out->final_fit);
 }
 
 // `options` with its kAuto nuisance terms off: what the model search fits.
@@ -438,41 +463,6 @@ JointFitOptions WithoutAutoNuisances(JointFitOptions options) {
 }
 
 }  // namespace
-
-double NuisanceZ(const JointFitResult& f, bool ambient_term) {
-  auto z = [](double v, const std::optional<double>& sd) {
-    return sd && *sd > 0 ? std::abs(v) / *sd : 0.0;
-  };
-  if (!ambient_term) {
-    return f.sample_height_offset ? z(*f.sample_height_offset, f.sample_height_offset_stddev) : 0.0;
-  }
-  double best = 0;
-  for (size_t c = 0; c < f.ambient_sample.size() && c < f.ambient_sample_stddev.size(); ++c) {
-    best = std::max(best, z(f.ambient_sample[c], f.ambient_sample_stddev[c]));
-  }
-  for (size_t c = 0; c < f.ambient_irradiance.size() && c < f.ambient_irradiance_stddev.size();
-       ++c) {
-    best = std::max(best, z(f.ambient_irradiance[c], f.ambient_irradiance_stddev[c]));
-  }
-  return best;
-}
-
-std::string NuisanceDrop::Named() const {
-  const std::string a = fmt::format("ambient (z {:.2f})", z_ambient);
-  const std::string h = fmt::format("height (z {:.2f})", z_height);
-  return ambient && height ? a + " and " + h : ambient ? a : h;
-}
-
-NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const JointFitResult& f) {
-  NuisanceDrop d;
-  d.ambient_kept = requested.ambient == AmbientTerm::kAuto && !f.ambient_sample.empty();
-  d.height_kept = requested.sample_height == NuisanceTerm::kAuto && f.sample_height_offset;
-  d.z_ambient = NuisanceZ(f, true);
-  d.z_height = NuisanceZ(f, false);
-  d.ambient = d.ambient_kept && !(d.z_ambient > requested.nuisance_min_z);
-  d.height = d.height_kept && !(d.z_height > requested.nuisance_min_z);
-  return d;
-}
 
 JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOptions& options) {
   options.Check();
@@ -504,10 +494,11 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   SearchModels(data, names, use, light0, search, &out);
   std::string nuisance_reason;
   std::optional<UnresolvedNuisance> unresolved;
+  std::vector<NuisanceSensitivity> sensitivity;
   const auto final_use = Subsample(data, options.final_max_observations);
   const JointFitOptions chosen_options =
       ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
-                      options, &nuisance_reason, &unresolved);
+                      options, &nuisance_reason, &unresolved, &sensitivity);
   auto without_nuisances = std::make_shared<const JointSelectionResult>(out);
   if (chosen_options.ambient != search.ambient ||
       chosen_options.sample_height != search.sample_height) {
@@ -532,8 +523,9 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position,
                                final_options, false, &chosen);
   DropUnsupportedNuisances(data, final_use, refit, options, *without_nuisances, &nuisance_reason,
-                           &out);
+                           &out, &unresolved);
   out.final_fit.unresolved_nuisance = unresolved;
+  out.final_fit.nuisance_sensitivity = sensitivity;
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
   if (options.sample_height == NuisanceTerm::kAuto) {
     out.final_fit.sample_height_reason = nuisance_reason;
@@ -556,13 +548,18 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
     JointFitOptions o = WithChosenNuisances(options, selection.final_fit);
     if (drop.ambient) o.ambient = AmbientTerm::kNone;
     if (drop.height) o.sample_height = NuisanceTerm::kNone;
-    return FitAndSelect(data, o);
+    JointSelectionResult out = FitAndSelect(data, o);
+    out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
+    return out;
   }
   if (!selection.without_nuisances) {
     throw std::logic_error("DropNuisances: the selection holds no search without its nuisances");
   }
-  return RestoreWithoutNuisances(data, Subsample(data, options.final_max_observations),
-                                 WithoutAutoNuisances(options), *selection.without_nuisances);
+  JointSelectionResult out =
+      RestoreWithoutNuisances(data, Subsample(data, options.final_max_observations),
+                              WithoutAutoNuisances(options), *selection.without_nuisances);
+  out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
+  return out;
 }
 
 }  // namespace gonio

@@ -236,6 +236,69 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
   EXPECT_NE(FitChecks().Warnings(f).at(0).message.find("a finer sweep or RAW"), std::string::npos);
 }
 
+// A term kept on the noise's bar and dropped within a wider one (all observations, or the
+// calibration's part) is unresolved when the fit that kept it put the lamp beyond kShiftInSd of
+// the lamp's bars from the fit without it; a smaller shift, no drop, or no lamp bar: none.
+TEST(RunWarnings, ADroppedTermThatMovedTheLampIsUnresolved) {
+  JointFitResult without = TrueFit();
+  without.lamp_stddev = Eigen::Vector3d(1e-3, 1e-4, 4e-4);
+  JointFitResult kept = without;
+  kept.lamp_position += Eigen::Vector3d(0.0, 0.0, 4.4e-3);  // 11 of lamp z's bars
+  NuisanceDrop drop;
+  drop.ambient_kept = drop.ambient = true;
+  drop.z_ambient = 2.6;
+  const auto u = UnresolvedAfterDrop(drop, kept, without);
+  ASSERT_TRUE(u);
+  EXPECT_EQ(u->term, UnresolvedNuisance::Term::kAmbient);
+  EXPECT_DOUBLE_EQ(u->z, 2.6);
+  EXPECT_NEAR(u->shift_in_sd, 11.0, 1e-9);
+  EXPECT_EQ(FitChecks()
+                .Warnings([&] {
+                  JointFitResult f = without;
+                  f.unresolved_nuisance = u;
+                  return f;
+                }())
+                .at(0)
+                .cause,
+            WarningCause::kAmbientLight);
+  kept.lamp_position = without.lamp_position + Eigen::Vector3d(0.0, 0.0, 1.1e-3);  // 2.75 bars
+  EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
+  kept.lamp_position = without.lamp_position + Eigen::Vector3d(0.0, 0.0, 4.4e-3);
+  EXPECT_FALSE(UnresolvedAfterDrop(NuisanceDrop(), kept, without));
+  without.lamp_stddev.reset();
+  EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
+}
+
+// A term the data left out within its bar is written as an assumption when kAssumedAbsentSd of
+// its standard deviations would move the lamp beyond its reported bar: the shift in mm and in
+// bars, and what removes the doubt. Not for a kept term, a term already warned as unresolved,
+// or one that moves the lamp less than its bar.
+TEST(RunWarnings, ATermTheDataCannotExcludeIsAnAssumption) {
+  JointFitResult f = TrueFit();
+  f.lamp_stddev = Eigen::Vector3d(1e-3, 1e-4, 4e-4);
+  f.nuisance_sensitivity = {{UnresolvedNuisance::Term::kAmbient, Eigen::Vector3d(0, 0, 2e-3)},
+                            {UnresolvedNuisance::Term::kHeight, Eigen::Vector3d(1e-4, 0, 1e-4)}};
+  const auto notes = AssumedAbsentNuisanceNotes(f);
+  ASSERT_EQ(notes.size(), 1u);  // the height's 2 sd move the lamp 0.5 of its bar
+  EXPECT_EQ(notes[0].rfind("no room light", 0), 0u) << notes[0];
+  EXPECT_NE(notes[0].find("4.0 mm, 10.0 times"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[0].find("lamp-off frames"), std::string::npos) << notes[0];
+  f.nuisance_sensitivity[1].lamp_per_term_sd = Eigen::Vector3d(0, 0, 1e-3);
+  const auto both = AssumedAbsentNuisanceNotes(f);
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_NE(both[1].find("sample_height_m"), std::string::npos) << both[1];
+  f.ambient_sample = {0.1};  // kept: the bar holds it
+  f.sample_height_offset = 1e-4;
+  EXPECT_TRUE(AssumedAbsentNuisanceNotes(f).empty());
+  f.ambient_sample.clear();
+  f.sample_height_offset.reset();
+  f.unresolved_nuisance = UnresolvedNuisance{UnresolvedNuisance::Term::kAmbient, 2.4,
+                                             Eigen::Vector3d(0, 0, 5e-3), 12.5};
+  ASSERT_EQ(AssumedAbsentNuisanceNotes(f).size(), 1u);  // the warning says it for room light
+  f.lamp_stddev.reset();
+  EXPECT_TRUE(AssumedAbsentNuisanceNotes(f).empty());
+}
+
 // `gonio run --maps`: the maps' warnings become run warnings touching the maps, the frames the
 // run already names skipped are not repeated.
 TEST(RunWarnings, MapsWarningsAreRunWarnings) {
