@@ -121,11 +121,13 @@ struct FrameResidual {
 };
 
 // A nuisance term --ambient auto / --sample-height auto left out although the data could not
-// exclude it (joint_selection.cc NoteUnresolved): its trial stood between 2 and nuisance_min_z
-// of its final standard deviations out and moved the lamp by more than kShiftInSd of the
-// lamp's, so the result depends on it (pipeline/checks.cc warns). The calibration's part of the
-// lamp's bar is known only after the final fit: AddCalibrationUncertainty (calibration_error.h)
-// judges the shift again against the widened bar and drops a shift the bar covers.
+// exclude it (joint_selection.cc NoteEffectsOnTheLamp): its trial beside the terms kept stood
+// more than 2 of its final standard deviations out and moved the lamp by more than kShiftInSd
+// of the lamp's, or it was kept and then dropped after moving the lamp that far
+// (UnresolvedAfterDrop), so the result depends on it (pipeline/checks.cc warns). The calibration's
+// part of the lamp's bar is known only after the final fit: AddCalibrationUncertainty
+// (calibration_error.h) judges the shift again against the widened bar and drops a shift the bar
+// covers.
 struct UnresolvedNuisance {
   static constexpr double kShiftInSd = 3.0;
   enum class Term { kAmbient, kHeight };
@@ -147,7 +149,8 @@ struct UnresolvedNuisance {
 // How far a nuisance term --ambient auto / --sample-height auto could move the lamp if it
 // were fitted: per axis, the lamp's shift per standard deviation of the term at the final size,
 // sqrt(sd_free^2 - sd_fixed^2) with sd_free the lamp's statistical standard deviation in the
-// trial that fitted the term alone (ChooseNuisances) and sd_fixed the fit's without it. For a
+// trial that fitted the term beside the terms kept (ChooseNuisances) and sd_fixed the one
+// without it. For a
 // linear model that is |cov(lamp, term)| / sd(term): the part of the lamp's bar the term adds
 // when free. A term the data leave out within its bar is an assumption, not a finding: room
 // light at 2 of its standard deviations is what they cannot exclude, and where the lamp and the

@@ -253,58 +253,57 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
   out->selection.reason += stopped;
 }
 
-// One combination of nuisance terms refitted by ChooseNuisances.
+// One combination of nuisance terms refitted by ChooseNuisances (the first: none, the fit
+// the models were chosen by).
 struct NuisanceTrial {
   bool ambient = false, height = false;
-  double value = INFINITY;  // the criterion; INFINITY: a term within its error bar
-  double z = 0;             // the first term's |value| / sd at the final size
+  double value = INFINITY;             // the criterion; INFINITY: a term within its error bar
+  double z_ambient = 0, z_height = 0;  // each term's |value| / sd at the final size
   Eigen::Vector3d lamp = Eigen::Vector3d::Zero();
-  std::optional<Eigen::Vector3d> lamp_sd;  // the lamp's statistical sd, the terms free
+  std::optional<Eigen::Vector3d> lamp_sd = std::nullopt;  // the lamp's statistical sd, terms free
   bool converged = false;
 };
 
-// Each single term's NuisanceSensitivity from its trial against the fit without terms
-// (`chosen`), at the final size (the bars divided by `scale`).
-std::vector<NuisanceSensitivity> SensitivityOf(const std::vector<NuisanceTrial>& trials,
-                                               const JointFitResult& chosen, double scale) {
-  std::vector<NuisanceSensitivity> out;
-  if (!chosen.lamp_stddev) return out;
+// The trial of `terms` with `term` on (`with`) or off; null when it was not tried.
+const NuisanceTrial* TrialOf(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& terms,
+                             UnresolvedNuisance::Term term, bool with) {
+  const bool ambient = term == UnresolvedNuisance::Term::kAmbient ? with : terms.ambient;
+  const bool height = term == UnresolvedNuisance::Term::kHeight ? with : terms.height;
   for (const NuisanceTrial& t : trials) {
-    if (t.ambient == t.height || !t.converged || !t.lamp_sd) continue;
-    const Eigen::Vector3d added =
-        (t.lamp_sd->array().square() - chosen.lamp_stddev->array().square()).max(0.0).sqrt() /
-        scale;
-    out.push_back(
-        {t.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight,
-         added});
+    if (t.ambient == ambient && t.height == height) return t.converged ? &t : nullptr;
   }
-  return out;
+  return nullptr;
 }
 
-// When no term was kept: a single term whose trial stood between 2 and nuisance_min_z of its
-// final standard deviations out, and moved the lamp by more than 3 of the lamp's (the chosen
-// fit's, at the final size: divided by `scale`), is unresolved: the data neither keep nor
-// exclude it, and the result depends on it (BenchEffects: room light at 5 % of the lamp, z 2.5,
-// moves the lamp by 6 % of its distance). The one that moved the lamp most, for the run's
-// warning; none when the chosen fit has no lamp standard deviation.
-std::optional<UnresolvedNuisance> NoteUnresolved(const std::vector<NuisanceTrial>& trials,
-                                                 const JointFitResult& chosen, double scale,
-                                                 const JointFitOptions& options) {
-  std::optional<UnresolvedNuisance> worst;
-  if (!chosen.lamp_stddev) return worst;
-  for (const NuisanceTrial& t : trials) {
-    if (t.ambient == t.height || !t.converged || !(t.z > 2.0 && t.z <= options.nuisance_min_z)) {
-      continue;
-    }
-    const Eigen::Vector3d shift = t.lamp - chosen.lamp_position;
-    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *chosen.lamp_stddev / scale);
-    if (in_sd > UnresolvedNuisance::kShiftInSd && (!worst || in_sd > worst->shift_in_sd)) {
-      worst = UnresolvedNuisance{
-          t.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight, t.z,
-          shift, in_sd};
+// What each term tried does to the lamp beside the terms picked (`pick`): its trial with the
+// term on and the one with it off, the rest as picked (for a term not picked: the pick with it
+// added). Each term's NuisanceSensitivity (the bars' difference at the final size: divided by
+// `scale`), and the worst unresolved term: one not picked although it stood more than 2 of its
+// final standard deviations out (within nuisance_min_z; or beyond it and the criterion against
+// it) and moved the lamp by more than kShiftInSd of the lamp's bars (BenchEffects: room light at
+// 5 % of the lamp, z 2.5, moves the lamp by 6 % of its distance; a 4 mm sample and room light at
+// 2 %, the height kept: the room light at z 3.6 beside it lost by BIC and left the lamp 22 bars
+// off). The data neither keep nor exclude it, and the result depends on it.
+void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
+                          double scale, std::vector<NuisanceSensitivity>* sensitivity,
+                          std::optional<UnresolvedNuisance>* unresolved) {
+  for (const auto term : {UnresolvedNuisance::Term::kAmbient, UnresolvedNuisance::Term::kHeight}) {
+    const NuisanceTrial* on = TrialOf(trials, pick, term, true);
+    const NuisanceTrial* off = TrialOf(trials, pick, term, false);
+    if (!on || !off || !on->lamp_sd || !off->lamp_sd) continue;
+    const Eigen::Vector3d off_sd = *off->lamp_sd / scale;
+    sensitivity->push_back(
+        {term,
+         (on->lamp_sd->array().square() - off->lamp_sd->array().square()).max(0.0).sqrt() / scale});
+    const bool picked = term == UnresolvedNuisance::Term::kAmbient ? pick.ambient : pick.height;
+    const double z = term == UnresolvedNuisance::Term::kAmbient ? on->z_ambient : on->z_height;
+    const Eigen::Vector3d shift = on->lamp - off->lamp;
+    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, off_sd);
+    if (picked || !(z > 2.0) || !(in_sd > UnresolvedNuisance::kShiftInSd)) continue;
+    if (!*unresolved || in_sd > (*unresolved)->shift_in_sd) {
+      *unresolved = UnresolvedNuisance{term, z, shift, in_sd};
     }
   }
-  return worst;
 }
 
 // ChooseNuisances' reason: the criterion of every combination ("-": a term within its error
@@ -356,7 +355,8 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   };
   const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
                                  static_cast<double>(std::max<size_t>(use.size(), 1)));
-  std::vector<NuisanceTrial> trials = {{false, false, criterion(chosen)}};
+  std::vector<NuisanceTrial> trials = {{false, false, criterion(chosen), 0, 0, chosen.lamp_position,
+                                        chosen.lamp_stddev, chosen.material.converged}};
   for (int mask = 1; mask < 4; ++mask) {
     NuisanceTrial t{(mask & 1) != 0, (mask & 2) != 0};
     if ((t.ambient && !ambient) || (t.height && !height)) continue;
@@ -375,7 +375,8 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
     const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
                              (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
     t.value = significant ? criterion(f) : INFINITY;
-    t.z = scale * NuisanceZ(f, t.ambient);
+    t.z_ambient = scale * NuisanceZ(f, true);
+    t.z_height = scale * NuisanceZ(f, false);
     t.lamp = f.lamp_position;
     t.lamp_sd = f.lamp_stddev;
     t.converged = f.material.converged;
@@ -400,8 +401,7 @@ JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<si
   }
   *reason = NuisanceReason(trials, *pick, chosen, use.size(), options);
   spdlog::info("{}", *reason);
-  if (terms(*pick) == 0) *unresolved = NoteUnresolved(trials, chosen, scale, options);
-  *sensitivity = SensitivityOf(trials, chosen, scale);
+  NoteEffectsOnTheLamp(trials, *pick, scale, sensitivity, unresolved);
   JointFitOptions out = search;
   if (pick->ambient) out.ambient = AmbientTerm::kFit;
   if (pick->height) out.sample_height = NuisanceTerm::kFit;

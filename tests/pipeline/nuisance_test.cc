@@ -122,6 +122,52 @@ TEST(NuisanceCli, ThickSampleUnderRoomLightNothingDeclared) {
   EXPECT_GT(off.lamp_error, 2 * o.lamp_error);
 }
 
+// Fainter room light on the thick sample (2 % and 1 % of the lamp's irradiance), nothing
+// declared: the lamp within 3 of its bars on every axis, or a warning that names the room light
+// (kept, or not excluded: BIC may keep the height and reject the room light beside it, which
+// left a lamp 22 bars off with no word on room light, docs/pipeline.md "Ambient light"), or the
+// dark room written as an assumption whose reach (2 of the term's standard deviations, from
+// fit.json nuisance_sensitivity) covers the lamp's error within one bar. Measured: the height
+// kept, the room light within its bar beside it; the lamp 7.8 and 3.8 bars off (1.4 % and 0.7 %
+// of its distance), the assumption's reach 8.7 and 8.9 bars.
+TEST(NuisanceCli, FaintRoomLightIsKeptWarnedOrAssumed) {
+  for (const double fraction : {0.02, 0.01}) {
+    testing::TempDir dir;
+    json scene = ThickSampleScene(true);
+    scene["lamp"]["ambient_irradiance"] =
+        scene["lamp"]["ambient_irradiance"].get<double>() * fraction / 0.05;
+    const fs::path session = Render(scene, dir.path());
+    const Outcome o = RunChain(session, dir.path() / "auto");
+    const json truth = ReadJsonFile(session / "truth.json");
+    const auto& lt = truth["lamp"]["position_in_board"];
+    const auto& lf = o.fit["final"]["lamp"]["position"];
+    const auto& sd = o.fit["final"]["lamp"]["stddev"];
+    double worst = 0;
+    for (int k = 0; k < 3; ++k) {
+      worst = std::max(worst,
+                       std::abs(lf[k].get<double>() - lt[k].get<double>()) / sd[k].get<double>());
+    }
+    bool assumed = false;
+    for (const auto& a : o.fit["assumptions"]) {
+      assumed |= a.get<std::string>().rfind("no room light", 0) == 0;
+    }
+    double reach = 0;  // 2 standard deviations of the room light, in lamp bars
+    for (const auto& n : o.fit["final"].value("nuisance_sensitivity", json::array())) {
+      if (n["term"] != "ambient") continue;
+      for (int k = 0; k < 3; ++k) {
+        reach = std::max(reach,
+                         2 * n["lamp_shift_per_term_sd_m"][k].get<double>() / sd[k].get<double>());
+      }
+    }
+    std::cout << fmt::format(
+        "room light {}%: lamp {:.1f} bars off; warned {}; assumed {}, "
+        "reach {:.1f} bars\n",
+        100 * fraction, worst, o.Warned("ambient-light"), assumed, reach);
+    EXPECT_TRUE(worst < 3 || o.Warned("ambient-light") || (assumed && worst < reach + 1))
+        << fraction << " " << o.fit["checks"] << o.fit["assumptions"];
+  }
+}
+
 // The same scene flat in a dark room: auto keeps neither term and warns of neither, and the
 // residuals show no structure. Measured: albedo and lamp within 0.3%.
 TEST(NuisanceCli, FlatSampleInADarkRoomKeepsNoNuisance) {
