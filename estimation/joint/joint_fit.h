@@ -150,13 +150,12 @@ struct UnresolvedNuisance {
 // were fitted: per axis, the lamp's shift per standard deviation of the term at the final size,
 // sqrt(sd_free^2 - sd_fixed^2) with sd_free the lamp's statistical standard deviation in the
 // trial that fitted the term beside the terms kept (ChooseNuisances) and sd_fixed the one
-// without it. For a
-// linear model that is |cov(lamp, term)| / sd(term): the part of the lamp's bar the term adds
-// when free. A term the data leave out within its bar is an assumption, not a finding: room
-// light at 2 of its standard deviations is what they cannot exclude, and where the lamp and the
-// term trade strongly (room light at 0.5 % of the lamp: the term at z 0.2, the lamp 5 bars
-// off; docs/pipeline.md "Ambient light") the result rests on it (pipeline/checks.h
-// AssumedAbsentNuisanceNotes).
+// without it. For a linear model that is |cov(lamp, term)| / sd(term): the part of the lamp's
+// bar the term adds when free. A term the data leave out within its bar is an assumption, not
+// a finding: room light at 2 of its standard deviations is what they cannot exclude, and where
+// the lamp and the term trade strongly (room light at 0.5 % of the lamp: the term at z 0.2,
+// the lamp 5 bars off; docs/pipeline.md "Ambient light") the result rests on it
+// (pipeline/checks.h AssumedAbsentNuisanceNotes).
 struct NuisanceSensitivity {
   UnresolvedNuisance::Term term = UnresolvedNuisance::Term::kAmbient;
   Eigen::Vector3d lamp_per_term_sd = Eigen::Vector3d::Zero();

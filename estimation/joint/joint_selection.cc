@@ -452,7 +452,11 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
     out->final_fit =
         FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
   }
-  *unresolved = UnresolvedAfterDrop(drop, kept, out->final_fit);
+  // The worse of this and a term ChooseNuisances left unresolved beside the dropped one.
+  const auto dropped = UnresolvedAfterDrop(drop, kept, out->final_fit);
+  if (dropped && (!*unresolved || dropped->shift_in_sd > (*unresolved)->shift_in_sd)) {
+    *unresolved = dropped;
+  }
 }
 
 // `options` with its kAuto nuisance terms off: what the model search fits.
