@@ -546,22 +546,21 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
                                    const JointSelectionResult& selection) {
   options.Check();
   if (!drop.Any()) return selection;
+  JointSelectionResult out;
   if ((drop.ambient_kept && !drop.ambient) || (drop.height_kept && !drop.height)) {
     // One of two kept terms stays: the models are searched again with it on (kFit), as the
     // selection with both may not be the one with either alone.
     JointFitOptions o = WithChosenNuisances(options, selection.final_fit);
     if (drop.ambient) o.ambient = AmbientTerm::kNone;
     if (drop.height) o.sample_height = NuisanceTerm::kNone;
-    JointSelectionResult out = FitAndSelect(data, o);
-    out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
-    return out;
-  }
-  if (!selection.without_nuisances) {
+    out = FitAndSelect(data, o);
+  } else if (!selection.without_nuisances) {
     throw std::logic_error("DropNuisances: the selection holds no search without its nuisances");
+  } else {
+    out = RestoreWithoutNuisances(data, Subsample(data, options.final_max_observations),
+                                  WithoutAutoNuisances(options), *selection.without_nuisances);
   }
-  JointSelectionResult out =
-      RestoreWithoutNuisances(data, Subsample(data, options.final_max_observations),
-                              WithoutAutoNuisances(options), *selection.without_nuisances);
+  // The terms' trials were made by the selection; neither refit above tries the dropped term.
   out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
   return out;
 }
