@@ -136,7 +136,8 @@ py::array Evaluate(const std::string& model, const py::dict& params, const py::o
 py::dict FitTable(const Array& theta_i, const Array& theta_r, const Array& phi, const Array& value,
                   const py::object& weight, const py::object& models, const std::string& criterion,
                   bool relative, int threads) {
-  const size_t n = value.size();
+  // array_t sizes are signed (py::ssize_t): one type for every comparison below.
+  const py::ssize_t n = value.size();
   if (theta_i.size() != n || theta_r.size() != n || phi.size() != n) {
     throw InputError("fit_table: theta_i, theta_r, phi and value must have the same length");
   }
@@ -146,10 +147,11 @@ py::dict FitTable(const Array& theta_i, const Array& theta_r, const Array& phi, 
     w = Array::ensure(weight);
     if (!w || w.size() != n) throw InputError("fit_table: weight must match value's length");
   }
-  std::vector<BrdfSample> samples(n);
-  for (size_t k = 0; k < n; ++k) {
-    samples[k] = {DegToRad(theta_i.data()[k]), DegToRad(theta_r.data()[k]), DegToRad(phi.data()[k]),
-                  value.data()[k], has_weight ? w.data()[k] : 1.0};
+  std::vector<BrdfSample> samples(static_cast<size_t>(n));
+  for (py::ssize_t k = 0; k < n; ++k) {
+    samples[static_cast<size_t>(k)] = {DegToRad(theta_i.data()[k]), DegToRad(theta_r.data()[k]),
+                                       DegToRad(phi.data()[k]), value.data()[k],
+                                       has_weight ? w.data()[k] : 1.0};
   }
   ModelSelectionOptions opt;
   if (!models.is_none()) opt.candidates = models.cast<std::vector<std::string>>();
@@ -279,8 +281,10 @@ PYBIND11_MODULE(gonio, m) {
         // The C++ batch on the same angles (radians in, no Python in the loop) timed in C++: the
         // reference of python/bench_evaluate.py. Returns the best time per value in ns.
         const std::vector<double> p = ParamVector(gonio::FindModel(model), params);
-        const size_t n = theta_i.size();
-        if (theta_r.size() != n || phi.size() != n) throw gonio::InputError("bench_batch: sizes");
+        if (theta_r.size() != theta_i.size() || phi.size() != theta_i.size()) {
+          throw gonio::InputError("bench_batch: sizes");
+        }
+        const auto n = static_cast<size_t>(theta_i.size());
         std::vector<double> out(n);
         py::gil_scoped_release release;
         double best = INFINITY;
