@@ -26,11 +26,12 @@ struct BenchArgs {
   bool plan = false, tags = false, coverage = false, maps = false, keep_work = false;
   std::string apriltag_ref;
   int threads = 0;
-  int seeds = 0, first_seed = 1;            // --coverage: 0 seeds = the size's default
-  bool by_parts = false;                    // --coverage: each run's error by source
-  bool no_white_albedo = false;             // --coverage: runs without --white-albedo
-  std::vector<std::string> kinds, sweeps;   // --coverage: empty = the size's default
-  int image_width = 0, views_per_ring = 0;  // --coverage: 0 = the size's default
+  int seeds = 0, first_seed = 1;             // --coverage: 0 seeds = the size's default
+  bool by_parts = false;                     // --coverage: each run's error by source
+  bool no_white_albedo = false;              // --coverage: runs without --white-albedo
+  std::vector<std::string> kinds, sweeps;    // --coverage: empty = the size's default
+  int image_width = 0, views_per_ring = 0;   // --coverage: 0 = the size's default
+  double room_light = 0, sample_height = 0;  // --coverage: nuisances rendered, not declared
 };
 
 // A bench that renders into OUT/work: run it there, write its outputs into OUT, remove the
@@ -130,6 +131,8 @@ void RunBench(const BenchArgs& args) {
       plan.height = args.image_width * 3 / 4;
     }
     if (args.views_per_ring > 0) plan.views_per_ring = args.views_per_ring;
+    plan.room_light = args.room_light;
+    plan.sample_height = args.sample_height;
     RunInWorkFolder(
         args.out, args.keep_work,
         [&](const auto& work) { return bench::RunCoverageBench(opt, plan, self, work); },
@@ -196,6 +199,14 @@ void AddCoverageOptions(CLI::App* cmd, BenchArgs* args) {
                   "--coverage: views per ring of the board scenes' 4 rings (default 3; the "
                   "user's default preset has 6)")
       ->check(CLI::Range(1, 24));
+  cmd->add_option("--room-light", args->room_light,
+                  "--coverage: render the room's light at this fraction of the lamp's irradiance "
+                  "at the sample, no lamp-off frames, nothing declared (default 0)")
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--sample-height", args->sample_height,
+                  "--coverage: render the sample's top this many metres above the board, "
+                  "board.json left at 0 (default 0)")
+      ->check(CLI::Range(0.0, 0.05));
 }
 
 }  // namespace

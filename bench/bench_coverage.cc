@@ -168,6 +168,17 @@ synth::Scene CoverageSessionScene(const CoverageKind& kind, const CoveragePlan& 
   s.seed = static_cast<uint64_t>(seed);
   MoveCapture(seed, &s);
   MoveLens(seed, &s);
+  if (plan.room_light > 0) {  // as data_synth's "ambient" preset, without its lamp-off frames
+    double lamp = s.lamp.intensity / (s.views.distance * s.views.distance);
+    if (!kind.flash) {
+      const auto& r = s.board.sample_region;
+      const Eigen::Vector3d centre(0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3]), 0.0);
+      const Eigen::Vector3d to_lamp = s.lamp.position - centre;
+      lamp = s.lamp.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
+    }
+    s.lamp.ambient_irradiance = plan.room_light * lamp;
+  }
+  s.board.sample_height = plan.sample_height;
   return s;
 }
 
@@ -227,6 +238,9 @@ void JudgeFit(const json& fit, const json& truth, CoverageRun* run) {
   run->true_model = truth.at("material").at("model").get<std::string>();
   run->selected_model = fin.at("model").get<std::string>();
   std::map<std::string, bool> touched;
+  for (const auto& a : fit.value("assumptions", json::array())) {
+    run->assumptions.push_back(a.get<std::string>());
+  }
   const json checks = fit.value("checks", json::object());
   for (const auto& w : checks.value("warnings", json::array())) {
     run->warnings.push_back(w.value("cause", "") + ": " + w.value("message", ""));
@@ -287,6 +301,11 @@ SharedChain RunSharedSteps(const CoverageKind& kind, const CoveragePlan& plan, i
   s.scene = CoverageSessionScene(kind, plan, seed);
   chain->Render("session", s.scene, s.session);
   fs::remove(s.session / "camera.cameramodel");  // the renderer's geometry is not the user's
+  if (plan.sample_height > 0) {                  // a height the user did not declare (CoveragePlan)
+    json board = ReadJsonFile(s.session / "board.json");
+    board["sample_height_m"] = 0.0;
+    WriteJsonAtomically(s.session / "board.json", board);
+  }
   if (kind.flash) {
     s.vignette_session = dir / "flat";
     s.flat_field = true;  // a tag-free flat field has no poses to locate (docs/photometric.md)

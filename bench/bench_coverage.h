@@ -54,6 +54,12 @@ struct CoveragePlan {
   // reference's albedo runs it: albedo-like values are then relative and undetermined (no z), and
   // what moves with them must be too (docs/pipeline.md).
   bool white_albedo = true;
+  // `--room-light F`: the room's light at F of the lamp's irradiance at the sample's centre (a
+  // lamp on the camera: head-on at the views' distance), no lamp-off frames, nothing declared
+  // (docs/pipeline.md "Ambient light"). `--sample-height H`: the sample's top H metres above the
+  // board with board.json left at 0, a height the user did not declare ("Raised sample"). Both
+  // are the nuisances `gonio run` chooses by evidence; 0 renders neither, as the grids do.
+  double room_light = 0, sample_height = 0;
 };
 CoveragePlan CoveragePlanFor(const BenchOptions& options);
 
@@ -118,8 +124,11 @@ struct CoverageRun {
   std::vector<CoverageValue> values;
   std::vector<CoveragePart> parts;    // `--by-parts`
   std::vector<std::string> warnings;  // fit.json checks.warnings: "cause: message"
-  bool results_warned = false;        // some warning touches some result
-  double seconds = 0;                 // the whole chain of this run, rendering included
+  // fit.json assumptions: what the result rests on without a check ("no room light: ...").
+  // Not warnings: a run that misses on one is still an unwarned miss, listed with them.
+  std::vector<std::string> assumptions;
+  bool results_warned = false;  // some warning touches some result
+  double seconds = 0;           // the whole chain of this run, rendering included
   // A miss: a failed step, the wrong model, or a |z| above kMissZ. It is warned when a
   // warning touches the missed value (a wrong model: any result).
   bool Missed() const { return !MissReason().empty(); }

@@ -117,6 +117,7 @@ json CoverageRun::ToJson() const {
           {"values", values_json},
           {"parts", PartsJson(parts)},
           {"warnings", warnings},
+          {"assumptions", assumptions},
           {"missed", Missed()},
           {"miss_reason", MissReason()},
           {"seconds", Finite(seconds)}};
@@ -177,10 +178,14 @@ void SummarizeCoverage(CoverageReport* rep) {
   rep->part_stats = SummarizeParts(rep->runs);
   rep->unwarned_misses.clear();
   for (const auto& r : rep->runs) {
-    if (r.Missed() && !r.MissWarned()) {
-      rep->unwarned_misses.push_back(
-          fmt::format("{} seed {} {}: {}", r.kind, r.seed, SweepLabel(r.sweep), r.MissReason()));
+    if (!r.Missed() || r.MissWarned()) continue;
+    std::string assumed;  // what the result said it rests on: the heads of its assumptions
+    for (const auto& a : r.assumptions) {
+      assumed += (assumed.empty() ? " (assumed: " : "; ") + a.substr(0, a.find(':'));
     }
+    rep->unwarned_misses.push_back(fmt::format("{} seed {} {}: {}{}", r.kind, r.seed,
+                                               SweepLabel(r.sweep), r.MissReason(),
+                                               assumed.empty() ? "" : assumed + ")"));
   }
 }
 
@@ -236,6 +241,8 @@ json CoverageReport::ToJson() const {
           {"first_seed", plan.first_seed},
           {"sweeps", plan.sweeps},
           {"white_albedo_given", plan.white_albedo},
+          {"room_light", plan.room_light},
+          {"sample_height_undeclared_m", plan.sample_height},
           {"image", {plan.width, plan.height}},
           {"targets",
            {{"rms_z", {t.min_rms_z, t.max_rms_z}},

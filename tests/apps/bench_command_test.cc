@@ -287,12 +287,14 @@ TEST(CoverageCli, WithoutTheWhiteAlbedoWhatMovesWithTheAlbedoHasNoBar) {
 
 // --first-seed 0 names no capture (seed 1 is the presets'), --kinds a kind that is none, --sweeps
 // a sweep that is none, an image too small for mrcal or whose width has no whole 3/4, no views
-// per ring: a one-line error naming the option, exit 2, nothing written.
+// per ring, room light beyond the lamp's, a sample below the board: a one-line error naming the
+// option, exit 2, nothing written.
 TEST(CoverageCli, BadOptionsAreInputErrors) {
   const std::pair<const char*, const char*> cases[] = {
       {"--first-seed 0", "--first-seed"},     {"--kinds lambert", "--kinds"},
       {"--sweeps half", "--sweeps"},          {"--image-width 100", "--image-width"},
-      {"--image-width 642", "--image-width"}, {"--views-per-ring 0", "--views-per-ring"}};
+      {"--image-width 642", "--image-width"}, {"--views-per-ring 0", "--views-per-ring"},
+      {"--room-light 2", "--room-light"},     {"--sample-height -0.001", "--sample-height"}};
   for (const auto& [option, named] : cases) {
     testing::TempDir dir;
     const auto out = dir.path() / "out";

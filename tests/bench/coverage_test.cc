@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <Eigen/Core>
 
 #include "bench/bench_coverage.h"
 #include "common/error.h"
@@ -68,6 +69,16 @@ TEST(Coverage, StatisticsSplitWarnedFromUnwarned) {
   EXPECT_NE(rep.unwarned_misses[0].find("albedo off by -3.5"), std::string::npos)
       << rep.unwarned_misses[0];
   EXPECT_FALSE(rep.TargetsMet(loose));
+
+  // An assumption is no warning: the miss stays unwarned, listed with what the result said it
+  // rests on.
+  rep.runs.back().assumptions = {"no room light: the data hold it within its error bar, ..."};
+  SummarizeCoverage(&rep);
+  ASSERT_EQ(rep.unwarned_misses.size(), 1u);
+  EXPECT_NE(rep.unwarned_misses[0].find("albedo off by -3.5 standard deviations (assumed: no room "
+                                        "light)"),
+            std::string::npos)
+      << rep.unwarned_misses[0];
 }
 
 // The targets hold per parameter: "all" inside them does not hide a parameter whose bars are
@@ -221,6 +232,36 @@ TEST(Coverage, EveryLaterSeedHasALensOfItsOwn) {
     // The lenses spread: over 40 seeds the corners span most of the range drawn.
     EXPECT_GT(highest_corner - lowest_corner, 0.25);
   }
+}
+
+// --room-light and --sample-height render what a user did not declare: the room's light at the
+// fraction of the lamp's irradiance at the sample's centre (I cos(theta) / d^2, computed here
+// from the scene's lamp), no lamp-off frames; the height on the scene (board.json is zeroed after
+// rendering, RunSharedSteps). The grids render neither.
+TEST(Coverage, RoomLightAndHeightAreRenderedUndeclared) {
+  CoveragePlan plan = CoveragePlanFor(BenchOptions());
+  const CoverageKind& kind = AllCoverageKinds().at(0);
+  const synth::Scene dark = CoverageSessionScene(kind, plan, 3);
+  EXPECT_EQ(dark.lamp.ambient_irradiance, 0.0);
+  EXPECT_EQ(dark.board.sample_height, 0.0);
+  plan.room_light = 0.02;
+  plan.sample_height = 0.004;
+  const synth::Scene lit = CoverageSessionScene(kind, plan, 3);
+  const auto& r = lit.board.sample_region;
+  const Eigen::Vector3d to_lamp =
+      lit.lamp.position - Eigen::Vector3d(0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3]), 0.0);
+  const double cos_i = -to_lamp.z() / to_lamp.norm();
+  ASSERT_GT(cos_i, 0.5);
+  EXPECT_NEAR(lit.lamp.ambient_irradiance,
+              0.02 * lit.lamp.intensity * cos_i / to_lamp.squaredNorm(), 1e-12);
+  EXPECT_FALSE(lit.lamp.lamp_off_frames);
+  EXPECT_EQ(lit.board.sample_height, 0.004);
+  EXPECT_EQ(lit.lamp.position, dark.lamp.position);  // the same capture otherwise
+  // A lamp on the camera: head-on at the views' distance.
+  const CoverageKind flash = CoverageKindsNamed({"flash"}).at(0);
+  const synth::Scene f = CoverageSessionScene(flash, plan, 3);
+  EXPECT_NEAR(f.lamp.ambient_irradiance,
+              0.02 * f.lamp.intensity / (f.views.distance * f.views.distance), 1e-12);
 }
 
 // The three sweeps over one range: 14 equal whole stops, 40 third stops and the 14 steps of
