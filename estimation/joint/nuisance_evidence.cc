@@ -46,16 +46,39 @@ NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const Jo
   return d;
 }
 
+void UnresolvedNuisance::JudgeAgainst(const JointFitResult& f) {
+  shift_in_sd = f.lamp_stddev ? ShiftInSd(lamp_shift, *f.lamp_stddev) : 0.0;
+  moved = "lamp";
+  const BrdfFitResult& m = f.material;
+  for (const auto& [name, shift] : param_shift) {
+    const auto it = std::find(m.param_names.begin(), m.param_names.end(), name);
+    const size_t k = static_cast<size_t>(it - m.param_names.begin());
+    if (k >= m.stddev.size() || !m.stddev[k] || !(*m.stddev[k] > 0)) continue;
+    const double in_sd = std::abs(shift) / *m.stddev[k];
+    if (in_sd > shift_in_sd) {
+      shift_in_sd = in_sd;
+      moved = name;
+    }
+  }
+}
+
 std::optional<UnresolvedNuisance> UnresolvedAfterDrop(const NuisanceDrop& drop,
                                                       const JointFitResult& kept,
                                                       const JointFitResult& without) {
   if (!drop.Any() || !without.lamp_stddev) return std::nullopt;
-  const Eigen::Vector3d shift = kept.lamp_position - without.lamp_position;
-  const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *without.lamp_stddev);
-  if (!(in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
-  return UnresolvedNuisance{
+  UnresolvedNuisance u{
       drop.ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight,
-      drop.ambient ? drop.z_ambient : drop.z_height, shift, in_sd};
+      drop.ambient ? drop.z_ambient : drop.z_height, kept.lamp_position - without.lamp_position};
+  // The material only when the drop kept the model: another model's parameters are not these.
+  if (kept.material.model == without.material.model) {
+    const BrdfFitResult& m = kept.material;
+    for (size_t k = 0; k < m.param_names.size() && k < without.material.params.size(); ++k) {
+      u.param_shift.emplace_back(m.param_names[k], m.params[k] - without.material.params[k]);
+    }
+  }
+  u.JudgeAgainst(without);
+  if (!(u.shift_in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
+  return u;
 }
 
 }  // namespace gonio

@@ -285,6 +285,32 @@ TEST(CoverageCli, WithoutTheWhiteAlbedoWhatMovesWithTheAlbedoHasNoBar) {
   EXPECT_EQ(judged.count("lamp_x"), 1u);
 }
 
+// A height the user did not declare (`--sample-height`: the glossy kind 4 mm above the board,
+// board.json at 0): the selection keeps the height on the noise's bar (z 5.5) and gonio run
+// drops it within the calibration's (z 2.4). Without it sigma is 27 of its bars off and the lamp
+// within 1.2: until 2026-12-06 the drop judged the lamp alone, and the run carried no warning.
+// Now the warning names the height and what it moved, and the bench lists no unwarned miss.
+TEST(CoverageCli, AnUndeclaredHeightThatMovesTheMaterialWarns) {
+  testing::TempDir dir;
+  const auto r = testing::RunGonio(
+      "bench --coverage --kinds tson --sweeps third --seeds 1 --sample-height 0.004 --out " +
+      dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "coverage.json");
+  EXPECT_DOUBLE_EQ(j["sample_height_undeclared_m"].get<double>(), 0.004);
+  EXPECT_TRUE(j["unwarned_misses"].empty()) << j["unwarned_misses"];
+  ASSERT_EQ(j["runs"].size(), 1u);
+  const auto& run = j["runs"][0];
+  bool named = false;
+  for (const auto& w : run["warnings"]) {
+    const std::string text = w.get<std::string>();
+    named = named || (text.rfind("sample-height:", 0) == 0 &&
+                      text.find("moves sigma by") != std::string::npos);
+  }
+  EXPECT_TRUE(named) << run["warnings"];
+  for (const auto& v : run["values"]) EXPECT_TRUE(v["warned"].get<bool>()) << v;
+}
+
 // --first-seed 0 names no capture (seed 1 is the presets'), --kinds a kind that is none, --sweeps
 // a sweep that is none, an image too small for mrcal or whose width has no whole 3/4, no views
 // per ring, room light beyond the lamp's, a sample below the board: a one-line error naming the

@@ -269,6 +269,45 @@ TEST(RunWarnings, ADroppedTermThatMovedTheLampIsUnresolved) {
   EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
 }
 
+// A dropped term can move the material more than the lamp: a glossy sample 4 mm above the
+// board, its height kept on the noise's bar and dropped within the calibration's, left sigma 27
+// bars off and the lamp within 1.2 (docs/pipeline.md "Raised sample"). The parameter that moved
+// most, in its own bars, makes the term unresolved and is named in the warning; not another
+// model's parameters, and not a shift the (widened) bars hold.
+TEST(RunWarnings, ADroppedTermThatMovedTheMaterialIsUnresolved) {
+  JointFitResult without = TrueFit();
+  without.lamp_stddev = Eigen::Vector3d(1e-3, 1e-4, 4e-4);
+  JointFitResult kept = without;
+  kept.material.params[1] += 0.025;                         // sigma: 25 of its bars
+  kept.lamp_position += Eigen::Vector3d(0.0, 0.0, 4.0e-4);  // the lamp: 1
+  NuisanceDrop drop;
+  drop.height_kept = drop.height = true;
+  drop.z_height = 2.4;
+  auto u = UnresolvedAfterDrop(drop, kept, without);
+  ASSERT_TRUE(u);
+  EXPECT_EQ(u->term, UnresolvedNuisance::Term::kHeight);
+  EXPECT_EQ(u->moved, "sigma");
+  EXPECT_NEAR(u->shift_in_sd, 25.0, 1e-6);
+  JointFitResult f = without;
+  f.unresolved_nuisance = u;
+  const auto w = FitChecks().Warnings(f);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0].cause, WarningCause::kSampleHeight);
+  EXPECT_NE(
+      w[0].message.find("moves sigma by 25 times its standard deviation (the lamp by 0.4 mm)"),
+      std::string::npos)
+      << w[0].message;
+  // Against bars ten times wider (the calibration's part added): 2.5, held.
+  JointFitResult widened = without;
+  for (auto& sd : widened.material.stddev) *sd *= 10;
+  u->JudgeAgainst(widened);
+  EXPECT_NEAR(u->shift_in_sd, 2.5, 1e-6);
+  EXPECT_FALSE(u->shift_in_sd > UnresolvedNuisance::kShiftInSd);
+  // The drop restored another model: its parameters are not compared.
+  kept.material.model = "oren-nayar-fujii";
+  EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
+}
+
 // A term the data left out within its bar is written as an assumption when kAssumedAbsentSd of
 // its standard deviations would move the lamp beyond its reported bar: the shift in mm and in
 // bars, and what removes the doubt. Not for a kept term, a term already warned as unresolved,
