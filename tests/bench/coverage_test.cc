@@ -240,7 +240,7 @@ TEST(Coverage, EveryLaterSeedHasALensOfItsOwn) {
 // rendering, RunSharedSteps). The grids render neither.
 TEST(Coverage, RoomLightAndHeightAreRenderedUndeclared) {
   CoveragePlan plan = CoveragePlanFor(BenchOptions());
-  const CoverageKind& kind = AllCoverageKinds().at(0);
+  const CoverageKind kind = AllCoverageKinds().at(0);  // a copy: the list is a temporary
   const synth::Scene dark = CoverageSessionScene(kind, plan, 3);
   EXPECT_EQ(dark.lamp.ambient_irradiance, 0.0);
   EXPECT_EQ(dark.board.sample_height, 0.0);
