@@ -234,8 +234,11 @@ TEST(CoverageCli, ByPartsSplitsEachErrorBySource) {
 // camera, seed 13's third-stop chain, kept room light at -11.9 % +- 1.1 % of the lamp (a
 // not-explained warning; albedo, ks and sigma 2.3-2.4 bars off). With the calibration's part
 // the term stands 2.4 of its bars out: pipeline/run.cc leaves it out, and every value is within
-// 0.8 of its bar, with no warning (3 of the kind's 12 third-stop runs at seeds 13-24 had kept
-// such a term before).
+// 2 of its bar (3 of the kind's 12 third-stop runs at seeds 13-24 had kept such a term before).
+// The fit that kept it had albedo 26 of the dropped fit's bars away, so the data cannot tell a
+// bend from room light, and the result depends on which: since 2026-12-06 (a dropped height that
+// left sigma 27 bars off without a word, CoverageCli.AnUndeclaredHeightThatMovesTheMaterialWarns)
+// one warning says so, with the dark room's explanation and its remedy.
 TEST(CoverageCli, ACalibrationBendIsNotTakenForRoomLight) {
   testing::TempDir dir;
   const auto r = testing::RunGonio(
@@ -246,7 +249,12 @@ TEST(CoverageCli, ACalibrationBendIsNotTakenForRoomLight) {
   ASSERT_EQ(j["runs"].size(), 1u);
   const auto& run = j["runs"][0];
   EXPECT_EQ(run["selected_model"], "tson") << run;
-  EXPECT_TRUE(run["warnings"].empty()) << run["warnings"];
+  ASSERT_EQ(run["warnings"].size(), 1u) << run["warnings"];
+  const std::string warning = run["warnings"][0].get<std::string>();
+  EXPECT_EQ(warning.rfind("ambient-light: room light cannot be excluded", 0), 0u) << warning;
+  EXPECT_NE(warning.find("if the room was dark, the response's error bends the radiance"),
+            std::string::npos)
+      << warning;
   for (const auto& v : run["values"]) EXPECT_LT(std::abs(v["z"].get<double>()), 2.0) << v;
   const nlohmann::json fit =
       ReadJsonFile(dir.path() / "work" / "tson-linear16-seed13" / "run-third" / "fit.json");

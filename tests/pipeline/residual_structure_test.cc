@@ -238,12 +238,14 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
 
 // A term kept on the noise's bar and dropped within a wider one (all observations, or the
 // calibration's part) is unresolved when the fit that kept it put the lamp beyond kShiftInSd of
-// the lamp's bars from the fit without it; a smaller shift, no drop, or no lamp bar: none.
+// the lamp's bars from the fit without it; a smaller shift, no drop, a negative room light or no
+// lamp bar: none.
 TEST(RunWarnings, ADroppedTermThatMovedTheLampIsUnresolved) {
   JointFitResult without = TrueFit();
   without.lamp_stddev = Eigen::Vector3d(1e-3, 1e-4, 4e-4);
   JointFitResult kept = without;
   kept.lamp_position += Eigen::Vector3d(0.0, 0.0, 4.4e-3);  // 11 of lamp z's bars
+  kept.ambient_sample = {0.004};
   NuisanceDrop drop;
   drop.ambient_kept = drop.ambient = true;
   drop.z_ambient = 2.6;
@@ -265,6 +267,10 @@ TEST(RunWarnings, ADroppedTermThatMovedTheLampIsUnresolved) {
   EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
   kept.lamp_position = without.lamp_position + Eigen::Vector3d(0.0, 0.0, 4.4e-3);
   EXPECT_FALSE(UnresolvedAfterDrop(NuisanceDrop(), kept, without));
+  // A constant below zero is no room light: the drop was right, nothing is unresolved.
+  kept.ambient_sample = {-0.004};
+  EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
+  kept.ambient_sample = {0.004};
   without.lamp_stddev.reset();
   EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
 }
