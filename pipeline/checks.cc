@@ -404,13 +404,13 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
          fmt::format("{} cannot be excluded: fitted, it stands {:.1f} standard deviations out "
                      "(too few to keep it) and moves {}; {}",
                      ambient ? "room light" : "a sample height off board.json's", u->z,
-                     u->moved == "lamp"
+                     u->moved_param.empty()
                          ? fmt::format("the lamp by {:.1f} mm, {:.0f} times the lamp's standard "
                                        "deviation",
                                        1e3 * u->lamp_shift.norm(), u->shift_in_sd)
                          : fmt::format("{} by {:.0f} times its standard deviation (the lamp by "
                                        "{:.1f} mm)",
-                                       u->moved, u->shift_in_sd, 1e3 * u->lamp_shift.norm()),
+                                       u->moved_param, u->shift_in_sd, 1e3 * u->lamp_shift.norm()),
                      ambient ? "lamp-off frames (session.json lamp_off) settle it; if the room "
                                "was dark, the response's error bends the radiance this way "
                                "(narrowed by " +

@@ -136,8 +136,8 @@ struct UnresolvedNuisance {
   Term term = Term::kAmbient;
   double z = 0;  // the term's |value| / sd at the final size
   Eigen::Vector3d lamp_shift = Eigen::Vector3d::Zero();  // how far fitting it moved the lamp
-  // The largest shift in the standard deviations of what moved (`moved`): the lamp's worst axis,
-  // or a material parameter of `param_shift`.
+  // The largest shift in the standard deviations of what moved: the lamp's worst axis, or the
+  // material parameter `moved_param` of `param_shift`.
   double shift_in_sd = 0;
   // After a drop (UnresolvedAfterDrop), how far the fit that kept the term put each material
   // parameter from the fit without it, by name (kept - without): a dropped term can move the
@@ -145,10 +145,10 @@ struct UnresolvedNuisance {
   // on the noise's bar and dropped at z 2.4 on the calibration's: sigma 27 bars off, the lamp
   // within 1.2; docs/pipeline.md "Raised sample").
   std::vector<std::pair<std::string, double>> param_shift = {};
-  std::string moved = "lamp";
+  std::string moved_param;  // empty: the lamp moved most
 
-  // shift_in_sd and moved against `f`'s standard deviations: the lamp's (worst axis) and those
-  // of the material parameters of param_shift (by name, where `f` has them).
+  // shift_in_sd and moved_param against `f`'s standard deviations: the lamp's (worst axis) and
+  // those of the material parameters of param_shift (by name, where `f` has them).
   void JudgeAgainst(const JointFitResult& f);
 
   // |shift| over `lamp_sd` on the worst axis (axes with sd 0 left out).

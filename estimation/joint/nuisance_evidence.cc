@@ -48,7 +48,7 @@ NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const Jo
 
 void UnresolvedNuisance::JudgeAgainst(const JointFitResult& f) {
   shift_in_sd = f.lamp_stddev ? ShiftInSd(lamp_shift, *f.lamp_stddev) : 0.0;
-  moved = "lamp";
+  moved_param.clear();
   const BrdfFitResult& m = f.material;
   for (const auto& [name, shift] : param_shift) {
     const auto it = std::find(m.param_names.begin(), m.param_names.end(), name);
@@ -57,7 +57,7 @@ void UnresolvedNuisance::JudgeAgainst(const JointFitResult& f) {
     const double in_sd = std::abs(shift) / *m.stddev[k];
     if (in_sd > shift_in_sd) {
       shift_in_sd = in_sd;
-      moved = name;
+      moved_param = name;
     }
   }
 }
@@ -66,10 +66,8 @@ std::optional<UnresolvedNuisance> UnresolvedAfterDrop(const NuisanceDrop& drop,
                                                       const JointFitResult& kept,
                                                       const JointFitResult& without) {
   // Room light is not negative: a dropped constant below zero on every channel is a bend of the
-  // model or the calibration, which the drop was right to leave out, not room light the data
-  // fail to exclude (the glossy kind's calibration bend at -11.9 % of the lamp: the fit that kept
-  // it had albedo 26 of the dropped fit's bars away, and the dropped fit is right within 0.8;
-  // CoverageCli.ACalibrationBendIsNotTakenForRoomLight).
+  // model or the calibration (pipeline/checks.cc calls a kept one not-explained), which the drop
+  // was right to leave out, not room light the data fail to exclude.
   const bool ambient =
       drop.ambient && std::any_of(kept.ambient_sample.begin(), kept.ambient_sample.end(),
                                   [](double l) { return l > 0; });

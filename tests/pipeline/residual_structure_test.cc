@@ -292,7 +292,7 @@ TEST(RunWarnings, ADroppedTermThatMovedTheMaterialIsUnresolved) {
   auto u = UnresolvedAfterDrop(drop, kept, without);
   ASSERT_TRUE(u);
   EXPECT_EQ(u->term, UnresolvedNuisance::Term::kHeight);
-  EXPECT_EQ(u->moved, "sigma");
+  EXPECT_EQ(u->moved_param, "sigma");
   EXPECT_NEAR(u->shift_in_sd, 25.0, 1e-6);
   JointFitResult f = without;
   f.unresolved_nuisance = u;
