@@ -145,7 +145,7 @@ struct UnresolvedNuisance {
   // on the noise's bar and dropped at z 2.4 on the calibration's: sigma 27 bars off, the lamp
   // within 1.2; docs/pipeline.md "Raised sample").
   std::vector<std::pair<std::string, double>> param_shift = {};
-  std::string moved_param;  // empty: the lamp moved most
+  std::string moved_param = {};  // empty: the lamp moved most
 
   // shift_in_sd and moved_param against `f`'s standard deviations: the lamp's (worst axis) and
   // those of the material parameters of param_shift (by name, where `f` has them).
