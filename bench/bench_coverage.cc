@@ -168,16 +168,8 @@ synth::Scene CoverageSessionScene(const CoverageKind& kind, const CoveragePlan& 
   s.seed = static_cast<uint64_t>(seed);
   MoveCapture(seed, &s);
   MoveLens(seed, &s);
-  if (plan.room_light > 0) {  // as data_synth's "ambient" preset, without its lamp-off frames
-    double lamp = s.lamp.intensity / (s.views.distance * s.views.distance);
-    if (!kind.flash) {
-      const auto& r = s.board.sample_region;
-      const Eigen::Vector3d centre(0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3]), 0.0);
-      const Eigen::Vector3d to_lamp = s.lamp.position - centre;
-      lamp = s.lamp.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
-    }
-    s.lamp.ambient_irradiance = plan.room_light * lamp;
-  }
+  // As data_synth's "ambient" preset, without its lamp-off frames.
+  s.lamp.ambient_irradiance = plan.room_light * synth::LampIrradianceAtSampleCentre(s);
   s.board.sample_height = plan.sample_height;
   return s;
 }

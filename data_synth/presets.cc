@@ -147,11 +147,7 @@ Scene BenchEffectPreset(const std::string& name, const PresetOptions& options) {
   if (name == "raised-sample") {
     s.board.sample_height = 0.004;
   } else {
-    const auto& r = s.board.sample_region;
-    const Eigen::Vector3d centre(0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3]), 0.0);
-    const Eigen::Vector3d to_lamp = s.lamp.position - centre;
-    const double lamp = s.lamp.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
-    s.lamp.ambient_irradiance = 0.05 * lamp;
+    s.lamp.ambient_irradiance = 0.05 * LampIrradianceAtSampleCentre(s);
     s.lamp.lamp_off_frames = true;
   }
   return s;
@@ -200,6 +196,16 @@ const std::vector<std::pair<std::string, PresetMaker>>& Presets() {
 }
 
 }  // namespace
+
+double LampIrradianceAtSampleCentre(const Scene& s) {
+  if (s.lamp.frame == LampFrame::kCamera) {
+    return s.lamp.intensity / (s.views.distance * s.views.distance);
+  }
+  const auto& r = s.board.sample_region;
+  const Eigen::Vector3d centre(0.5 * (r[0] + r[2]), 0.5 * (r[1] + r[3]), 0.0);
+  const Eigen::Vector3d to_lamp = s.lamp.position - centre;
+  return s.lamp.intensity * (-to_lamp.z() / to_lamp.norm()) / to_lamp.squaredNorm();
+}
 
 const std::vector<std::string>& PresetNames() {
   static const std::vector<std::string> names = [] {

@@ -175,6 +175,11 @@ struct PresetOptions {
 // "default", "flat-field", "exposure-sweep", "sfs-sphere", "sfs-vase", "sfs-bumps", "flash",
 // "flash-8bit", "raised-sample", "ambient", "textured", "textured-3mat", "textured-flash".
 Scene PresetScene(const std::string& name, const PresetOptions& options = {});
+
+// The lamp's irradiance I cos(theta_i) / d^2 at the sample region's centre (a lamp on the
+// camera: head-on at the views' distance, I / d^2): what room light is given as a fraction of
+// ("ambient" preset, gonio bench --coverage --room-light).
+double LampIrradianceAtSampleCentre(const Scene& s);
 const std::vector<std::string>& PresetNames();
 
 }  // namespace gonio::synth
