@@ -93,6 +93,14 @@ struct JointFitOptions {
   // Fit every candidate (a comparison table, `--models all`) instead of the staged search,
   // which stops at the first parameter count whose best model explains the data to the noise.
   bool exhaustive = false;
+  // The staged search goes on at least to the stage with this many material parameters, even
+  // when a simpler stage explains the data to the noise. A nuisance term can mimic part of a
+  // material's shape (a height correction gives a Lambertian fit the view dependence of a rough
+  // one, docs/pipeline.md "Raised sample"), so a search with the terms on goes at least as far
+  // as the search without them did, and the criterion, not the stopping rule, decides.
+  // FitAndSelect sets it for its search again with kept terms, DropNuisances for its search
+  // with one of two kept terms left.
+  size_t search_through_params = 0;
   // Fit van-ginneken and oren-nayar-vcavity through their smooth tables
   // (estimation/joint/tabulated_models.h): same model within the tabulation error, many times
   // faster.
