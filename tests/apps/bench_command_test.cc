@@ -324,7 +324,9 @@ TEST(CoverageCli, AnUndeclaredHeightThatMovesTheMaterialWarns) {
 // with the height alone, Lambert with the sample 34 mm up explained the data to the 2.4 % floor
 // and the search stopped there (until 2026-12-07; 4 of the grid's 20 such runs had a height of
 // 8-36 mm). Now the search goes as far as the one without nuisances, and the criterion keeps
-// Oren-Nayar with the height where it is (measured 4.48 +- 0.36 mm).
+// Oren-Nayar with the height where it is (measured 4.48 +- 0.36 mm). A user who forces the
+// height on the same session (`gonio run --sample-height fit`) got Lambert 35 mm up with the
+// albedo on its bound: the search with a forced term now goes as far as the one without it.
 TEST(CoverageCli, AnUndeclaredHeightKeepsTheRoughModel) {
   testing::TempDir dir;
   const auto r = testing::RunGonio(
@@ -335,13 +337,23 @@ TEST(CoverageCli, AnUndeclaredHeightKeepsTheRoughModel) {
   const nlohmann::json j = ReadJsonFile(dir.path() / "coverage.json");
   ASSERT_EQ(j["runs"].size(), 1u);
   EXPECT_EQ(j["runs"][0]["selected_model"], "oren-nayar") << j["runs"][0];
-  const nlohmann::json fit = ReadJsonFile(dir.path() / "work" / "dark-oren-nayar-srgb8-seed1" /
-                                          "run-third" / "fit.json")["final"];
-  ASSERT_TRUE(fit.contains("sample_height_offset_m")) << fit["sample_height_reason"];
-  const double height = fit["sample_height_offset_m"].get<double>();
-  const double sd = fit["sample_height_offset_stddev_m"].get<double>();
-  EXPECT_LT(std::abs(height - 0.004), 3 * sd) << height << " +- " << sd;
-  EXPECT_LT(sd, 0.001);
+  const auto work = dir.path() / "work" / "dark-oren-nayar-srgb8-seed1";
+  const auto expect_the_height = [](const nlohmann::json& fit) {
+    EXPECT_EQ(fit["model"], "oren-nayar");
+    ASSERT_TRUE(fit.contains("sample_height_offset_m")) << fit["sample_height_reason"];
+    const double height = fit["sample_height_offset_m"].get<double>();
+    const double sd = fit["sample_height_offset_stddev_m"].get<double>();
+    EXPECT_LT(std::abs(height - 0.004), 3 * sd) << height << " +- " << sd;
+    EXPECT_LT(sd, 0.001);
+  };
+  expect_the_height(ReadJsonFile(work / "run-third" / "fit.json")["final"]);
+  const auto forced = testing::RunGonio(
+      "run --sample-height fit --white-albedo 0.8 --session " + (work / "session").string() +
+      " --camera " + (work / "cal-third" / "camera.cameramodel").string() + " --photometric " +
+      (work / "cal-third" / "photometric.json").string() + " --out " +
+      (dir.path() / "forced").string());
+  ASSERT_EQ(forced.exit_code, 0) << forced.err;
+  expect_the_height(ReadJsonFile(dir.path() / "forced" / "fit.json")["final"]);
 }
 
 // --first-seed 0 names no capture (seed 1 is the presets'), --kinds a kind that is none, --sweeps
