@@ -98,8 +98,8 @@ struct JointFitOptions {
   // material's shape (a height correction gives a Lambertian fit the view dependence of a rough
   // one, docs/pipeline.md "Raised sample"), so a search with the terms on goes at least as far
   // as the search without them did, and the criterion, not the stopping rule, decides.
-  // FitAndSelect sets it for its search again with kept terms, DropNuisances for its search
-  // with one of two kept terms left.
+  // FitAndSelect sets it for its search again with kept terms and, with a term forced on, from
+  // a search without it first; DropNuisances for its search with one of two kept terms left.
   size_t search_through_params = 0;
   // Fit van-ginneken and oren-nayar-vcavity through their smooth tables
   // (estimation/joint/tabulated_models.h): same model within the tabulation error, many times

@@ -581,8 +581,8 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
   JointSelectionResult out;
   if ((drop.ambient_kept && !drop.ambient) || (drop.height_kept && !drop.height)) {
     // One of two kept terms stays: the models are searched again with it on (kFit), as the
-    // selection with both may not be the one with either alone.
-    // The search goes at least as far as the one without nuisances: a height correction alone
+    // selection with both may not be the one with either alone. The search goes at least as
+    // far as the one without nuisances: a height correction alone
     // let a Lambertian fit explain an Oren-Nayar sample to the noise floor with the sample
     // 34 mm up (4 mm true), where the search with both terms had kept Oren-Nayar. It starts
     // from the lamp the fit with both found: from the multi-start's, the glossy sample's tson
@@ -590,7 +590,8 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
     JointFitOptions o = WithChosenNuisances(options, selection.final_fit);
     if (drop.ambient) o.ambient = AmbientTerm::kNone;
     if (drop.height) o.sample_height = NuisanceTerm::kNone;
-    if (!o.lamp_init) o.lamp_init = selection.final_fit.lamp_position;
+    const Eigen::Vector3d& lamp = selection.final_fit.lamp_position;
+    if (!o.lamp_init && lamp.allFinite() && lamp.norm() <= kMaxLampDistance) o.lamp_init = lamp;
     if (selection.without_nuisances) {
       const auto& w = *selection.without_nuisances;
       o.search_through_params =
