@@ -13,11 +13,14 @@ namespace gonio {
 
 struct Observation {
   int frame = 0;
-  double px = 0, py = 0;       // pixel (patch centre), pixel-centre convention
-  Eigen::Vector3d p_in_board;  // point on the board (z = 0; a raised sample: z = -height), m
-  Eigen::Vector3d camera_in_board;
-  Eigen::Vector3d board_from_cam_aa;  // rotation (angle-axis) of board_from_cam
-  bool white = false;                 // white reference paper (known albedo) instead of the sample
+  double px = 0, py = 0;  // pixel (patch centre), pixel-centre convention
+  // Zero until set: a copy of an Observation a caller filled in part (the synthetic ones leave
+  // the rotation out) must not read uninitialised memory. p_in_board is the point on the
+  // board (z = 0; a raised sample: z = -height), m.
+  Eigen::Vector3d p_in_board = Eigen::Vector3d::Zero();
+  Eigen::Vector3d camera_in_board = Eigen::Vector3d::Zero();
+  Eigen::Vector3d board_from_cam_aa = Eigen::Vector3d::Zero();  // angle-axis of board_from_cam
+  bool white = false;  // white reference paper (known albedo) instead of the sample
   int num_pixels = 1;
   // Second moment of the patch's area about p_in_board, board x and y (m^2): the radiance is
   // the mean over that area, which the joint fit models where the BRDF bends across it
