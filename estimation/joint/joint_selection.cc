@@ -41,6 +41,12 @@ std::vector<std::vector<std::string>> Stages(const std::vector<std::string>& nam
   return stages;
 }
 
+// The stage (material parameter count) of the model `r`'s search selected: how far a search
+// with nuisance terms must go at least (JointFitOptions::search_through_params).
+size_t SelectedStage(const JointSelectionResult& r) {
+  return FindModel(r.fits[r.selection.selected].material.model).params.size();
+}
+
 // A fit explains its data when its weighted residuals are what the noise model (pixel noise
 // and the relative floor) predicts: sum z^2 / n <= 1 + 3 sqrt(2 / n), the chi-square
 // distribution's mean plus three of its standard deviations.
@@ -491,7 +497,7 @@ size_t StageOfTheSearchWithoutForcedTerms(const ObservationSet& data,
   bare.sample_height = NuisanceTerm::kNone;
   JointSelectionResult without;
   SearchModels(data, names, use, light0, bare, &without);
-  return FindModel(without.fits[without.selection.selected].material.model).params.size();
+  return SelectedStage(without);
 }
 
 }  // namespace
@@ -540,11 +546,10 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
     // least up to the stage of the model selected without it (a nuisance term can mimic some
     // of a material's shape; the criterion, not the stopping rule, must decide that).
     spdlog::info("searching the models again with the kept nuisance terms");
-    const JointFitResult before = out.fits[out.selection.selected];
+    const Eigen::Vector3d lamp = out.fits[out.selection.selected].lamp_position;
     JointFitOptions with_terms = chosen_options;
-    with_terms.search_through_params =
-        std::max(search.search_through_params, FindModel(before.material.model).params.size());
-    SearchModels(data, names, use, before.lamp_position, with_terms, &out);
+    with_terms.search_through_params = std::max(search.search_through_params, SelectedStage(out));
+    SearchModels(data, names, use, lamp, with_terms, &out);
   }
   const auto& chosen = out.fits[out.selection.selected];
   spdlog::info("selected {}; refitting on all {} observations", chosen.material.model,
@@ -593,10 +598,8 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
     const Eigen::Vector3d& lamp = selection.final_fit.lamp_position;
     if (!o.lamp_init && lamp.allFinite() && lamp.norm() <= kMaxLampDistance) o.lamp_init = lamp;
     if (selection.without_nuisances) {
-      const auto& w = *selection.without_nuisances;
       o.search_through_params =
-          std::max(o.search_through_params,
-                   FindModel(w.fits[w.selection.selected].material.model).params.size());
+          std::max(o.search_through_params, SelectedStage(*selection.without_nuisances));
     }
     out = FitAndSelect(data, o);
   } else if (!selection.without_nuisances) {
