@@ -21,10 +21,12 @@
 #include "common/stopwatch.h"
 #include "estimation/joint/joint_fit.h"
 #include "estimation/joint/joint_fit_problem.h"
+#include "estimation/joint/nuisance_choice.h"
 #include "reflectance/registry.h"
 
 namespace gonio {
 
+using joint_fit_internal::ChooseNuisances;
 using joint_fit_internal::CountResiduals;
 using joint_fit_internal::FitCandidate;
 using joint_fit_internal::Subsample;
@@ -257,161 +259,6 @@ void SearchModels(const ObservationSet& data, const std::vector<std::string>& na
   ChooseSimplestAdequate(sel, &out->selection);
   ApplyPracticalSignificance(data, use, search, out);
   out->selection.reason += stopped;
-}
-
-// One combination of nuisance terms refitted by ChooseNuisances (the first: none, the fit
-// the models were chosen by).
-struct NuisanceTrial {
-  bool ambient = false, height = false;
-  double value = INFINITY;             // the criterion; INFINITY: a term within its error bar
-  double z_ambient = 0, z_height = 0;  // each term's |value| / sd at the final size
-  Eigen::Vector3d lamp = Eigen::Vector3d::Zero();
-  std::optional<Eigen::Vector3d> lamp_sd = std::nullopt;  // the lamp's statistical sd, terms free
-  bool converged = false;
-};
-
-// The trial of `terms` with `term` on (`with`) or off; null when it was not tried.
-const NuisanceTrial* TrialOf(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& terms,
-                             UnresolvedNuisance::Term term, bool with) {
-  const bool ambient = term == UnresolvedNuisance::Term::kAmbient ? with : terms.ambient;
-  const bool height = term == UnresolvedNuisance::Term::kHeight ? with : terms.height;
-  for (const NuisanceTrial& t : trials) {
-    if (t.ambient == ambient && t.height == height) return t.converged ? &t : nullptr;
-  }
-  return nullptr;
-}
-
-// What each term tried does to the lamp beside the terms picked (`pick`): its trial with the
-// term on and the one with it off, the rest as picked (for a term not picked: the pick with it
-// added). Each term's NuisanceSensitivity (the bars' difference at the final size: divided by
-// `scale`), and the worst unresolved term: one not picked although it stood more than 2 of its
-// final standard deviations out (within nuisance_min_z; or beyond it and the criterion against
-// it) and moved the lamp by more than kShiftInSd of the lamp's bars (BenchEffects: room light at
-// 5 % of the lamp, z 2.5, moves the lamp by 6 % of its distance; a 4 mm sample and room light at
-// 2 %, the height kept: the room light at z 3.6 beside it lost by BIC and left the lamp 22 bars
-// off). The data neither keep nor exclude it, and the result depends on it.
-void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
-                          double scale, std::vector<NuisanceSensitivity>* sensitivity,
-                          std::optional<UnresolvedNuisance>* unresolved) {
-  for (const auto term : {UnresolvedNuisance::Term::kAmbient, UnresolvedNuisance::Term::kHeight}) {
-    const NuisanceTrial* on = TrialOf(trials, pick, term, true);
-    const NuisanceTrial* off = TrialOf(trials, pick, term, false);
-    if (!on || !off || !on->lamp_sd || !off->lamp_sd) continue;
-    const Eigen::Vector3d off_sd = *off->lamp_sd / scale;
-    sensitivity->push_back(
-        {term,
-         (on->lamp_sd->array().square() - off->lamp_sd->array().square()).max(0.0).sqrt() / scale});
-    const bool picked = term == UnresolvedNuisance::Term::kAmbient ? pick.ambient : pick.height;
-    const double z = term == UnresolvedNuisance::Term::kAmbient ? on->z_ambient : on->z_height;
-    const Eigen::Vector3d shift = on->lamp - off->lamp;
-    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, off_sd);
-    if (picked || !(z > 2.0) || !(in_sd > UnresolvedNuisance::kShiftInSd)) continue;
-    if (!*unresolved || in_sd > (*unresolved)->shift_in_sd) {
-      *unresolved = UnresolvedNuisance{term, z, shift, in_sd};
-    }
-  }
-}
-
-// ChooseNuisances' reason: the criterion of every combination ("-": a term within its error
-// bar) and the one kept.
-std::string NuisanceReason(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
-                           const JointFitResult& chosen, size_t n, const JointFitOptions& options) {
-  std::string list;
-  for (const auto& t : trials) {
-    const std::string name = t.ambient && t.height ? "ambient and height"
-                             : t.ambient           ? "ambient"
-                             : t.height            ? "height"
-                                                   : "neither";
-    list += fmt::format("{}{} {}", list.empty() ? "" : ", ", name,
-                        std::isfinite(t.value) ? fmt::format("{:.1f}", t.value) : "-");
-  }
-  return fmt::format(
-      "nuisances by {} ({} on {} observations; kept when lower by more than {:g} and each "
-      "term beyond {:g} standard deviations): {}: {}",
-      options.criterion == Criterion::kAic ? "AIC" : "BIC", chosen.material.model, n,
-      options.nuisance_margin, options.nuisance_min_z, list,
-      !pick.ambient && !pick.height ? "none kept"
-      : pick.ambient && pick.height ? "ambient light and sample height kept"
-      : pick.ambient                ? "ambient light kept"
-                                    : "sample height kept");
-}
-
-// The nuisances (docs/pipeline.md "Nuisances chosen by evidence"): every combination of the
-// kAuto ones refitted with the selected model on the selection subsample `use`, from its lamp.
-// As models are chosen: the best criterion (BIC, or AIC) among the fit without them and the
-// combinations whose every term exceeds options.nuisance_min_z of the standard deviation it
-// will have in the final fit (on final_n observations),
-// then the combination with the fewest terms within options.nuisance_margin of it. Returns
-// `search` with the chosen terms on (kFit); `reason` lists every criterion value ("-": a term
-// within its error bar).
-JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
-                                size_t final_n, const JointFitResult& chosen,
-                                const JointFitOptions& search, const JointFitOptions& options,
-                                std::string* reason, std::optional<UnresolvedNuisance>* unresolved,
-                                std::vector<NuisanceSensitivity>* sensitivity) {
-  const bool ambient = options.ambient == AmbientTerm::kAuto && data.lamp_off_frames == 0;
-  const bool height = options.sample_height == NuisanceTerm::kAuto;
-  if (options.ambient == AmbientTerm::kAuto && data.lamp_off_frames > 0) {
-    *reason = "lamp-off frames subtracted: no ambient term";
-  }
-  if (!ambient && !height) return search;
-  const bool aic = options.criterion == Criterion::kAic;
-  auto criterion = [&](const JointFitResult& f) {
-    return !f.material.converged ? INFINITY : aic ? f.material.aic : f.material.bic;
-  };
-  const double scale = std::sqrt(static_cast<double>(std::max(final_n, use.size())) /
-                                 static_cast<double>(std::max<size_t>(use.size(), 1)));
-  std::vector<NuisanceTrial> trials = {{false, false, criterion(chosen), 0, 0, chosen.lamp_position,
-                                        chosen.lamp_stddev, chosen.material.converged}};
-  for (int mask = 1; mask < 4; ++mask) {
-    NuisanceTrial t{(mask & 1) != 0, (mask & 2) != 0};
-    if ((t.ambient && !ambient) || (t.height && !height)) continue;
-    JointFitOptions o = search;
-    if (t.ambient) o.ambient = AmbientTerm::kFit;
-    if (t.height) o.sample_height = NuisanceTerm::kFit;
-    // From the chosen fit, the terms at zero: the optimum without them is where the trial
-    // starts its descent (from the registry defaults each trial cost as much as the candidate's
-    // own fit: 0.8 s of pitted-exact's, three times).
-    const JointFitResult f =
-        FitCandidate(chosen.material.model, data, use, chosen.lamp_position, o, false, &chosen);
-    // Every term of the combination must stand out of its own error bar, which the noise model
-    // (pixel noise and the calibration floor) sets: the criterion alone, with the empirical
-    // scatter of thousands of residuals, takes a calibration error's smooth bend for a nuisance.
-    // The bar is the one the final fit on `final_n` observations will have (1 / sqrt(n)).
-    const bool significant = (!t.ambient || scale * NuisanceZ(f, true) > options.nuisance_min_z) &&
-                             (!t.height || scale * NuisanceZ(f, false) > options.nuisance_min_z);
-    t.value = significant ? criterion(f) : INFINITY;
-    t.z_ambient = scale * NuisanceZ(f, true);
-    t.z_height = scale * NuisanceZ(f, false);
-    t.lamp = f.lamp_position;
-    t.lamp_sd = f.lamp_stddev;
-    t.converged = f.material.converged;
-    spdlog::info(
-        "nuisance trial {}{}: {} {:.1f}, z ambient {:.2f}, height {:.2f} (x {:.2f} at the "
-        "final size){}",
-        t.ambient ? "ambient" : "", t.height ? (t.ambient ? " and height" : "height") : "",
-        aic ? "AIC" : "BIC", criterion(f), NuisanceZ(f, true), NuisanceZ(f, false), scale,
-        f.material.converged ? "" : ", not converged");
-    trials.push_back(t);
-  }
-  double best = INFINITY;
-  for (const auto& t : trials) best = std::min(best, t.value);
-  auto terms = [](const NuisanceTrial& t) { return int(t.ambient) + int(t.height); };
-  const NuisanceTrial* pick = &trials[0];
-  for (const auto& t : trials) {
-    if (t.value > best + options.nuisance_margin) continue;
-    if (pick->value > best + options.nuisance_margin || terms(t) < terms(*pick) ||
-        (terms(t) == terms(*pick) && t.value < pick->value)) {
-      pick = &t;
-    }
-  }
-  *reason = NuisanceReason(trials, *pick, chosen, use.size(), options);
-  spdlog::info("{}", *reason);
-  NoteEffectsOnTheLamp(trials, *pick, scale, sensitivity, unresolved);
-  JointFitOptions out = search;
-  if (pick->ambient) out.ambient = AmbientTerm::kFit;
-  if (pick->height) out.sample_height = NuisanceTerm::kFit;
-  return out;
 }
 
 // The search without nuisances (`without`) restored, its selected model refitted on
