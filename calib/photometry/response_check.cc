@@ -338,9 +338,9 @@ std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<Expo
   return ClassicInverseResponse(cv::createCalibrateRobertson(), frames, exposures_s);
 }
 
-std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<ExposureFrame>& frames,
-                                                         const ResponseResult& result,
-                                                         double gonio_calibrate_s) {
+std::vector<MethodConsistency> CompareWithClassicMethods(
+    const std::vector<ExposureFrame>& frames, const ResponseResult& result,
+    double gonio_calibrate_s, const std::vector<ClassicMethod>& methods) {
   std::vector<ExposureFrame> used_frames;
   std::vector<double> times;
   for (size_t j = 0; j < frames.size(); ++j) {
@@ -361,21 +361,19 @@ std::vector<MethodConsistency> CompareWithClassicMethods(const std::vector<Expos
   out.push_back(
       {"gonio", MeasurePairConsistency(used_frames, times, all, ours, lo, hi), gonio_calibrate_s});
   using Clock = std::chrono::steady_clock;
-  const auto seconds_since = [](Clock::time_point t0) {
-    return std::chrono::duration<double>(Clock::now() - t0).count();
-  };
   // Each OpenCV method's own time: the consistency check that judges its curve is gonio's work,
   // not the method's (gonio's calibrate_s holds the checks its result reports).
-  Clock::time_point t0 = Clock::now();
-  const std::vector<std::vector<double>> debevec = DebevecInverseResponse(used_frames, times);
-  const double debevec_s = seconds_since(t0);
-  out.push_back({"OpenCV Debevec", MeasurePairConsistency(used_frames, times, all, debevec, lo, hi),
-                 debevec_s});
-  t0 = Clock::now();
-  const std::vector<std::vector<double>> robertson = RobertsonInverseResponse(used_frames, times);
-  const double robertson_s = seconds_since(t0);
-  out.push_back({"OpenCV Robertson",
-                 MeasurePairConsistency(used_frames, times, all, robertson, lo, hi), robertson_s});
+  for (const ClassicMethod m : {ClassicMethod::kDebevec, ClassicMethod::kRobertson}) {
+    if (std::find(methods.begin(), methods.end(), m) == methods.end()) continue;
+    const bool debevec = m == ClassicMethod::kDebevec;
+    const Clock::time_point t0 = Clock::now();
+    const std::vector<std::vector<double>> table =
+        debevec ? DebevecInverseResponse(used_frames, times)
+                : RobertsonInverseResponse(used_frames, times);
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    out.push_back({debevec ? "OpenCV Debevec" : "OpenCV Robertson",
+                   MeasurePairConsistency(used_frames, times, all, table, lo, hi), seconds});
+  }
   return out;
 }
 
