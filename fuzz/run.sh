@@ -20,6 +20,11 @@ mkdir -p "$findings"
 # halt_on_error: libFuzzer sees a UBSan report as a finding, as an ASan one.
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 export ASAN_OPTIONS="detect_leaks=1"
+# Each target writes its inputs under the temp dir (fuzz_util.h WorkDir, one folder per
+# process); one of the run's own, removed at the end, leaves nothing in /tmp.
+export TMPDIR="$dir/tmp"
+mkdir -p "$TMPDIR"
+trap 'rm -rf "$dir/tmp"' EXIT
 
 run_target() {
   local t="$1" max_len=8192
