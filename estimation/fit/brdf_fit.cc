@@ -135,7 +135,10 @@ Eigen::MatrixXd WeightedJacobian(const std::vector<BrdfSample>& samples, std::ve
         nullptr, params.data(), &scale);
   }
   ceres::Problem::EvaluateOptions eo;
-  eo.parameter_blocks = {params.data(), &scale};
+  // Appended, not assigned from a list: GCC 12 inlines the list's copy into the empty vector
+  // and warns of a null destination (-Wnonnull), which cannot happen.
+  eo.parameter_blocks.push_back(params.data());
+  eo.parameter_blocks.push_back(&scale);
   ceres::CRSMatrix crs;
   double cost = 0;
   problem.Evaluate(eo, &cost, nullptr, nullptr, &crs);
