@@ -1,7 +1,7 @@
 // The model search of the joint fit (docs/pipeline.md "Staged search"): candidates in stages
 // of equal parameter count until one explains the data to the noise, the information-criterion
 // rule, practical significance, and the final refit. One candidate's fit is FitCandidate
-// (joint_fit.cc).
+// (joint_fit.cc); the nuisance terms are chosen after the search (nuisance_choice.cc).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
