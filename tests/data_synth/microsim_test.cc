@@ -370,7 +370,9 @@ TEST(Microsim, GaussianShadowingVsVanGinneken) {
     const std::string where = "r " + std::to_string(c.r) + " angles " + std::to_string(c.ti) + " " +
                               std::to_string(c.tr) + " " + std::to_string(c.phi);
     EXPECT_LE(e.ill_vis_given_facing.mean, model + 3 * se) << where;
-    if (c.within_003) EXPECT_NEAR(e.ill_vis_given_facing.mean, model, 0.03 + 3 * se) << where;
+    if (c.within_003) {
+      EXPECT_NEAR(e.ill_vis_given_facing.mean, model, 0.03 + 3 * se) << where;
+    }
   }
 }
 

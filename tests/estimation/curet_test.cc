@@ -40,7 +40,9 @@ TEST(Curet, PlasterSelectsRoughDiffuse) {
   EXPECT_GE(sigma, 15.0);
   EXPECT_LE(sigma, 35.0);
   for (const auto& c : sel.candidates) {
-    if (c.model == "lambert") EXPECT_GT(c.rel_rms, 2 * s.rel_rms);
+    if (c.model == "lambert") {
+      EXPECT_GT(c.rel_rms, 2 * s.rel_rms);
+    }
   }
 }
 

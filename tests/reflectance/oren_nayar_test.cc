@@ -235,7 +235,9 @@ TEST(OrenNayarVCavity, DirectPartMatchesBruteForceFacetIntegral) {
                         tr_deg, RadToDeg(phi), direct, num / den);
         }
         (in_plane ? worst_plane : worst_other) = std::max(in_plane ? worst_plane : worst_other, d);
-        if (in_plane) EXPECT_NEAR(direct, num / den, 2e-3) << ti_deg << " " << tr_deg << " " << phi;
+        if (in_plane) {
+          EXPECT_NEAR(direct, num / den, 2e-3) << ti_deg << " " << tr_deg << " " << phi;
+        }
       }
     }
   }

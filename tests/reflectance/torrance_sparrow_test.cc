@@ -108,8 +108,12 @@ TEST(TorranceSparrow, DirectionalAlbedo) {
       EXPECT_LT(af, a);
       // Normal incidence: nothing shadowed; masking (GAF = 2 cos tr) only removes the part of
       // the lobe beyond theta_r = 60 deg, small for a narrow lobe.
-      if (ti_deg == 0.0 && sigma_s == 0.1) EXPECT_GT(a, 0.99);
-      if (ti_deg == 0.0 && sigma_s == 0.3) EXPECT_GT(a, 0.85);
+      if (ti_deg == 0.0 && sigma_s == 0.1) {
+        EXPECT_GT(a, 0.99);
+      }
+      if (ti_deg == 0.0 && sigma_s == 0.3) {
+        EXPECT_GT(a, 0.85);
+      }
       // The normal-incidence figures docs/models/oren-nayar.md quotes (3 decimals).
       if (ti_deg == 0.0) {
         EXPECT_NEAR(a, sigma_s == 0.1 ? 1.000 : sigma_s == 0.3 ? 0.905 : 0.501, 1e-3) << sigma_s;
