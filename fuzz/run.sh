@@ -24,7 +24,7 @@ export ASAN_OPTIONS="detect_leaks=1"
 # process); one of the run's own, removed at the end, leaves nothing in /tmp.
 export TMPDIR="$dir/tmp"
 mkdir -p "$TMPDIR"
-trap 'rm -rf "$dir/tmp"' EXIT
+trap 'rm -rf "$TMPDIR"' EXIT
 
 run_target() {
   local t="$1" max_len=8192

@@ -311,7 +311,7 @@ std::vector<std::vector<double>> DebevecInverseResponse(const std::vector<Exposu
 std::vector<std::vector<double>> RobertsonInverseResponse(const std::vector<ExposureFrame>& frames,
                                                           const std::vector<double>& exposures_s);
 
-// gonio's result and OpenCV's Debevec and Robertson (`methods`, in that order), all on the
+// gonio's result, then OpenCV's Debevec and Robertson (`methods`, in its order), all on the
 // frames gonio used at the times it used (re-timed where it re-timed), checked on the same
 // pixels: values in [5 %, 95 %] of the range and inside gonio's black..saturation range. 8-bit
 // frames only (InputError otherwise). Each method's calibration time is measured here for

@@ -363,8 +363,7 @@ std::vector<MethodConsistency> CompareWithClassicMethods(
   using Clock = std::chrono::steady_clock;
   // Each OpenCV method's own time: the consistency check that judges its curve is gonio's work,
   // not the method's (gonio's calibrate_s holds the checks its result reports).
-  for (const ClassicMethod m : {ClassicMethod::kDebevec, ClassicMethod::kRobertson}) {
-    if (std::find(methods.begin(), methods.end(), m) == methods.end()) continue;
+  for (const ClassicMethod m : methods) {
     const bool debevec = m == ClassicMethod::kDebevec;
     const Clock::time_point t0 = Clock::now();
     const std::vector<std::vector<double>> table =
