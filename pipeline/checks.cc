@@ -364,6 +364,34 @@ bool AmbientIsNotRoomLight(const JointFitResult& f) {
   return false;
 }
 
+// The warning for a term the data neither keep nor exclude (UnresolvedNuisance): how far it
+// stood out, why it was not kept, what it moves and what settles it.
+std::string UnresolvedMessage(const UnresolvedNuisance& u, const std::string& response_remedy) {
+  const bool ambient = u.term == UnresolvedNuisance::Term::kAmbient;
+  const std::string why =
+      !u.beside_a_dropped_term ? "too few to keep it"
+      : ambient ? "the selection kept a sample height instead, which the final bars then left out"
+                : "the selection kept room light instead, which the final bars then left out";
+  const std::string moves =
+      u.moved_param.empty()
+          ? fmt::format("the lamp by {:.1f} mm, {:.0f} times the lamp's standard deviation",
+                        1e3 * u.lamp_shift.norm(), u.shift_in_sd)
+          : fmt::format("{} by {:.0f} times its standard deviation (the lamp by {:.1f} mm)",
+                        u.moved_param, u.shift_in_sd, 1e3 * u.lamp_shift.norm());
+  const std::string settle =
+      ambient
+          ? "lamp-off frames (session.json lamp_off) settle it; if the room was dark, the "
+            "response's error bends the radiance this way (narrowed by " +
+                (response_remedy.empty() ? std::string("a finer sweep or RAW") : response_remedy) +
+                ")"
+          : std::string("measure the sample's thickness into board.json sample_height_m");
+  return fmt::format(
+      "{} cannot be excluded: fitted{}, it stands {:.1f} standard deviations out "
+      "({}) and moves {}; {}",
+      ambient ? "room light" : "a sample height off board.json's",
+      u.beside_a_dropped_term ? " alone" : "", u.z, why, moves, settle);
+}
+
 // Nuisances that --ambient auto / --sample-height auto found and fitted: the user did not
 // declare them, and each costs precision (docs/pipeline.md "Nuisances chosen by evidence").
 void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>& all,
@@ -398,27 +426,9 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
     }
   }
   if (const auto& u = f.unresolved_nuisance) {
-    const bool ambient = u->term == UnresolvedNuisance::Term::kAmbient;
-    m->push_back(
-        {ambient ? WarningCause::kAmbientLight : WarningCause::kSampleHeight,
-         fmt::format("{} cannot be excluded: fitted, it stands {:.1f} standard deviations out "
-                     "(too few to keep it) and moves {}; {}",
-                     ambient ? "room light" : "a sample height off board.json's", u->z,
-                     u->moved_param.empty()
-                         ? fmt::format("the lamp by {:.1f} mm, {:.0f} times the lamp's standard "
-                                       "deviation",
-                                       1e3 * u->lamp_shift.norm(), u->shift_in_sd)
-                         : fmt::format("{} by {:.0f} times its standard deviation (the lamp by "
-                                       "{:.1f} mm)",
-                                       u->moved_param, u->shift_in_sd, 1e3 * u->lamp_shift.norm()),
-                     ambient ? "lamp-off frames (session.json lamp_off) settle it; if the room "
-                               "was dark, the response's error bends the radiance this way "
-                               "(narrowed by " +
-                                   (response_remedy.empty() ? std::string("a finer sweep or RAW")
-                                                            : response_remedy) +
-                                   ")"
-                             : "measure the sample's thickness into board.json sample_height_m"),
-         all});
+    m->push_back({u->term == UnresolvedNuisance::Term::kAmbient ? WarningCause::kAmbientLight
+                                                                : WarningCause::kSampleHeight,
+                  UnresolvedMessage(*u, response_remedy), all});
   }
   if (f.sample_height_offset && !f.sample_height_reason.empty()) {
     m->push_back({WarningCause::kSampleHeight,

@@ -129,10 +129,12 @@ struct FrameResidual {
 };
 
 // A nuisance term --ambient auto / --sample-height auto left out although the data could not
-// exclude it (joint_selection.cc NoteEffectsOnTheLamp): its trial beside the terms kept stood
+// exclude it (nuisance_choice.cc NoteEffectsOnTheLamp): its trial beside the terms kept stood
 // more than 2 of its final standard deviations out and moved the lamp by more than kShiftInSd
-// of the lamp's, or it was kept and then dropped after moving the lamp that far
-// (UnresolvedAfterDrop), so the result depends on it (pipeline/checks.cc warns). The calibration's
+// of the lamp's, or it was kept and then dropped after moving the lamp (or the material) that
+// far (UnresolvedAfterDrop), or it lost the criterion to a term that was then dropped and,
+// fitted alone, moved either that far (JointSelectionResult::unresolved_if_kept_term_dropped),
+// so the result depends on it (pipeline/checks.cc warns). The calibration's
 // part of the lamp's bar is known only after the final fit: AddCalibrationUncertainty
 // (calibration_error.h) judges the shift again against the widened bar and drops a shift the bar
 // covers.
@@ -154,6 +156,9 @@ struct UnresolvedNuisance {
   // within 1.2; docs/pipeline.md "Raised sample").
   std::vector<std::pair<std::string, double>> param_shift = {};
   std::string moved_param = {};  // empty: the lamp moved most
+  // Not kept because another term won the criterion, which was then dropped
+  // (JointSelectionResult::unresolved_if_kept_term_dropped): `z` is the term's fitted alone.
+  bool beside_a_dropped_term = false;
 
   // shift_in_sd and moved_param against `f`'s standard deviations: the lamp's (worst axis) and
   // those of the material parameters of param_shift (by name, where `f` has them).
@@ -243,6 +248,12 @@ struct JointSelectionResult {
   // The search before the kAuto nuisance terms final_fit keeps (null when it keeps none), for
   // DropNuisances: leaving a term out restores it instead of searching again.
   std::shared_ptr<const JointSelectionResult> without_nuisances;
+  // When final_fit keeps one kAuto term: the other, fitted alone against the fit without terms,
+  // where it stood more than 2 of its final standard deviations out and moved the lamp or the
+  // material beyond kShiftInSd. The criterion preferred the kept term; if a drop
+  // (DropUnsupportedNuisances, DropNuisances) leaves the fit without either, the result depends
+  // on this one, which is then unresolved (nuisance_choice.cc UnkeptBesideNone).
+  std::optional<UnresolvedNuisance> unresolved_if_kept_term_dropped;
   std::string Report() const;
   nlohmann::json ToJson() const;
 };

@@ -29,6 +29,7 @@ namespace gonio {
 using joint_fit_internal::ChooseNuisances;
 using joint_fit_internal::CountResiduals;
 using joint_fit_internal::FitCandidate;
+using joint_fit_internal::NuisanceChoice;
 using joint_fit_internal::Subsample;
 
 namespace {
@@ -274,6 +275,26 @@ JointSelectionResult RestoreWithoutNuisances(const ObservationSet& data,
   return out;
 }
 
+// `candidate` into `worst` when it moved more, in its standard deviations.
+void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
+                  std::optional<UnresolvedNuisance>* worst) {
+  if (candidate && (!*worst || candidate->shift_in_sd > (*worst)->shift_in_sd)) {
+    *worst = candidate;
+  }
+}
+
+// After a drop that left `f` without any nuisance term: the term the dropped one had beaten by
+// the criterion (JointSelectionResult::unresolved_if_kept_term_dropped), judged again against
+// `f`'s bars; none while `f` keeps a term or when its shift is within them.
+std::optional<UnresolvedNuisance> TheTermTheDroppedOneBeat(
+    const std::optional<UnresolvedNuisance>& candidate, const JointFitResult& f) {
+  if (!candidate || !f.ambient_sample.empty() || f.sample_height_offset) return std::nullopt;
+  UnresolvedNuisance u = *candidate;
+  u.JudgeAgainst(f);
+  if (!(u.shift_in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
+  return u;
+}
+
 // A nuisance kept on the selection subsample must stand out of its error bar in the final fit
 // too: ChooseNuisances predicts the final bar from the subsample's (1 / sqrt(n)), and a
 // calibration error's smooth bend, which does not average out, can pass that test and then sit
@@ -289,6 +310,7 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
                               std::optional<UnresolvedNuisance>* unresolved) {
   const NuisanceDrop drop = NuisancesWithinTheirBars(options, out->final_fit);
   if (!drop.Any()) return;
+  const auto if_kept_dropped = out->unresolved_if_kept_term_dropped;
   const JointFitResult kept = out->final_fit;
   *reason += fmt::format("; on all {} observations {} within {:g} standard deviations: dropped",
                          final_use.size(), drop.Named(), options.nuisance_min_z);
@@ -305,11 +327,10 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
     out->final_fit =
         FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
   }
-  // The worse of this and a term ChooseNuisances left unresolved beside the dropped one.
-  const auto dropped = UnresolvedAfterDrop(drop, kept, out->final_fit);
-  if (dropped && (!*unresolved || dropped->shift_in_sd > (*unresolved)->shift_in_sd)) {
-    *unresolved = dropped;
-  }
+  // The worst of this, a term ChooseNuisances left unresolved beside the dropped one, and the
+  // term the dropped one beat.
+  KeepTheWorse(UnresolvedAfterDrop(drop, kept, out->final_fit), unresolved);
+  KeepTheWorse(TheTermTheDroppedOneBeat(if_kept_dropped, out->final_fit), unresolved);
 }
 
 // `options` with its kAuto nuisance terms off: what the model search fits.
@@ -379,13 +400,12 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
       StageOfTheSearchWithoutForcedTerms(data, names, use, light0, search);
   JointSelectionResult out;
   SearchModels(data, names, use, light0, search, &out);
-  std::string nuisance_reason;
-  std::optional<UnresolvedNuisance> unresolved;
-  std::vector<NuisanceSensitivity> sensitivity;
   const auto final_use = Subsample(data, options.final_max_observations);
-  const JointFitOptions chosen_options =
-      ChooseNuisances(data, use, final_use.size(), out.fits[out.selection.selected], search,
-                      options, &nuisance_reason, &unresolved, &sensitivity);
+  NuisanceChoice choice = ChooseNuisances(data, use, final_use.size(),
+                                          out.fits[out.selection.selected], search, options);
+  const JointFitOptions& chosen_options = choice.options;
+  std::string& nuisance_reason = choice.reason;
+  std::optional<UnresolvedNuisance>& unresolved = choice.unresolved;
   auto without_nuisances = std::make_shared<const JointSelectionResult>(out);
   if (chosen_options.ambient != search.ambient ||
       chosen_options.sample_height != search.sample_height) {
@@ -410,10 +430,11 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   final_options.patch_model = refit.patch_model;
   out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position,
                                final_options, false, &chosen);
+  out.unresolved_if_kept_term_dropped = choice.unresolved_if_kept_term_dropped;
   DropUnsupportedNuisances(data, final_use, refit, options, *without_nuisances, &nuisance_reason,
                            &out, &unresolved);
   out.final_fit.unresolved_nuisance = unresolved;
-  out.final_fit.nuisance_sensitivity = sensitivity;
+  out.final_fit.nuisance_sensitivity = choice.sensitivity;
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
   if (options.sample_height == NuisanceTerm::kAuto) {
     out.final_fit.sample_height_reason = nuisance_reason;
@@ -457,6 +478,8 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
   }
   // The terms' trials were made by the selection; neither refit above tries the dropped term.
   out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
+  KeepTheWorse(TheTermTheDroppedOneBeat(selection.unresolved_if_kept_term_dropped, out.final_fit),
+               &out.final_fit.unresolved_nuisance);
   return out;
 }
 

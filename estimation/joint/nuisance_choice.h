@@ -10,18 +10,46 @@
 
 namespace gonio::joint_fit_internal {
 
+// One combination of nuisance terms refitted by ChooseNuisances (the first: none, the fit
+// the models were chosen by).
+struct NuisanceTrial {
+  bool ambient = false, height = false;
+  double value = INFINITY;             // the criterion; INFINITY: a term within its error bar
+  double z_ambient = 0, z_height = 0;  // each term's |value| / sd at the final size
+  Eigen::Vector3d lamp = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> lamp_sd = std::nullopt;  // the lamp's statistical sd, terms free
+  bool converged = false;
+  BrdfFitResult material = {};  // the selected model's parameters and their statistical sd
+};
+
+// What ChooseNuisances decides and notes.
+struct NuisanceChoice {
+  JointFitOptions options;  // `search` with the chosen terms on (kFit)
+  std::string reason;       // every combination's criterion ("-": a term within its error bar)
+  // A term left out that the data neither keep nor exclude beside the terms kept
+  // (NoteEffectsOnTheLamp), and each term's NuisanceSensitivity.
+  std::optional<UnresolvedNuisance> unresolved;
+  std::vector<NuisanceSensitivity> sensitivity;
+  // With one term kept, the other judged beside none: what stands when the kept one is dropped
+  // (JointSelectionResult::unresolved_if_kept_term_dropped).
+  std::optional<UnresolvedNuisance> unresolved_if_kept_term_dropped;
+};
+
 // The nuisances (docs/pipeline.md "Nuisances chosen by evidence"): every combination of the
 // kAuto ones refitted with the selected model `chosen` on the selection subsample `use`, from
 // its lamp. As models are chosen: the best criterion (BIC, or AIC) among the fit without them
 // and the combinations whose every term exceeds options.nuisance_min_z of the standard
 // deviation it will have in the final fit (on final_n observations), then the combination with
-// the fewest terms within options.nuisance_margin of it. Returns `search` with the chosen terms
-// on (kFit); `reason` lists every criterion value ("-": a term within its error bar);
-// `unresolved` and `sensitivity` receive what each term tried does to the lamp.
-JointFitOptions ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
-                                size_t final_n, const JointFitResult& chosen,
-                                const JointFitOptions& search, const JointFitOptions& options,
-                                std::string* reason, std::optional<UnresolvedNuisance>* unresolved,
-                                std::vector<NuisanceSensitivity>* sensitivity);
+// the fewest terms within options.nuisance_margin of it.
+NuisanceChoice ChooseNuisances(const ObservationSet& data, const std::vector<size_t>& use,
+                               size_t final_n, const JointFitResult& chosen,
+                               const JointFitOptions& search, const JointFitOptions& options);
+
+// With one term kept (`pick`), the other judged beside none: its trial alone against the trial
+// without terms (`trials`: ChooseNuisances'), on the lamp and on the material, against the bars
+// at the final size (the subsample's over `scale`). Set when it stood more than 2 of its final
+// standard deviations out and moved either beyond kShiftInSd; none with both terms or none kept.
+std::optional<UnresolvedNuisance> UnkeptBesideNone(const std::vector<NuisanceTrial>& trials,
+                                                   const NuisanceTrial& pick, double scale);
 
 }  // namespace gonio::joint_fit_internal

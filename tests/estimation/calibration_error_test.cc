@@ -562,7 +562,7 @@ TEST(CalibrationError, TheRefitsSpreadTheNuisanceTermsToo) {
 }
 
 // A nuisance the selection could not resolve moved the lamp by more than 3 of its statistical
-// standard deviations (joint_selection.cc NoteEffectsOnTheLamp). The calibration's part widens the
+// standard deviations (nuisance_choice.cc NoteEffectsOnTheLamp). The calibration's part widens the
 // lamp's bar; the shift is judged again against it: kept (warned) when it still exceeds 3 of
 // the widened bar, dropped when the bar covers it.
 TEST(CalibrationError, AnUnresolvedNuisanceIsJudgedAgainstTheWidenedLampBar) {

@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "common/math.h"
 #include "estimation/joint/joint_fit_problem.h"
+#include "estimation/joint/nuisance_choice.h"
 #include "reflectance/oren_nayar.h"
 #include "reflectance/pitted.h"
 #include "tests/estimation/synthetic_observations.h"
@@ -288,6 +289,79 @@ TEST(DropNuisances, OneOfTwoLeftSearchesAsFarAsTheSearchWithout) {
   ASSERT_EQ(dropped.selection.candidates.size(), 2u) << dropped.selection.reason;
   EXPECT_EQ(dropped.selection.candidates[1].model, "oren-nayar");
   EXPECT_EQ(dropped.final_fit.material.model, "lambert");  // the criterion still decides
+}
+
+// With one nuisance term kept, the other is judged beside none, on the material as well as the
+// lamp, against the bars at the final size: the flash under an undeclared 4 mm sample kept room
+// light by BIC over the height, whose trial alone stood 8.4 out and moved the albedo; once the
+// room light is dropped, the result rests on the height (docs/pipeline.md "Coverage under
+// nuisances"). Nothing with both terms or none kept, a term within 2 of its bars, or a shift
+// the final bars hold.
+TEST(NuisanceChoice, TheTermTheKeptOneBeatIsJudgedBesideNone) {
+  using joint_fit_internal::NuisanceTrial;
+  using joint_fit_internal::UnkeptBesideNone;
+  NuisanceTrial none;
+  none.converged = true;
+  none.lamp = Eigen::Vector3d(0.1, 0.0, 0.5);
+  none.lamp_sd = Eigen::Vector3d(1e-3, 1e-3, 1e-3);
+  none.material.model = "oren-nayar";
+  none.material.param_names = {"albedo", "sigma"};
+  none.material.params = {0.5, 0.3};
+  none.material.stddev = {0.002, 0.01};
+  NuisanceTrial ambient = none, height = none, both = none;
+  ambient.ambient = both.ambient = true;
+  ambient.z_ambient = both.z_ambient = 5.0;
+  height.height = both.height = true;
+  height.z_height = 8.4;
+  height.material.params[0] += 0.0058;         // 2.9 of the subsample's albedo bars
+  height.lamp += Eigen::Vector3d(0, 0, 1e-3);  // 1 of the lamp's
+  std::vector<NuisanceTrial> trials = {none, ambient, height, both};
+  // Four times the observations at the end: bars half as wide, the albedo 5.8 of them off.
+  const auto u = UnkeptBesideNone(trials, ambient, 2.0);
+  ASSERT_TRUE(u);
+  EXPECT_EQ(u->term, UnresolvedNuisance::Term::kHeight);
+  EXPECT_TRUE(u->beside_a_dropped_term);
+  EXPECT_DOUBLE_EQ(u->z, 8.4);
+  EXPECT_EQ(u->moved_param, "albedo");
+  EXPECT_NEAR(u->shift_in_sd, 5.8, 1e-9);
+  EXPECT_NEAR(u->lamp_shift.z(), 1e-3, 1e-12);
+  EXPECT_FALSE(UnkeptBesideNone(trials, ambient, 1.0));  // 2.9 bars: held
+  EXPECT_FALSE(UnkeptBesideNone(trials, both, 2.0));
+  EXPECT_FALSE(UnkeptBesideNone(trials, none, 2.0));
+  EXPECT_FALSE(UnkeptBesideNone(trials, height, 2.0));  // room light moved nothing
+  trials[2].z_height = 1.9;
+  EXPECT_FALSE(UnkeptBesideNone(trials, ambient, 2.0));
+  trials[2].z_height = 8.4;
+  trials[2].converged = false;
+  EXPECT_FALSE(UnkeptBesideNone(trials, ambient, 2.0));
+}
+
+// When the drop leaves no term, the term the dropped one beat (the selection's
+// unresolved_if_kept_term_dropped) is what the result rests on: noted as unresolved, judged
+// against the restored fit's own bars; not when those bars hold its shift.
+TEST(DropNuisances, TheTermTheDroppedOneBeatIsUnresolved) {
+  const ObservationSet data = UnderRoomLight();
+  JointFitOptions o = QuickNuisanceOptions();
+  o.sample_height = NuisanceTerm::kNone;
+  JointSelectionResult kept = FitAndSelect(data, o);
+  ASSERT_EQ(kept.final_fit.ambient_sample.size(), 1u) << kept.Report();
+  NuisanceDrop drop;
+  drop.ambient_kept = drop.ambient = true;
+  const JointFitResult restored = DropNuisances(data, o, drop, kept).final_fit;
+  EXPECT_FALSE(restored.unresolved_nuisance);
+  ASSERT_TRUE(restored.material.stddev.at(0));
+  const double albedo_sd = *restored.material.stddev[0];
+  UnresolvedNuisance beaten{UnresolvedNuisance::Term::kHeight, 8.4, Eigen::Vector3d::Zero()};
+  beaten.beside_a_dropped_term = true;
+  beaten.param_shift = {{restored.material.param_names[0], 5 * albedo_sd}};
+  kept.unresolved_if_kept_term_dropped = beaten;
+  const JointFitResult noted = DropNuisances(data, o, drop, kept).final_fit;
+  ASSERT_TRUE(noted.unresolved_nuisance);
+  EXPECT_EQ(noted.unresolved_nuisance->term, UnresolvedNuisance::Term::kHeight);
+  EXPECT_EQ(noted.unresolved_nuisance->moved_param, restored.material.param_names[0]);
+  EXPECT_NEAR(noted.unresolved_nuisance->shift_in_sd, 5.0, 1e-6);
+  kept.unresolved_if_kept_term_dropped->param_shift[0].second = 2 * albedo_sd;
+  EXPECT_FALSE(DropNuisances(data, o, drop, kept).final_fit.unresolved_nuisance);
 }
 
 using testing::InputErrorOf;

@@ -314,6 +314,29 @@ TEST(RunWarnings, ADroppedTermThatMovedTheMaterialIsUnresolved) {
   EXPECT_FALSE(UnresolvedAfterDrop(drop, kept, without));
 }
 
+// A term that lost the criterion to one the final bars then dropped says so: it was fitted
+// alone, the other was kept instead, and what it moves (nuisance_choice.h UnkeptBesideNone).
+TEST(RunWarnings, ATermTheDroppedOneBeatSaysWhyItWasNotKept) {
+  JointFitResult f = TrueFit();
+  UnresolvedNuisance u{UnresolvedNuisance::Term::kHeight, 8.4, Eigen::Vector3d(0, 0, 2.1e-3)};
+  u.beside_a_dropped_term = true;
+  u.moved_param = "albedo";
+  u.shift_in_sd = 6;
+  f.unresolved_nuisance = u;
+  const auto w = FitChecks().Warnings(f);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0].cause, WarningCause::kSampleHeight);
+  EXPECT_NE(w[0].message.find("fitted alone, it stands 8.4 standard deviations out (the "
+                              "selection kept room light instead"),
+            std::string::npos)
+      << w[0].message;
+  EXPECT_NE(
+      w[0].message.find("moves albedo by 6 times its standard deviation (the lamp by 2.1 mm)"),
+      std::string::npos)
+      << w[0].message;
+  EXPECT_EQ(w[0].message.find("too few to keep it"), std::string::npos) << w[0].message;
+}
+
 // A term the data left out within its bar is written as an assumption when kAssumedAbsentSd of
 // its standard deviations would move the lamp beyond its reported bar: the shift in mm and in
 // bars, and what removes the doubt. Not for a kept term, a term already warned as unresolved,
