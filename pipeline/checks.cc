@@ -368,10 +368,12 @@ bool AmbientIsNotRoomLight(const JointFitResult& f) {
 // stood out, why it was not kept, what it moves and what settles it.
 std::string UnresolvedMessage(const UnresolvedNuisance& u, const std::string& response_remedy) {
   const bool ambient = u.term == UnresolvedNuisance::Term::kAmbient;
+  const std::string other = ambient ? "a sample height" : "room light";
   const std::string why =
       !u.beside_a_dropped_term ? "too few to keep it"
-      : ambient ? "the selection kept a sample height instead, which the final bars then left out"
-                : "the selection kept room light instead, which the final bars then left out";
+      : u.kept_beside_the_other
+          ? "the selection kept it with " + other + ", and the final bars then left both out"
+          : "the selection kept " + other + " instead, which the final bars then left out";
   const std::string moves =
       u.moved_param.empty()
           ? fmt::format("the lamp by {:.1f} mm, {:.0f} times the lamp's standard deviation",

@@ -156,9 +156,12 @@ struct UnresolvedNuisance {
   // within 1.2; docs/pipeline.md "Raised sample").
   std::vector<std::pair<std::string, double>> param_shift = {};
   std::string moved_param = {};  // empty: the lamp moved most
-  // Not kept because another term won the criterion, which was then dropped
-  // (JointSelectionResult::unresolved_if_kept_term_dropped): `z` is the term's fitted alone.
+  // Judged alone against the fit without terms after the terms the selection kept were all
+  // dropped (JointSelectionResult::unresolved_if_kept_term_dropped): `z` is the term's fitted
+  // alone; kept_beside_the_other: the selection had kept it with the other term, else the other
+  // instead of it.
   bool beside_a_dropped_term = false;
+  bool kept_beside_the_other = false;
 
   // shift_in_sd and moved_param against `f`'s standard deviations: the lamp's (worst axis) and
   // those of the material parameters of param_shift (by name, where `f` has them).
@@ -248,11 +251,12 @@ struct JointSelectionResult {
   // The search before the kAuto nuisance terms final_fit keeps (null when it keeps none), for
   // DropNuisances: leaving a term out restores it instead of searching again.
   std::shared_ptr<const JointSelectionResult> without_nuisances;
-  // When final_fit keeps one kAuto term: the other, fitted alone against the fit without terms,
-  // where it stood more than 2 of its final standard deviations out and moved the lamp or the
-  // material beyond kShiftInSd. The criterion preferred the kept term; if a drop
-  // (DropUnsupportedNuisances, DropNuisances) leaves the fit without either, the result depends
-  // on this one, which is then unresolved (nuisance_choice.cc UnkeptBesideNone).
+  // When final_fit keeps kAuto terms: a term fitted alone against the fit without terms (the
+  // other one when one is kept, either when both are) that stood more than 2 of its final
+  // standard deviations out and moved the lamp or the material beyond kShiftInSd. If a drop
+  // (DropUnsupportedNuisances, DropNuisances) leaves the fit without any term, the criterion no
+  // longer chose against this one and the result depends on it: it is then unresolved
+  // (nuisance_choice.cc UnkeptBesideNone).
   std::optional<UnresolvedNuisance> unresolved_if_kept_term_dropped;
   std::string Report() const;
   nlohmann::json ToJson() const;

@@ -30,8 +30,8 @@ struct NuisanceChoice {
   // (NoteEffectsOnTheLamp), and each term's NuisanceSensitivity.
   std::optional<UnresolvedNuisance> unresolved;
   std::vector<NuisanceSensitivity> sensitivity;
-  // With one term kept, the other judged beside none: what stands when the kept one is dropped
-  // (JointSelectionResult::unresolved_if_kept_term_dropped).
+  // What stands when every kept term is dropped (UnkeptBesideNone;
+  // JointSelectionResult::unresolved_if_kept_term_dropped).
   std::optional<UnresolvedNuisance> unresolved_if_kept_term_dropped;
 };
 
@@ -45,10 +45,11 @@ NuisanceChoice ChooseNuisances(const ObservationSet& data, const std::vector<siz
                                size_t final_n, const JointFitResult& chosen,
                                const JointFitOptions& search, const JointFitOptions& options);
 
-// With one term kept (`pick`), the other judged beside none: its trial alone against the trial
+// What the result rests on if the terms kept (`pick`) are all dropped at the end: each term
+// not kept (with one kept) or each of the two (with both kept) judged alone against the trial
 // without terms (`trials`: ChooseNuisances'), on the lamp and on the material, against the bars
-// at the final size (the subsample's over `scale`). Set when it stood more than 2 of its final
-// standard deviations out and moved either beyond kShiftInSd; none with both terms or none kept.
+// at the final size (the subsample's over `scale`): the worst that stood more than 2 of its
+// final standard deviations out and moved either beyond kShiftInSd. None with no term kept.
 std::optional<UnresolvedNuisance> UnkeptBesideNone(const std::vector<NuisanceTrial>& trials,
                                                    const NuisanceTrial& pick, double scale);
 

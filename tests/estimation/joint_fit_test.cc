@@ -295,8 +295,8 @@ TEST(DropNuisances, OneOfTwoLeftSearchesAsFarAsTheSearchWithout) {
 // lamp, against the bars at the final size: the flash under an undeclared 4 mm sample kept room
 // light by BIC over the height, whose trial alone stood 8.4 out and moved the albedo; once the
 // room light is dropped, the result rests on the height (docs/pipeline.md "Coverage under
-// nuisances"). Nothing with both terms or none kept, a term within 2 of its bars, or a shift
-// the final bars hold.
+// nuisances"). Nothing with no term kept, a term within 2 of its bars, or a shift the final
+// bars hold.
 TEST(NuisanceChoice, TheTermTheKeptOneBeatIsJudgedBesideNone) {
   using joint_fit_internal::NuisanceTrial;
   using joint_fit_internal::UnkeptBesideNone;
@@ -326,7 +326,13 @@ TEST(NuisanceChoice, TheTermTheKeptOneBeatIsJudgedBesideNone) {
   EXPECT_NEAR(u->shift_in_sd, 5.8, 1e-9);
   EXPECT_NEAR(u->lamp_shift.z(), 1e-3, 1e-12);
   EXPECT_FALSE(UnkeptBesideNone(trials, ambient, 1.0));  // 2.9 bars: held
-  EXPECT_FALSE(UnkeptBesideNone(trials, both, 2.0));
+  EXPECT_FALSE(u->kept_beside_the_other);
+  // Both kept (the flash's seed 4, both then dropped): each is judged alone against none.
+  const auto with_both = UnkeptBesideNone(trials, both, 2.0);
+  ASSERT_TRUE(with_both);
+  EXPECT_EQ(with_both->term, UnresolvedNuisance::Term::kHeight);
+  EXPECT_TRUE(with_both->kept_beside_the_other);
+  EXPECT_NEAR(with_both->shift_in_sd, 5.8, 1e-9);
   EXPECT_FALSE(UnkeptBesideNone(trials, none, 2.0));
   EXPECT_FALSE(UnkeptBesideNone(trials, height, 2.0));  // room light moved nothing
   trials[2].z_height = 1.9;

@@ -335,6 +335,10 @@ TEST(RunWarnings, ATermTheDroppedOneBeatSaysWhyItWasNotKept) {
       std::string::npos)
       << w[0].message;
   EXPECT_EQ(w[0].message.find("too few to keep it"), std::string::npos) << w[0].message;
+  f.unresolved_nuisance->kept_beside_the_other = true;
+  EXPECT_NE(FitChecks().Warnings(f).at(0).message.find(
+                "(the selection kept it with room light, and the final bars then left both out)"),
+            std::string::npos);
 }
 
 // A term the data left out within its bar is written as an assumption when kAssumedAbsentSd of
