@@ -319,6 +319,34 @@ TEST(CoverageCli, AnUndeclaredHeightThatMovesTheMaterialWarns) {
   for (const auto& v : run["values"]) EXPECT_TRUE(v["warned"].get<bool>()) << v;
 }
 
+// The flash (the lamp on the camera) with whole-stop sweeps, the sample 4 mm up, board.json at
+// 0: the selection kept room light by BIC over the height (-5924 against -5677) and gonio run
+// dropped it within the calibration's bars; the height, 8.4 deviations out alone, was not judged
+// again, and the albedo read +4.4 % (z +6.3) under the response's warning alone (until
+// 2026-12-07). When the kept terms are all dropped, a term judged alone against none
+// (nuisance_choice.h UnkeptBesideNone) is now named with what it moves.
+TEST(CoverageCli, AHeightThatLostToADroppedRoomLightWarns) {
+  testing::TempDir dir;
+  const auto r = testing::RunGonio(
+      "bench --coverage --kinds flash --sweeps whole --seeds 1 --first-seed 2 "
+      "--sample-height 0.004 --out " +
+      dir.path().string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = ReadJsonFile(dir.path() / "coverage.json");
+  EXPECT_TRUE(j["unwarned_misses"].empty()) << j["unwarned_misses"];
+  ASSERT_EQ(j["runs"].size(), 1u);
+  const auto& run = j["runs"][0];
+  bool named = false;
+  for (const auto& w : run["warnings"]) {
+    const std::string text = w.get<std::string>();
+    named = named || (text.rfind("sample-height:", 0) == 0 &&
+                      text.find("fitted alone") != std::string::npos &&
+                      text.find("moves albedo by") != std::string::npos);
+  }
+  EXPECT_TRUE(named) << run["warnings"];
+  for (const auto& v : run["values"]) EXPECT_TRUE(v["warned"].get<bool>()) << v;
+}
+
 // The dark sample 4 mm up, board.json at 0: the selection keeps room light and the height on
 // Oren-Nayar, and gonio run drops the room light within the calibration's bar. Searching again
 // with the height alone, Lambert with the sample 34 mm up explained the data to the 2.4 % floor
