@@ -132,8 +132,8 @@ struct FrameResidual {
 // exclude it (nuisance_choice.cc NoteEffectsOnTheLamp): its trial beside the terms kept stood
 // more than 2 of its final standard deviations out and moved the lamp by more than kShiftInSd
 // of the lamp's, or it was kept and then dropped after moving the lamp (or the material) that
-// far (UnresolvedAfterDrop), or it lost the criterion to a term that was then dropped and,
-// fitted alone, moved either that far (JointSelectionResult::unresolved_if_kept_term_dropped),
+// far (UnresolvedAfterDrop), or the terms the selection kept were all dropped and, fitted
+// alone, it moved either that far (JointSelectionResult::unresolved_if_kept_term_dropped),
 // so the result depends on it (pipeline/checks.cc warns). The calibration's
 // part of the lamp's bar is known only after the final fit: AddCalibrationUncertainty
 // (calibration_error.h) judges the shift again against the widened bar and drops a shift the bar

@@ -283,10 +283,11 @@ void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
   }
 }
 
-// After a drop that left `f` without any nuisance term: the term the dropped one had beaten by
-// the criterion (JointSelectionResult::unresolved_if_kept_term_dropped), judged again against
-// `f`'s bars; none while `f` keeps a term or when its shift is within them.
-std::optional<UnresolvedNuisance> TheTermTheDroppedOneBeat(
+// After a drop that left `f` without any nuisance term: a term the selection judged alone
+// against none (JointSelectionResult::unresolved_if_kept_term_dropped: the one the dropped term
+// beat by the criterion, or either of two kept and dropped), judged again against `f`'s bars;
+// none while `f` keeps a term or when its shift is within them.
+std::optional<UnresolvedNuisance> JudgedAloneWhenNoTermIsLeft(
     const std::optional<UnresolvedNuisance>& candidate, const JointFitResult& f) {
   if (!candidate || !f.ambient_sample.empty() || f.sample_height_offset) return std::nullopt;
   UnresolvedNuisance u = *candidate;
@@ -327,10 +328,10 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
     out->final_fit =
         FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
   }
-  // The worst of this, a term ChooseNuisances left unresolved beside the dropped one, and the
-  // term the dropped one beat.
+  // The worst of this, a term ChooseNuisances left unresolved beside the dropped one, and a
+  // term judged alone against none.
   KeepTheWorse(UnresolvedAfterDrop(drop, kept, out->final_fit), unresolved);
-  KeepTheWorse(TheTermTheDroppedOneBeat(if_kept_dropped, out->final_fit), unresolved);
+  KeepTheWorse(JudgedAloneWhenNoTermIsLeft(if_kept_dropped, out->final_fit), unresolved);
 }
 
 // `options` with its kAuto nuisance terms off: what the model search fits.
@@ -478,8 +479,9 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
   }
   // The terms' trials were made by the selection; neither refit above tries the dropped term.
   out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
-  KeepTheWorse(TheTermTheDroppedOneBeat(selection.unresolved_if_kept_term_dropped, out.final_fit),
-               &out.final_fit.unresolved_nuisance);
+  KeepTheWorse(
+      JudgedAloneWhenNoTermIsLeft(selection.unresolved_if_kept_term_dropped, out.final_fit),
+      &out.final_fit.unresolved_nuisance);
   return out;
 }
 
