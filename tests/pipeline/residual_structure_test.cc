@@ -335,6 +335,11 @@ TEST(RunWarnings, ATermTheDroppedOneBeatSaysWhyItWasNotKept) {
       std::string::npos)
       << w[0].message;
   EXPECT_EQ(w[0].message.find("too few to keep it"), std::string::npos) << w[0].message;
+  // A response's bend looks the same: the warning gives that reading and its remedy too.
+  EXPECT_NE(w[0].message.find("if it lies flat on the board, the response's error bends the "
+                              "radiance this way (narrowed by a finer sweep or RAW)"),
+            std::string::npos)
+      << w[0].message;
   f.unresolved_nuisance->kept_beside_the_other = true;
   EXPECT_NE(FitChecks().Warnings(f).at(0).message.find(
                 "(the selection kept it with room light, and the final bars then left both out)"),
