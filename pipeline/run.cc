@@ -235,11 +235,7 @@ void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, J
   if (!kept.ambient_reason.empty()) f->ambient_reason = kept.ambient_reason + note;
   if (!kept.sample_height_reason.empty())
     f->sample_height_reason = kept.sample_height_reason + note;
-  // The worse of this and what DropNuisances noted (the term the dropped one had beaten).
-  const auto u = UnresolvedAfterDrop(d, kept, *f);
-  if (u && (!f->unresolved_nuisance || u->shift_in_sd > f->unresolved_nuisance->shift_in_sd)) {
-    f->unresolved_nuisance = u;
-  }
+  if (auto u = UnresolvedAfterDrop(d, kept, *f)) f->unresolved_nuisance = u;
 }
 
 // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the
