@@ -51,9 +51,10 @@ __attribute__((flatten)) size_t VectorisedKernel(const double* params, const dou
     for (size_t k = begin; k < end; ++k) {
       out[k] = M::Evaluate(params, Angles<double>{theta_i[k], theta_r[k], phi[k]});
     }
+    // Bitwise on integers, not ||: no branch per entry, so the pass vectorises.
     for (size_t k = begin; k < end; ++k) {
-      flagged += (Bits(theta_i[k]) > horizon) | (Bits(theta_r[k]) > horizon) | NotFinite(phi[k]) |
-                 NotFinite(out[k]);
+      flagged += size_t{Bits(theta_i[k]) > horizon} | size_t{Bits(theta_r[k]) > horizon} |
+                 size_t{NotFinite(phi[k])} | size_t{NotFinite(out[k])};
     }
   }
   return flagged;

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -185,16 +187,17 @@ TEST(MapsCli, RunWithMapsAndExportTextures) {
     for (const auto& rw : run_warnings) lifted |= rw["message"] == w;
     EXPECT_TRUE(lifted) << w;
   }
-  for (const std::string& format : {"blender", "materialx", "mitsuba"}) {
+  for (const std::string& format : std::vector<std::string>{"blender", "materialx", "mitsuba"}) {
     const fs::path file = dir.path() / ("export." + format);
     const auto e = RunGonio("export --maps " + (out / "maps").string() + " --format " + format +
                             " --out " + file.string());
     ASSERT_EQ(e.exit_code, 0) << e.err;
     const std::string text = ReadTextFile(file);
     const std::string ext = format == "mitsuba" ? ".pfm" : ".tiff";
-    for (const std::string& tex : {format == "mitsuba" ? "_reflectance" : "_basecolor",
-                                   format == "mitsuba" ? "_alpha" : "_roughness",
-                                   format == "mitsuba" ? "_height" : "_normal"}) {
+    for (const std::string& tex :
+         std::vector<std::string>{format == "mitsuba" ? "_reflectance" : "_basecolor",
+                                  format == "mitsuba" ? "_alpha" : "_roughness",
+                                  format == "mitsuba" ? "_height" : "_normal"}) {
       const std::string name = "export" + tex + ext;
       EXPECT_NE(text.find(name), std::string::npos) << format << " names " << name;
       EXPECT_TRUE(fs::exists(dir.path() / name)) << name;
