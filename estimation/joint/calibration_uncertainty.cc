@@ -73,8 +73,7 @@ void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* 
   // standard deviations out and moved the lamp by 4-11 mm, 8-14 statistical bars, and 5 of 7
   // stay within 3 of the reported bars (docs/pipeline.md "Coverage of the error bars").
   if (auto& u = fit->unresolved_nuisance; u && fit->lamp_stddev) {
-    u->JudgeAgainst(*fit);
-    if (!(u->shift_in_sd > UnresolvedNuisance::kShiftInSd)) u.reset();
+    if (!u->JudgeAgainst(*fit)) u.reset();
   }
 }
 

@@ -164,8 +164,11 @@ struct UnresolvedNuisance {
   bool kept_beside_the_other = false;
 
   // shift_in_sd and moved_param against `f`'s standard deviations: the lamp's (worst axis) and
-  // those of the material parameters of param_shift (by name, where `f` has them).
-  void JudgeAgainst(const JointFitResult& f);
+  // those of the material parameters of param_shift (by name, where `f` has them). True when
+  // the shift is then beyond kShiftInSd: the term stays unresolved.
+  bool JudgeAgainst(const JointFitResult& f);
+  // param_shift: each parameter of `with` less the same one of `without` (the same model).
+  void SetParamShift(const BrdfFitResult& with, const BrdfFitResult& without);
 
   // |shift| over `lamp_sd` on the worst axis (axes with sd 0 left out).
   static double ShiftInSd(const Eigen::Vector3d& shift, const Eigen::Vector3d& lamp_sd) {

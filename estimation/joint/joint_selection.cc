@@ -291,8 +291,7 @@ std::optional<UnresolvedNuisance> JudgedAloneWhenNoTermIsLeft(
     const std::optional<UnresolvedNuisance>& candidate, const JointFitResult& f) {
   if (!candidate || !f.ambient_sample.empty() || f.sample_height_offset) return std::nullopt;
   UnresolvedNuisance u = *candidate;
-  u.JudgeAgainst(f);
-  if (!(u.shift_in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
+  if (!u.JudgeAgainst(f)) return std::nullopt;
   return u;
 }
 

@@ -95,18 +95,14 @@ std::optional<UnresolvedNuisance> AloneAgainstNone(const std::vector<NuisanceTri
   if (!(z > 2.0)) return std::nullopt;
   UnresolvedNuisance u{term, z, on->lamp - off->lamp};
   u.beside_a_dropped_term = true;
-  const BrdfFitResult& m = on->material;
-  for (size_t k = 0; k < m.param_names.size() && k < off->material.params.size(); ++k) {
-    u.param_shift.emplace_back(m.param_names[k], m.params[k] - off->material.params[k]);
-  }
+  u.SetParamShift(on->material, off->material);
   JointFitResult at_final_size;
   at_final_size.lamp_stddev = *off->lamp_sd / scale;
   at_final_size.material = off->material;
   for (auto& sd : at_final_size.material.stddev) {
     if (sd) *sd /= scale;
   }
-  u.JudgeAgainst(at_final_size);
-  if (!(u.shift_in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
+  if (!u.JudgeAgainst(at_final_size)) return std::nullopt;
   return u;
 }
 

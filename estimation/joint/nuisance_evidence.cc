@@ -46,7 +46,7 @@ NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const Jo
   return d;
 }
 
-void UnresolvedNuisance::JudgeAgainst(const JointFitResult& f) {
+bool UnresolvedNuisance::JudgeAgainst(const JointFitResult& f) {
   shift_in_sd = f.lamp_stddev ? ShiftInSd(lamp_shift, *f.lamp_stddev) : 0.0;
   moved_param.clear();
   const BrdfFitResult& m = f.material;
@@ -59,6 +59,14 @@ void UnresolvedNuisance::JudgeAgainst(const JointFitResult& f) {
       shift_in_sd = in_sd;
       moved_param = name;
     }
+  }
+  return shift_in_sd > kShiftInSd;
+}
+
+void UnresolvedNuisance::SetParamShift(const BrdfFitResult& with, const BrdfFitResult& without) {
+  param_shift.clear();
+  for (size_t k = 0; k < with.param_names.size() && k < without.params.size(); ++k) {
+    param_shift.emplace_back(with.param_names[k], with.params[k] - without.params[k]);
   }
 }
 
@@ -76,14 +84,9 @@ std::optional<UnresolvedNuisance> UnresolvedAfterDrop(const NuisanceDrop& drop,
       ambient ? UnresolvedNuisance::Term::kAmbient : UnresolvedNuisance::Term::kHeight,
       ambient ? drop.z_ambient : drop.z_height, kept.lamp_position - without.lamp_position};
   // The material only when the drop kept the model: another model's parameters are not these.
-  if (kept.material.model == without.material.model) {
-    const BrdfFitResult& m = kept.material;
-    for (size_t k = 0; k < m.param_names.size() && k < without.material.params.size(); ++k) {
-      u.param_shift.emplace_back(m.param_names[k], m.params[k] - without.material.params[k]);
-    }
-  }
-  u.JudgeAgainst(without);
-  if (!(u.shift_in_sd > UnresolvedNuisance::kShiftInSd)) return std::nullopt;
+  if (kept.material.model == without.material.model)
+    u.SetParamShift(kept.material, without.material);
+  if (!u.JudgeAgainst(without)) return std::nullopt;
   return u;
 }
 
