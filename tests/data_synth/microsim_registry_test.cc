@@ -1,6 +1,7 @@
-// The simulator against the registry's rough-diffuse models (docs/microsim.md). The models land on
-// main from other branches; each test skips with a message while its model is not registered.
-// The figures are printed so the comparison table in docs/microsim.md can be filled from a run.
+// The simulator against the registry's rough-diffuse models (docs/microsim.md "Comparison with
+// the registry models"): the pitted models, which are exact for spherical pits, within the
+// simulation's noise; oren-nayar-vcavity, whose second bounce is eq. 49's approximation, within
+// what that approximation was measured to miss. The figures are printed for that table.
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -63,38 +64,52 @@ TEST(MicrosimVsRegistry, FlatPitsMatchLambertModel) {
   EXPECT_NEAR(e.brdf.mean, Model("lambert", Params("lambert", {{"albedo", 0.35}}), a), 1e-12);
 }
 
-TEST(MicrosimVsRegistry, HemisphericalPitsMatchPittedModel) {
+// Koenderink et al. eq. 12-15 are exact for spherical pits (docs/models/pitted.md): the
+// closed form `pitted-exact` must agree with the ray-traced pits to their noise (4 standard
+// errors; measured within 1.5), and the sampled `pitted` too, up to its orifice lattice's
+// error (measured 3.2e-4 of the value; 1e-3 allowed). Hemispherical and 45-deg pits, in and out
+// of the plane of incidence.
+TEST(MicrosimVsRegistry, SphericalPitsMatchPittedModels) {
   ASSERT_TRUE(HasModel("pitted"));
-  PitsOptions o;
-  o.aperture = kHalfPi;
-  o.coverage = 1.0;
-  const auto surface = MakePittedPlane(o);
+  ASSERT_TRUE(HasModel("pitted-exact"));
   const double albedo = 0.8;
-  const auto p = Params("pitted", {{"albedo", albedo}, {"aperture", kHalfPi}, {"coverage", 1.0}});
-  EstimateOptions opts;
-  opts.albedo = albedo;
-  opts.samples = 250000;
-  // In and out of the plane of incidence.
-  for (const auto& a :
-       {DegreesToAngles(0, 0, 0), DegreesToAngles(30, 60, 0), DegreesToAngles(60, 30, 180),
-        DegreesToAngles(45, 45, 90), DegreesToAngles(70, 50, 135), DegreesToAngles(20, 75, 45)}) {
-    const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
-    const double m = Model("pitted", p, a);
-    std::printf("pits90 %5.1f %5.1f %5.1f  sim %.5f +- %.5f  model %.5f  rel %+.4f\n",
-                RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), e.brdf.mean,
-                e.brdf.stderr_mean, m, e.brdf.mean / m - 1.0);
-    ASSERT_LT(3 * e.brdf.stderr_mean, 0.02 * m);  // the sample count resolves 2%
-    EXPECT_NEAR(e.brdf.mean, m, 0.02 * m);
+  for (const double aperture_deg : {90.0, 45.0}) {
+    PitsOptions o;
+    o.aperture = DegToRad(aperture_deg);
+    o.coverage = 1.0;
+    const auto surface = MakePittedPlane(o);
+    const std::map<std::string, double> values = {
+        {"albedo", albedo}, {"aperture", o.aperture}, {"coverage", 1.0}};
+    EstimateOptions opts;
+    opts.albedo = albedo;
+    opts.samples = 250000;
+    for (const auto& a :
+         {DegreesToAngles(0, 0, 0), DegreesToAngles(30, 60, 0), DegreesToAngles(60, 30, 180),
+          DegreesToAngles(45, 45, 90), DegreesToAngles(70, 50, 135), DegreesToAngles(20, 75, 45)}) {
+      const BrdfEstimate e = EstimateBrdf(*surface, a, opts);
+      const double exact = Model("pitted-exact", Params("pitted-exact", values), a);
+      const double sampled = Model("pitted", Params("pitted", values), a);
+      std::printf(
+          "pits %4.1f  %5.1f %5.1f %5.1f  sim %.5f +- %.5f  pitted-exact %.5f (%+.1f se)  "
+          "pitted %.5f\n",
+          aperture_deg, RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), e.brdf.mean,
+          e.brdf.stderr_mean, exact, (e.brdf.mean - exact) / e.brdf.stderr_mean, sampled);
+      ASSERT_LT(3 * e.brdf.stderr_mean, 0.02 * exact);  // the sample count resolves 2 %
+      EXPECT_NEAR(e.brdf.mean, exact, 4 * e.brdf.stderr_mean);
+      EXPECT_NEAR(e.brdf.mean, sampled, 4 * e.brdf.stderr_mean + 1e-3 * exact);
+    }
   }
 }
 
 TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
   ASSERT_TRUE(HasModel("oren-nayar-vcavity"));
-  // Records the differences: the model is eq. 25 over eq. 24 (single scattering, which
-  // the simulator reproduces exactly, see microsim_test) plus the two-bounce approximation of
-  // eq. 49; the simulator gives the exact two-bounce value (--bounces 2) and all bounces.
-  // Asserted loosely against the two-bounce simulation, which models the same physics; the
-  // printed figures go into docs/microsim.md.
+  // The model is eq. 25 over eq. 24 (single scattering, which the simulator reproduces exactly,
+  // see microsim_test) plus the two-bounce approximation of eq. 49; the simulator gives the
+  // exact two-bounce value (--bounces 2) and all bounces. Asserted against the two-bounce
+  // simulation, which holds the same physics: eq. 49 was measured to miss it by up to 0.025
+  // albedo/pi (sigma 40 deg, 75/30/90 deg, where the simulation's standard error is 0.005), so
+  // 0.035 is allowed; leaving out the second bounce misses by 0.14 at sigma 40 head-on. The
+  // bounces after the second, which the model leaves out, are printed (docs/microsim.md).
   const double albedo = 0.9;
   for (double sigma_deg : {20.0, 40.0}) {
     VGrooveOptions o;
@@ -118,7 +133,7 @@ TEST(MicrosimVsRegistry, VGroovesVsOrenNayarVCavity) {
           sigma_deg, RadToDeg(a.theta_i), RadToDeg(a.theta_r), RadToDeg(a.phi), all.brdf.mean,
           all.brdf.stderr_mean, e2.brdf.mean, e2.brdf.stderr_mean, e2.single_bounce.mean, m,
           (e2.brdf.mean - m) / (albedo * kInvPi), (all.brdf.mean - m) / (albedo * kInvPi));
-      EXPECT_NEAR(e2.brdf.mean, m, 0.1 * albedo * kInvPi);
+      EXPECT_NEAR(e2.brdf.mean, m, 0.035 * albedo * kInvPi);
     }
   }
 }
