@@ -370,7 +370,10 @@ std::string UnresolvedMessage(const UnresolvedNuisance& u, const std::string& re
   const bool ambient = u.term == UnresolvedNuisance::Term::kAmbient;
   const std::string other = ambient ? "a sample height" : "room light";
   const std::string why =
-      !u.beside_a_dropped_term ? "too few to keep it"
+      !u.beside_a_dropped_term
+          ? (u.lost_by_the_criterion
+                 ? "enough to keep it, but the criterion did not prefer the fit with it"
+                 : "too few to keep it")
       : u.kept_beside_the_other
           ? "the selection kept it with " + other + ", and the final bars then left both out"
           : "the selection kept " + other + " instead, which the final bars then left out";

@@ -162,6 +162,9 @@ struct UnresolvedNuisance {
   // instead of it.
   bool beside_a_dropped_term = false;
   bool kept_beside_the_other = false;
+  // Left out beside the terms kept although it stood beyond nuisance_min_z: the criterion did
+  // not prefer the fit with it by nuisance_margin (NoteEffectsOnTheLamp). Else it stood within.
+  bool lost_by_the_criterion = false;
 
   // shift_in_sd and moved_param against `f`'s standard deviations: the lamp's (worst axis) and
   // those of the material parameters of param_shift (by name, where `f` has them). True when

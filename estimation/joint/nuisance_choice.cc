@@ -27,37 +27,6 @@ const NuisanceTrial* TrialOf(const std::vector<NuisanceTrial>& trials, const Nui
   return nullptr;
 }
 
-// What each term tried does to the lamp beside the terms picked (`pick`): its trial with the
-// term on and the one with it off, the rest as picked (for a term not picked: the pick with it
-// added). Each term's NuisanceSensitivity (the bars' difference at the final size: divided by
-// `scale`), and the worst unresolved term: one not picked although it stood more than 2 of its
-// final standard deviations out (within nuisance_min_z; or beyond it and the criterion against
-// it) and moved the lamp by more than kShiftInSd of the lamp's bars (BenchEffects: room light at
-// 5 % of the lamp, z 2.5, moves the lamp by 6 % of its distance; a 4 mm sample and room light at
-// 2 %, the height kept: the room light at z 3.6 beside it lost by BIC and left the lamp 22 bars
-// off). The data neither keep nor exclude it, and the result depends on it.
-void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
-                          double scale, std::vector<NuisanceSensitivity>* sensitivity,
-                          std::optional<UnresolvedNuisance>* unresolved) {
-  for (const auto term : {UnresolvedNuisance::Term::kAmbient, UnresolvedNuisance::Term::kHeight}) {
-    const NuisanceTrial* on = TrialOf(trials, pick, term, true);
-    const NuisanceTrial* off = TrialOf(trials, pick, term, false);
-    if (!on || !off || !on->lamp_sd || !off->lamp_sd) continue;
-    const Eigen::Vector3d off_sd = *off->lamp_sd / scale;
-    sensitivity->push_back(
-        {term,
-         (on->lamp_sd->array().square() - off->lamp_sd->array().square()).max(0.0).sqrt() / scale});
-    const bool picked = term == UnresolvedNuisance::Term::kAmbient ? pick.ambient : pick.height;
-    const double z = term == UnresolvedNuisance::Term::kAmbient ? on->z_ambient : on->z_height;
-    const Eigen::Vector3d shift = on->lamp - off->lamp;
-    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, off_sd);
-    if (picked || !(z > 2.0) || !(in_sd > UnresolvedNuisance::kShiftInSd)) continue;
-    if (!*unresolved || in_sd > (*unresolved)->shift_in_sd) {
-      *unresolved = UnresolvedNuisance{term, z, shift, in_sd};
-    }
-  }
-}
-
 // ChooseNuisances' reason: the criterion of every combination ("-": a term within its error
 // bar) and the one kept.
 std::string NuisanceReason(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
@@ -107,6 +76,31 @@ std::optional<UnresolvedNuisance> AloneAgainstNone(const std::vector<NuisanceTri
 }
 
 }  // namespace
+
+// The header says what it notes (nuisance_choice.h).
+void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
+                          double scale, std::vector<NuisanceSensitivity>* sensitivity,
+                          std::optional<UnresolvedNuisance>* unresolved) {
+  for (const auto term : {UnresolvedNuisance::Term::kAmbient, UnresolvedNuisance::Term::kHeight}) {
+    const NuisanceTrial* on = TrialOf(trials, pick, term, true);
+    const NuisanceTrial* off = TrialOf(trials, pick, term, false);
+    if (!on || !off || !on->lamp_sd || !off->lamp_sd) continue;
+    const Eigen::Vector3d off_sd = *off->lamp_sd / scale;
+    sensitivity->push_back(
+        {term,
+         (on->lamp_sd->array().square() - off->lamp_sd->array().square()).max(0.0).sqrt() / scale});
+    const bool picked = term == UnresolvedNuisance::Term::kAmbient ? pick.ambient : pick.height;
+    const double z = term == UnresolvedNuisance::Term::kAmbient ? on->z_ambient : on->z_height;
+    const Eigen::Vector3d shift = on->lamp - off->lamp;
+    const double in_sd = UnresolvedNuisance::ShiftInSd(shift, off_sd);
+    if (picked || !(z > 2.0) || !(in_sd > UnresolvedNuisance::kShiftInSd)) continue;
+    if (!*unresolved || in_sd > (*unresolved)->shift_in_sd) {
+      *unresolved = UnresolvedNuisance{term, z, shift, in_sd};
+      // A trial is scored (finite) only when each of its terms stood beyond nuisance_min_z.
+      (*unresolved)->lost_by_the_criterion = std::isfinite(on->value);
+    }
+  }
+}
 
 // The header says what it judges (nuisance_choice.h). The material is compared directly: every
 // trial refits the selected model. What the result depends on if the kept terms are dropped at

@@ -342,6 +342,47 @@ TEST(NuisanceChoice, TheTermTheKeptOneBeatIsJudgedBesideNone) {
   EXPECT_FALSE(UnkeptBesideNone(trials, ambient, 2.0));
 }
 
+// A term left out beside the terms picked that stood more than 2 of its final bars out and moved
+// the lamp beyond kShiftInSd of them is unresolved, and says whether it was within
+// nuisance_min_z (its trial not scored) or beyond it and lost by the criterion (scored): the
+// warning tells the two apart. Within 2 of its bars, or a shift the bars hold: nothing.
+TEST(NuisanceChoice, ATermLeftOutSaysWhetherTheCriterionOrItsSizeLeftItOut) {
+  using joint_fit_internal::NoteEffectsOnTheLamp;
+  using joint_fit_internal::NuisanceTrial;
+  NuisanceTrial none;
+  none.converged = true;
+  none.value = -1000;
+  none.lamp = Eigen::Vector3d(0.1, 0.0, 0.5);
+  none.lamp_sd = Eigen::Vector3d(1e-3, 1e-3, 1e-3);
+  NuisanceTrial ambient = none;
+  ambient.ambient = true;
+  ambient.value = -995;  // scored, and worse by the criterion
+  ambient.z_ambient = 4.5;
+  ambient.lamp += Eigen::Vector3d(2.5e-3, 0, 0);  // 5 of the final bars at scale 2
+  auto note = [&](const NuisanceTrial& with_ambient) {
+    std::vector<NuisanceSensitivity> sensitivity;
+    std::optional<UnresolvedNuisance> unresolved;
+    NoteEffectsOnTheLamp({none, with_ambient}, none, 2.0, &sensitivity, &unresolved);
+    EXPECT_EQ(sensitivity.size(), 1u);
+    return unresolved;
+  };
+  const auto lost = note(ambient);
+  ASSERT_TRUE(lost);
+  EXPECT_EQ(lost->term, UnresolvedNuisance::Term::kAmbient);
+  EXPECT_NEAR(lost->shift_in_sd, 5.0, 1e-9);
+  EXPECT_TRUE(lost->lost_by_the_criterion);
+  ambient.value = INFINITY;  // within nuisance_min_z: not scored
+  ambient.z_ambient = 2.5;
+  const auto few = note(ambient);
+  ASSERT_TRUE(few);
+  EXPECT_FALSE(few->lost_by_the_criterion);
+  ambient.z_ambient = 1.9;
+  EXPECT_FALSE(note(ambient));
+  ambient.z_ambient = 2.5;
+  ambient.lamp = none.lamp + Eigen::Vector3d(1.4e-3, 0, 0);  // 2.8 bars
+  EXPECT_FALSE(note(ambient));
+}
+
 // When the drop leaves no term, the term the dropped one beat (the selection's
 // unresolved_if_kept_term_dropped) is what the result rests on: noted as unresolved, judged
 // against the restored fit's own bars; not when those bars hold its shift.

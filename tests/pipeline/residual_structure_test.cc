@@ -234,6 +234,18 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
   EXPECT_NE(c.Warnings(f, SweepRemedy(1.0)).at(0).message.find("a sweep in third stops"),
             std::string::npos);
   EXPECT_NE(FitChecks().Warnings(f).at(0).message.find("a finer sweep or RAW"), std::string::npos);
+  EXPECT_NE(third[0].message.find("2.4 standard deviations out (too few to keep it)"),
+            std::string::npos)
+      << third[0].message;
+  // Beyond nuisance_min_z but not preferred by the criterion (the pitted kind in a dark room,
+  // third stops: 5 of 13 such warnings stood 3.3-4.5 out), the warning must not say too few.
+  f.unresolved_nuisance->z = 4.5;
+  f.unresolved_nuisance->lost_by_the_criterion = true;
+  const std::string lost = c.Warnings(f, SweepRemedy(1.0 / 3)).at(0).message;
+  EXPECT_NE(lost.find("4.5 standard deviations out (enough to keep it, but the criterion did not "
+                      "prefer the fit with it)"),
+            std::string::npos)
+      << lost;
 }
 
 // A term kept on the noise's bar and dropped within a wider one (all observations, or the
