@@ -238,7 +238,7 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
             std::string::npos)
       << third[0].message;
   // Beyond nuisance_min_z but not preferred by the criterion (the pitted kind in a dark room,
-  // third stops: 5 of 13 such warnings stood 3.3-4.5 out), the warning must not say too few.
+  // third stops: 3 of 13 such warnings stood 3.3-4.5 out), the warning must not say too few.
   f.unresolved_nuisance->z = 4.5;
   f.unresolved_nuisance->lost_by_the_criterion = true;
   const std::string lost = c.Warnings(f, SweepRemedy(1.0 / 3)).at(0).message;
