@@ -29,6 +29,7 @@ namespace gonio {
 using joint_fit_internal::ChooseNuisances;
 using joint_fit_internal::CountResiduals;
 using joint_fit_internal::FitCandidate;
+using joint_fit_internal::KeepTheWorse;
 using joint_fit_internal::NuisanceChoice;
 using joint_fit_internal::Subsample;
 
@@ -273,14 +274,6 @@ JointSelectionResult RestoreWithoutNuisances(const ObservationSet& data,
   out.final_fit = FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, search,
                                false, &chosen);
   return out;
-}
-
-// `candidate` into `worst` when it moved more, in its standard deviations.
-void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
-                  std::optional<UnresolvedNuisance>* worst) {
-  if (candidate && (!*worst || candidate->shift_in_sd > (*worst)->shift_in_sd)) {
-    *worst = candidate;
-  }
 }
 
 // After a drop that left `f` without any nuisance term: a term the selection judged alone

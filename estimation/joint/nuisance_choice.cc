@@ -77,6 +77,13 @@ std::optional<UnresolvedNuisance> AloneAgainstNone(const std::vector<NuisanceTri
 
 }  // namespace
 
+void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
+                  std::optional<UnresolvedNuisance>* worst) {
+  if (candidate && (!*worst || candidate->shift_in_sd > (*worst)->shift_in_sd)) {
+    *worst = candidate;
+  }
+}
+
 // The header says what it notes (nuisance_choice.h).
 void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
                           double scale, std::vector<NuisanceSensitivity>* sensitivity,
@@ -94,11 +101,10 @@ void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const Nuisan
     const Eigen::Vector3d shift = on->lamp - off->lamp;
     const double in_sd = UnresolvedNuisance::ShiftInSd(shift, off_sd);
     if (picked || !(z > 2.0) || !(in_sd > UnresolvedNuisance::kShiftInSd)) continue;
-    if (!*unresolved || in_sd > (*unresolved)->shift_in_sd) {
-      *unresolved = UnresolvedNuisance{term, z, shift, in_sd};
-      // A trial is scored (finite) only when each of its terms stood beyond nuisance_min_z.
-      (*unresolved)->lost_by_the_criterion = std::isfinite(on->value);
-    }
+    UnresolvedNuisance u{term, z, shift, in_sd};
+    // A trial is scored (finite) only when each of its terms stood beyond nuisance_min_z.
+    u.lost_by_the_criterion = std::isfinite(on->value);
+    KeepTheWorse(u, unresolved);
   }
 }
 
@@ -120,7 +126,7 @@ std::optional<UnresolvedNuisance> UnkeptBesideNone(const std::vector<NuisanceTri
     auto u = AloneAgainstNone(trials, term, scale);
     if (!u) continue;
     u->kept_beside_the_other = kept;
-    if (!worst || u->shift_in_sd > worst->shift_in_sd) worst = u;
+    KeepTheWorse(u, &worst);
   }
   return worst;
 }
