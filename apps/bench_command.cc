@@ -117,7 +117,10 @@ void RunBench(const BenchArgs& args) {
   if (args.coverage) {
     // The plan before any work, so a kind that is none fails with nothing on disk.
     bench::CoveragePlan plan = bench::CoveragePlanFor(opt);
-    if (args.seeds > 0) plan.seeds = args.seeds;
+    if (args.seeds > 0) {  // the user's count for every kind
+      plan.seeds = args.seeds;
+      plan.min_runs_per_parameter = 0;
+    }
     plan.first_seed = args.first_seed;
     plan.by_parts = args.by_parts;
     plan.white_albedo = !args.no_white_albedo;
@@ -170,11 +173,13 @@ void RunBench(const BenchArgs& args) {
 // The options of --coverage's grid (bench/bench_coverage.h CoveragePlan).
 void AddCoverageOptions(CLI::App* cmd, BenchArgs* args) {
   cmd->add_option("--seeds", args->seeds,
-                  "--coverage: noise seeds per kind and sweep (default 4; 1 with --quick, --smoke)")
+                  "--coverage: noise seeds per kind and sweep, every kind (default 4, and 12 for a "
+                  "kind that alone judges a parameter; 1 with --quick, --smoke)")
       ->check(CLI::Range(1, 100));
-  cmd->add_option("--first-seed", args->first_seed,
-                  "--coverage: the first seed; 1 is the presets' capture, every later seed a "
-                  "capture of its own (5 with 4 seeds: a grid to check the default one against)")
+  cmd->add_option(
+         "--first-seed", args->first_seed,
+         "--coverage: the first seed; 1 is the presets' capture, every later seed a "
+         "capture of its own (13: captures none of the default grid holds, to check it against)")
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--kinds", args->kinds,
                   "--coverage: only these scene kinds, by name or material (oren-nayar/gamma12, "

@@ -488,12 +488,33 @@ std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& nam
   return chosen;
 }
 
+int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
+  int n = seeds;
+  for (const auto& [name, value] : kind.params) {
+    // Every judged parameter's runs per sweep, over the kinds that judge it, at `seeds` each:
+    // when they fall short, this kind's seeds are raised to its share of the minimum.
+    const int judging = static_cast<int>(std::count_if(
+        kinds.begin(), kinds.end(), [&](const CoverageKind& k) { return k.params.count(name); }));
+    if (judging > 0 && judging * seeds < min_runs_per_parameter) {
+      n = std::max(n, (min_runs_per_parameter + judging - 1) / judging);
+    }
+  }
+  return n;
+}
+
+int CoveragePlan::TotalRuns() const {
+  int n = 0;
+  for (const auto& kind : kinds) n += SeedsFor(kind);
+  return n * static_cast<int>(sweeps.size());
+}
+
 CoveragePlan CoveragePlanFor(const BenchOptions& options) {
   options.Check();
   CoveragePlan p;
   if (options.size == "full") {
     p.kinds = AllCoverageKinds();
     p.seeds = 4;
+    p.min_runs_per_parameter = 12;
   } else if (options.size == "quick") {
     p.kinds = CoverageKindsNamed({"oren-nayar/gamma12", "pitted-exact", "flash"});
     p.seeds = 1;
@@ -523,10 +544,10 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
   rep.size = options.size;
   rep.plan = plan;
   const auto start = std::chrono::steady_clock::now();
-  const size_t total = plan.kinds.size() * plan.seeds * plan.sweeps.size();
+  const int total = plan.TotalRuns();
   EnsureDirectory(work);
   for (const auto& kind : plan.kinds) {
-    for (int seed = plan.first_seed; seed < plan.first_seed + plan.seeds; ++seed) {
+    for (int seed = plan.first_seed; seed < plan.first_seed + plan.SeedsFor(kind); ++seed) {
       const fs::path dir = work / fmt::format("{}-seed{}", Slug(kind.name), seed);
       for (auto& r : RunKindSeed(kind, plan, seed, gonio_exe, dir, options.threads)) {
         rep.runs.push_back(r);

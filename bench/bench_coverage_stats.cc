@@ -220,7 +220,8 @@ json CoverageReport::ToJson() const {
                      {"bit_depth", k.bit_depth},
                      {"response", synth::ToString(k.response)},
                      {"black_level", k.black_level},
-                     {"lamp_on_camera", k.flash}});
+                     {"lamp_on_camera", k.flash},
+                     {"seeds", plan.SeedsFor(k)}});
   }
   json runs_json = json::array(), stats_json = json::array();
   for (const auto& r : runs) runs_json.push_back(r.ToJson());
@@ -238,6 +239,7 @@ json CoverageReport::ToJson() const {
   return {{"size", size},
           {"kinds", kinds},
           {"seeds", plan.seeds},
+          {"min_runs_per_parameter", plan.min_runs_per_parameter},
           {"first_seed", plan.first_seed},
           {"sweeps", plan.sweeps},
           {"white_albedo_given", plan.white_albedo},

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -182,6 +183,33 @@ TEST(Coverage, FullPlanCoversTheIssuesGrid) {
     flash |= k.flash;
   }
   EXPECT_TRUE(tson && pitted && srgb8 && gamma12 && linear16 && flash);
+}
+
+// Every material parameter the full plan judges gets at least 12 runs per sweep: the kinds that
+// alone judge one (the glossy sigma_s and ks, the pitted aperture and coverage) run 12 seeds,
+// the others 4, as their parameters are judged by 3-5 kinds; without the minimum (an explicit
+// --seeds) every kind runs `seeds`, and a kind alone judges all of its parameters.
+TEST(Coverage, EveryJudgedParameterGetsTheFullPlansMinimumOfRuns) {
+  CoveragePlan p = CoveragePlanFor(BenchOptions());
+  ASSERT_EQ(p.min_runs_per_parameter, 12);
+  std::map<std::string, int> runs;
+  for (const auto& k : p.kinds) {
+    for (const auto& [name, value] : k.params) runs[name] += p.SeedsFor(k);
+  }
+  for (const auto& [name, n] : runs) EXPECT_GE(n, 12) << name;
+  std::map<std::string, int> seeds;
+  for (const auto& k : p.kinds) seeds[k.name] = p.SeedsFor(k);
+  EXPECT_EQ(seeds.at("tson/linear16"), 12);
+  EXPECT_EQ(seeds.at("pitted-exact/srgb8"), 12);
+  EXPECT_EQ(seeds.at("oren-nayar/gamma12"), 4);
+  EXPECT_EQ(seeds.at("dark-oren-nayar/srgb8"), 4);
+  EXPECT_EQ(seeds.at("flash/linear12"), 4);
+  EXPECT_EQ(p.TotalRuns(), (4 + 12 + 12 + 4 + 4) * 2);
+  p.kinds = CoverageKindsNamed({"oren-nayar"});
+  EXPECT_EQ(p.SeedsFor(p.kinds[0]), 12);
+  p.min_runs_per_parameter = 0;
+  EXPECT_EQ(p.SeedsFor(p.kinds[0]), 4);
+  EXPECT_EQ(CoveragePlanFor(BenchOptions{.size = "quick"}).TotalRuns(), 3 * 2);
 }
 
 // --kinds picks kinds by whole name or by material, in the order named, each once; a name that
