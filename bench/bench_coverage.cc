@@ -491,13 +491,11 @@ std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& nam
 int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
   int n = seeds;
   for (const auto& [name, value] : kind.params) {
-    // Every judged parameter's runs per sweep, over the kinds that judge it, at `seeds` each:
-    // when they fall short, this kind's seeds are raised to its share of the minimum.
+    // This kind's share of the minimum over the kinds that judge the parameter, when it is more
+    // than `seeds`.
     const int judging = static_cast<int>(std::count_if(
         kinds.begin(), kinds.end(), [&](const CoverageKind& k) { return k.params.count(name); }));
-    if (judging > 0 && judging * seeds < min_runs_per_parameter) {
-      n = std::max(n, (min_runs_per_parameter + judging - 1) / judging);
-    }
+    if (judging > 0) n = std::max(n, (min_runs_per_parameter + judging - 1) / judging);
   }
   return n;
 }
@@ -547,7 +545,8 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
   const int total = plan.TotalRuns();
   EnsureDirectory(work);
   for (const auto& kind : plan.kinds) {
-    for (int seed = plan.first_seed; seed < plan.first_seed + plan.SeedsFor(kind); ++seed) {
+    const int seeds = plan.SeedsFor(kind);
+    for (int seed = plan.first_seed; seed < plan.first_seed + seeds; ++seed) {
       const fs::path dir = work / fmt::format("{}-seed{}", Slug(kind.name), seed);
       for (auto& r : RunKindSeed(kind, plan, seed, gonio_exe, dir, options.threads)) {
         rep.runs.push_back(r);
