@@ -173,13 +173,13 @@ void RunBench(const BenchArgs& args) {
 // The options of --coverage's grid (bench/bench_coverage.h CoveragePlan).
 void AddCoverageOptions(CLI::App* cmd, BenchArgs* args) {
   cmd->add_option("--seeds", args->seeds,
-                  "--coverage: noise seeds per kind and sweep, every kind (default 4, and 12 for a "
+                  "--coverage: noise seeds per kind and sweep, every kind (default 4, and 20 for a "
                   "kind that alone judges a parameter; 1 with --quick, --smoke)")
       ->check(CLI::Range(1, 100));
   cmd->add_option(
          "--first-seed", args->first_seed,
          "--coverage: the first seed; 1 is the presets' capture, every later seed a "
-         "capture of its own (13: captures none of the default grid holds, to check it against)")
+         "capture of its own (21: captures none of the default grid holds, to check it against)")
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--kinds", args->kinds,
                   "--coverage: only these scene kinds, by name or material (oren-nayar/gamma12, "

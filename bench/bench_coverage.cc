@@ -10,9 +10,11 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <random>
 #include <stdexcept>
+#include <vector>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -489,15 +491,31 @@ std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& nam
 }
 
 int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
-  int n = seeds;
-  for (const auto& [name, value] : kind.params) {
-    // This kind's share of the minimum over the kinds that judge the parameter, when it is more
-    // than `seeds`.
-    const int judging = static_cast<int>(std::count_if(
-        kinds.begin(), kinds.end(), [&](const CoverageKind& k) { return k.params.count(name); }));
-    if (judging > 0) n = std::max(n, (min_runs_per_parameter + judging - 1) / judging);
+  // The kinds that judge each parameter, those judged by fewest kinds first: a kind raised for
+  // a parameter it alone judges also counts towards the parameters it shares (the glossy kind's
+  // 20 seeds towards sigma), so the shared ones need no more.
+  std::map<std::string, std::vector<int>> judged_by;
+  for (int i = 0; i < static_cast<int>(kinds.size()); ++i) {
+    for (const auto& [name, value] : kinds[i].params) judged_by[name].push_back(i);
   }
-  return n;
+  std::vector<const std::vector<int>*> order;
+  for (const auto& [name, judging] : judged_by) order.push_back(&judging);
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto* a, const auto* b) { return a->size() < b->size(); });
+  std::vector<int> n(kinds.size(), seeds);
+  for (const auto* judging : order) {
+    int runs = 0;
+    for (int i : *judging) runs += n[i];
+    const int short_by = min_runs_per_parameter - runs;
+    if (short_by <= 0) continue;
+    const int each =
+        (short_by + static_cast<int>(judging->size()) - 1) / static_cast<int>(judging->size());
+    for (int i : *judging) n[i] += each;
+  }
+  for (int i = 0; i < static_cast<int>(kinds.size()); ++i) {
+    if (kinds[i].name == kind.name) return n[i];
+  }
+  return seeds;
 }
 
 int CoveragePlan::TotalRuns() const {
@@ -512,7 +530,7 @@ CoveragePlan CoveragePlanFor(const BenchOptions& options) {
   if (options.size == "full") {
     p.kinds = AllCoverageKinds();
     p.seeds = 4;
-    p.min_runs_per_parameter = 12;
+    p.min_runs_per_parameter = 20;
   } else if (options.size == "quick") {
     p.kinds = CoverageKindsNamed({"oren-nayar/gamma12", "pitted-exact", "flash"});
     p.seeds = 1;
