@@ -49,7 +49,8 @@ struct CoveragePlan {
   // more seeds than `seeds` (SeedsFor). An RMS z over n runs is chi-square with n degrees of
   // freedom: a right bar (true RMS 1) reads within [0.6, 1.6] 95 % of the time over 9 unwarned
   // runs and 98.7 % over 15. The grid's verdict needs every parameter met, so the four that one
-  // kind judges must all read within the band: 81 % of the time over 9 runs each, 95 % over 15.
+  // kind judges must all read within the band: 81 % of the time over 9 runs each, 95 % over 15
+  // (taken as independent).
   // The statistics leave out warned runs: every whole-stop run (the response limits it) and a
   // fifth to a quarter of the third-stop runs, so 20 planned leave 15-16 (docs/bench.md).
   // 0: every kind runs `seeds` (an explicit --seeds, the small sizes).
