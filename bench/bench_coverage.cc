@@ -11,6 +11,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <random>
 #include <stdexcept>
@@ -490,7 +491,7 @@ std::vector<CoverageKind> CoverageKindsNamed(const std::vector<std::string>& nam
   return chosen;
 }
 
-int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
+std::vector<int> CoveragePlan::SeedsPerKind() const {
   // The kinds that judge each parameter, those judged by fewest kinds first: a kind raised for
   // a parameter it alone judges also counts towards the parameters it shares (the glossy kind's
   // 20 seeds towards sigma), so the shared ones need no more.
@@ -512,16 +513,20 @@ int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
         (short_by + static_cast<int>(judging->size()) - 1) / static_cast<int>(judging->size());
     for (int i : *judging) n[i] += each;
   }
-  for (int i = 0; i < static_cast<int>(kinds.size()); ++i) {
+  return n;
+}
+
+int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
+  const std::vector<int> n = SeedsPerKind();
+  for (size_t i = 0; i < kinds.size(); ++i) {
     if (kinds[i].name == kind.name) return n[i];
   }
   return seeds;
 }
 
 int CoveragePlan::TotalRuns() const {
-  int n = 0;
-  for (const auto& kind : kinds) n += SeedsFor(kind);
-  return n * static_cast<int>(sweeps.size());
+  const std::vector<int> n = SeedsPerKind();
+  return std::accumulate(n.begin(), n.end(), 0) * static_cast<int>(sweeps.size());
 }
 
 CoveragePlan CoveragePlanFor(const BenchOptions& options) {
@@ -562,9 +567,10 @@ CoverageReport RunCoverageBench(const BenchOptions& options, const CoveragePlan&
   const auto start = std::chrono::steady_clock::now();
   const int total = plan.TotalRuns();
   EnsureDirectory(work);
-  for (const auto& kind : plan.kinds) {
-    const int seeds = plan.SeedsFor(kind);
-    for (int seed = plan.first_seed; seed < plan.first_seed + seeds; ++seed) {
+  const std::vector<int> seeds_per_kind = plan.SeedsPerKind();
+  for (size_t k = 0; k < plan.kinds.size(); ++k) {
+    const auto& kind = plan.kinds[k];
+    for (int seed = plan.first_seed; seed < plan.first_seed + seeds_per_kind[k]; ++seed) {
       const fs::path dir = work / fmt::format("{}-seed{}", Slug(kind.name), seed);
       for (auto& r : RunKindSeed(kind, plan, seed, gonio_exe, dir, options.threads)) {
         rep.runs.push_back(r);

@@ -55,6 +55,8 @@ struct CoveragePlan {
   // fifth to a quarter of the third-stop runs, so 20 planned leave 15-16 (docs/bench.md).
   // 0: every kind runs `seeds` (an explicit --seeds, the small sizes).
   int min_runs_per_parameter = 0;
+  // Seeds per kind, in the order of `kinds`, and one kind's.
+  std::vector<int> SeedsPerKind() const;
   int SeedsFor(const CoverageKind& kind) const;
   // Runs over the kinds, their seeds and the sweeps.
   int TotalRuns() const;

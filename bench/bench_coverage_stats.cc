@@ -213,7 +213,9 @@ bool CoverageReport::TargetsMet(const CoverageTargets& t) const {
 
 json CoverageReport::ToJson() const {
   json kinds = json::array();
-  for (const auto& k : plan.kinds) {
+  const std::vector<int> seeds_per_kind = plan.SeedsPerKind();
+  for (size_t i = 0; i < plan.kinds.size(); ++i) {
+    const CoverageKind& k = plan.kinds[i];
     kinds.push_back({{"name", k.name},
                      {"model", k.model},
                      {"params", k.params},
@@ -221,7 +223,7 @@ json CoverageReport::ToJson() const {
                      {"response", synth::ToString(k.response)},
                      {"black_level", k.black_level},
                      {"lamp_on_camera", k.flash},
-                     {"seeds", plan.SeedsFor(k)}});
+                     {"seeds", seeds_per_kind[i]}});
   }
   json runs_json = json::array(), stats_json = json::array();
   for (const auto& r : runs) runs_json.push_back(r.ToJson());
