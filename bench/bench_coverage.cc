@@ -516,14 +516,6 @@ std::vector<int> CoveragePlan::SeedsPerKind() const {
   return n;
 }
 
-int CoveragePlan::SeedsFor(const CoverageKind& kind) const {
-  const std::vector<int> n = SeedsPerKind();
-  for (size_t i = 0; i < kinds.size(); ++i) {
-    if (kinds[i].name == kind.name) return n[i];
-  }
-  return seeds;
-}
-
 int CoveragePlan::TotalRuns() const {
   const std::vector<int> n = SeedsPerKind();
   return std::accumulate(n.begin(), n.end(), 0) * static_cast<int>(sweeps.size());

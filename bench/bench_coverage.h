@@ -46,7 +46,7 @@ struct CoveragePlan {
   int first_seed = 1;
   // Runs per sweep that every judged material parameter gets at least: a kind that alone judges
   // one of its parameters (the glossy ks and sigma_s, the pitted aperture and coverage) runs
-  // more seeds than `seeds` (SeedsFor). An RMS z over n runs is chi-square with n degrees of
+  // more seeds than `seeds` (SeedsPerKind). An RMS z over n runs is chi-square with n degrees of
   // freedom: a right bar (true RMS 1) reads within [0.6, 1.6] 95 % of the time over 9 unwarned
   // runs and 98.7 % over 15. The grid's verdict needs every parameter met, so the four that one
   // kind judges must all read within the band: 81 % of the time over 9 runs each, 95 % over 15
@@ -55,9 +55,8 @@ struct CoveragePlan {
   // fifth to a quarter of the third-stop runs, so 20 planned leave 15-16 (docs/bench.md).
   // 0: every kind runs `seeds` (an explicit --seeds, the small sizes).
   int min_runs_per_parameter = 0;
-  // Seeds per kind, in the order of `kinds`, and one kind's.
+  // Seeds per kind, in the order of `kinds`.
   std::vector<int> SeedsPerKind() const;
-  int SeedsFor(const CoverageKind& kind) const;
   // Runs over the kinds, their seeds and the sweeps.
   int TotalRuns() const;
   std::vector<std::string> sweeps = {"third", "whole"};  // third stops (40 frames), whole (14);

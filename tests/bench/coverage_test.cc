@@ -193,13 +193,14 @@ TEST(Coverage, FullPlanCoversTheIssuesGrid) {
 TEST(Coverage, EveryJudgedParameterGetsTheFullPlansMinimumOfRuns) {
   CoveragePlan p = CoveragePlanFor(BenchOptions());
   ASSERT_EQ(p.min_runs_per_parameter, 20);
-  std::map<std::string, int> runs;
-  for (const auto& k : p.kinds) {
-    for (const auto& [name, value] : k.params) runs[name] += p.SeedsFor(k);
+  const std::vector<int> seeds_per_kind = p.SeedsPerKind();
+  ASSERT_EQ(seeds_per_kind.size(), p.kinds.size());
+  std::map<std::string, int> runs, seeds;
+  for (size_t i = 0; i < p.kinds.size(); ++i) {
+    for (const auto& [name, value] : p.kinds[i].params) runs[name] += seeds_per_kind[i];
+    seeds[p.kinds[i].name] = seeds_per_kind[i];
   }
   for (const auto& [name, n] : runs) EXPECT_GE(n, 20) << name;
-  std::map<std::string, int> seeds;
-  for (const auto& k : p.kinds) seeds[k.name] = p.SeedsFor(k);
   EXPECT_EQ(seeds.at("tson/linear16"), 20);
   EXPECT_EQ(seeds.at("pitted-exact/srgb8"), 20);
   EXPECT_EQ(seeds.at("oren-nayar/gamma12"), 4);
@@ -207,9 +208,9 @@ TEST(Coverage, EveryJudgedParameterGetsTheFullPlansMinimumOfRuns) {
   EXPECT_EQ(seeds.at("flash/linear12"), 4);
   EXPECT_EQ(p.TotalRuns(), (4 + 20 + 20 + 4 + 4) * 2);
   p.kinds = CoverageKindsNamed({"oren-nayar"});
-  EXPECT_EQ(p.SeedsFor(p.kinds[0]), 20);
+  EXPECT_EQ(p.SeedsPerKind(), std::vector<int>{20});
   p.min_runs_per_parameter = 0;
-  EXPECT_EQ(p.SeedsFor(p.kinds[0]), 4);
+  EXPECT_EQ(p.SeedsPerKind(), std::vector<int>{4});
   EXPECT_EQ(CoveragePlanFor(BenchOptions{.size = "quick"}).TotalRuns(), 3 * 2);
 }
 
