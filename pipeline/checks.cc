@@ -434,10 +434,10 @@ void AddNuisanceWarnings(const JointFitResult& f, const std::vector<std::string>
                     all});
     }
   }
-  if (const auto& u = f.unresolved_nuisance) {
-    m->push_back({u->term == UnresolvedNuisance::Term::kAmbient ? WarningCause::kAmbientLight
-                                                                : WarningCause::kSampleHeight,
-                  UnresolvedMessage(*u, response_remedy), all});
+  for (const UnresolvedNuisance& u : f.unresolved_nuisances) {
+    m->push_back({u.term == UnresolvedNuisance::Term::kAmbient ? WarningCause::kAmbientLight
+                                                               : WarningCause::kSampleHeight,
+                  UnresolvedMessage(u, response_remedy), all});
   }
   if (f.sample_height_offset && !f.sample_height_reason.empty()) {
     m->push_back({WarningCause::kSampleHeight,
@@ -558,7 +558,9 @@ std::vector<std::string> AssumedAbsentNuisanceNotes(const JointFitResult& fit) {
   for (const NuisanceSensitivity& n : fit.nuisance_sensitivity) {
     const bool ambient = n.term == UnresolvedNuisance::Term::kAmbient;
     const bool kept = ambient ? !fit.ambient_sample.empty() : fit.sample_height_offset.has_value();
-    const bool warned = fit.unresolved_nuisance && fit.unresolved_nuisance->term == n.term;
+    const bool warned =
+        std::any_of(fit.unresolved_nuisances.begin(), fit.unresolved_nuisances.end(),
+                    [&](const UnresolvedNuisance& u) { return u.term == n.term; });
     const Eigen::Vector3d shift = kAssumedAbsentSd * n.lamp_per_term_sd;
     const double in_sd = UnresolvedNuisance::ShiftInSd(shift, *fit.lamp_stddev);
     if (kept || warned || !(in_sd > 1.0)) continue;

@@ -226,7 +226,10 @@ void LocateFrames(const RunInputs& in, const RunOptions& o,
 
 // After a drop: the reasons the selection gave, what dropped them, and, when leaving a term out
 // moves the lamp beyond kShiftInSd of its (widened) bar, the term as unresolved: the data
-// neither keep nor exclude it, and the run warns (pipeline/checks.cc).
+// neither keep nor exclude it, and the run warns (pipeline/checks.cc). It replaces the term
+// DropNuisances judged alone against none (the kept terms had the stronger evidence); a term
+// the selection left out beside the kept ones was measured beside them, not beside none, so it
+// is not carried over: judged alone, it is that fallback.
 void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, JointFitResult* f) {
   const std::string note = fmt::format(
       "; with the calibration's error (the refits) {} within {:g} standard deviations: dropped",
@@ -235,7 +238,7 @@ void NoteDrop(const NuisanceDrop& d, const JointFitResult& kept, double min_z, J
   if (!kept.ambient_reason.empty()) f->ambient_reason = kept.ambient_reason + note;
   if (!kept.sample_height_reason.empty())
     f->sample_height_reason = kept.sample_height_reason + note;
-  if (auto u = UnresolvedAfterDrop(d, kept, *f)) f->unresolved_nuisance = u;
+  if (auto u = UnresolvedAfterDrop(d, kept, *f)) f->unresolved_nuisances = {*u};
 }
 
 // The checks around the fit are gonio fit's too (pipeline/checks.h FitChecked); refits of the

@@ -72,8 +72,10 @@ void AddCalibrationUncertainty(const CalibrationPropagation& p, JointFitResult* 
   // a height does: on the coverage bench's clean third-stop sessions such trials stood 2-2.6
   // standard deviations out and moved the lamp by 4-11 mm, 8-14 statistical bars, and 5 of 7
   // stay within 3 of the reported bars (docs/pipeline.md "Coverage of the error bars").
-  if (auto& u = fit->unresolved_nuisance; u && fit->lamp_stddev) {
-    if (!u->JudgeAgainst(*fit)) u.reset();
+  if (fit->lamp_stddev) {
+    auto& u = fit->unresolved_nuisances;
+    u.erase(std::remove_if(u.begin(), u.end(), [&](auto& n) { return !n.JudgeAgainst(*fit); }),
+            u.end());
   }
 }
 

@@ -228,7 +228,10 @@ struct JointFitResult {
   // (metres, > 0: the top stands further out) and its standard deviation.
   std::optional<double> sample_height_offset, sample_height_offset_stddev;
   std::string sample_height_reason;  // kAuto: why the correction was kept or left out
-  std::optional<UnresolvedNuisance> unresolved_nuisance;  // kAuto: see UnresolvedNuisance
+  // kAuto: see UnresolvedNuisance; at most one per term (the one that moved most), each its own
+  // warning (pipeline/checks.cc): a user who settles one should not meet the other only on the
+  // next run.
+  std::vector<UnresolvedNuisance> unresolved_nuisances;
   // kAuto: every term's trial, whether the term was kept or not (NuisanceSensitivity).
   std::vector<NuisanceSensitivity> nuisance_sensitivity;
   // The patch model the fit used (kCentre or kAverage) and, when it was chosen (kAuto), the
@@ -322,6 +325,11 @@ NuisanceDrop NuisancesWithinTheirBars(const JointFitOptions& requested, const Jo
 std::optional<UnresolvedNuisance> UnresolvedAfterDrop(const NuisanceDrop& drop,
                                                       const JointFitResult& kept,
                                                       const JointFitResult& without);
+
+// `candidate` into `per_term` (JointFitResult::unresolved_nuisances) in place of the entry of
+// its term when it moved more (shift_in_sd), or added when its term has none.
+void KeepTheWorseOfItsTerm(const std::optional<UnresolvedNuisance>& candidate,
+                           std::vector<UnresolvedNuisance>* per_term);
 
 // Every candidate (on a subsample), the simplest adequate one chosen, then refitted on all.
 // InputError on unusable data (no sample observations, one frame with --criterion cv, ...).

@@ -29,7 +29,6 @@ namespace gonio {
 using joint_fit_internal::ChooseNuisances;
 using joint_fit_internal::CountResiduals;
 using joint_fit_internal::FitCandidate;
-using joint_fit_internal::KeepTheWorse;
 using joint_fit_internal::NuisanceChoice;
 using joint_fit_internal::Subsample;
 
@@ -300,7 +299,7 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
                               const JointFitOptions& search, const JointFitOptions& options,
                               const JointSelectionResult& without, std::string* reason,
                               JointSelectionResult* out,
-                              std::optional<UnresolvedNuisance>* unresolved) {
+                              std::vector<UnresolvedNuisance>* unresolved) {
   const NuisanceDrop drop = NuisancesWithinTheirBars(options, out->final_fit);
   if (!drop.Any()) return;
   const auto if_kept_dropped = out->unresolved_if_kept_term_dropped;
@@ -320,12 +319,15 @@ void DropUnsupportedNuisances(const ObservationSet& data, const std::vector<size
     out->final_fit =
         FitCandidate(chosen.material.model, data, final_use, chosen.lamp_position, o, false);
   }
-  // The worse of this and a term ChooseNuisances left unresolved beside the dropped one; a term
-  // judged alone against none only when neither is: the terms the selection kept had the
-  // stronger evidence (on the glossy kind 4 mm up the dropped height moved sigma 25 bars, the
-  // room light judged alone the albedo 36, and the height is what was there).
-  KeepTheWorse(UnresolvedAfterDrop(drop, kept, out->final_fit), unresolved);
-  if (!*unresolved) *unresolved = JudgedAloneWhenNoTermIsLeft(if_kept_dropped, out->final_fit);
+  // This beside a term ChooseNuisances left unresolved beside the dropped one (the worse when
+  // both are the same term); a term judged alone against none only when neither is: the terms
+  // the selection kept had the stronger evidence (on the glossy kind 4 mm up the dropped height
+  // moved sigma 25 bars, the room light judged alone the albedo 36, and the height is what was
+  // there).
+  KeepTheWorseOfItsTerm(UnresolvedAfterDrop(drop, kept, out->final_fit), unresolved);
+  if (unresolved->empty()) {
+    KeepTheWorseOfItsTerm(JudgedAloneWhenNoTermIsLeft(if_kept_dropped, out->final_fit), unresolved);
+  }
 }
 
 // `options` with its kAuto nuisance terms off: what the model search fits.
@@ -400,7 +402,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
                                           out.fits[out.selection.selected], search, options);
   const JointFitOptions& chosen_options = choice.options;
   std::string& nuisance_reason = choice.reason;
-  std::optional<UnresolvedNuisance>& unresolved = choice.unresolved;
+  std::vector<UnresolvedNuisance>& unresolved = choice.unresolved;
   auto without_nuisances = std::make_shared<const JointSelectionResult>(out);
   if (chosen_options.ambient != search.ambient ||
       chosen_options.sample_height != search.sample_height) {
@@ -428,7 +430,7 @@ JointSelectionResult FitAndSelect(const ObservationSet& data, const JointFitOpti
   out.unresolved_if_kept_term_dropped = choice.unresolved_if_kept_term_dropped;
   DropUnsupportedNuisances(data, final_use, refit, options, *without_nuisances, &nuisance_reason,
                            &out, &unresolved);
-  out.final_fit.unresolved_nuisance = unresolved;
+  out.final_fit.unresolved_nuisances = unresolved;
   out.final_fit.nuisance_sensitivity = choice.sensitivity;
   if (options.ambient == AmbientTerm::kAuto) out.final_fit.ambient_reason = nuisance_reason;
   if (options.sample_height == NuisanceTerm::kAuto) {
@@ -475,8 +477,10 @@ JointSelectionResult DropNuisances(const ObservationSet& data, const JointFitOpt
   out.final_fit.nuisance_sensitivity = selection.final_fit.nuisance_sensitivity;
   // gonio run notes the dropped term itself after this (pipeline/run.cc NoteDrop), in place of
   // this one: as in DropUnsupportedNuisances, the kept terms had the stronger evidence.
-  out.final_fit.unresolved_nuisance =
-      JudgedAloneWhenNoTermIsLeft(selection.unresolved_if_kept_term_dropped, out.final_fit);
+  out.final_fit.unresolved_nuisances.clear();
+  KeepTheWorseOfItsTerm(
+      JudgedAloneWhenNoTermIsLeft(selection.unresolved_if_kept_term_dropped, out.final_fit),
+      &out.final_fit.unresolved_nuisances);
   return out;
 }
 

@@ -87,7 +87,7 @@ void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
 // The header says what it notes (nuisance_choice.h).
 void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
                           double scale, std::vector<NuisanceSensitivity>* sensitivity,
-                          std::optional<UnresolvedNuisance>* unresolved) {
+                          std::vector<UnresolvedNuisance>* unresolved) {
   for (const auto term : {UnresolvedNuisance::Term::kAmbient, UnresolvedNuisance::Term::kHeight}) {
     const NuisanceTrial* on = TrialOf(trials, pick, term, true);
     const NuisanceTrial* off = TrialOf(trials, pick, term, false);
@@ -104,7 +104,7 @@ void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const Nuisan
     UnresolvedNuisance u{term, z, shift, in_sd};
     // A trial is scored (finite) only when each of its terms stood beyond nuisance_min_z.
     u.lost_by_the_criterion = std::isfinite(on->value);
-    KeepTheWorse(u, unresolved);
+    KeepTheWorseOfItsTerm(u, unresolved);
   }
 }
 

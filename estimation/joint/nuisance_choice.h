@@ -26,9 +26,9 @@ struct NuisanceTrial {
 struct NuisanceChoice {
   JointFitOptions options;  // `search` with the chosen terms on (kFit)
   std::string reason;       // every combination's criterion ("-": a term within its error bar)
-  // A term left out that the data neither keep nor exclude beside the terms kept
+  // The terms left out that the data neither keep nor exclude beside the terms kept
   // (NoteEffectsOnTheLamp), and each term's NuisanceSensitivity.
-  std::optional<UnresolvedNuisance> unresolved;
+  std::vector<UnresolvedNuisance> unresolved;
   std::vector<NuisanceSensitivity> sensitivity;
   // What stands when every kept term is dropped (UnkeptBesideNone;
   // JointSelectionResult::unresolved_if_kept_term_dropped).
@@ -52,7 +52,7 @@ void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
 // What each term tried does to the lamp beside the terms picked (`pick`): its trial with the
 // term on and the one with it off, the rest as picked (for a term not picked: the pick with it
 // added). Each term's NuisanceSensitivity (the bars' difference at the final size: divided by
-// `scale`), and the worst unresolved term: one not picked although it stood more than 2 of its
+// `scale`), and each unresolved term: one not picked although it stood more than 2 of its
 // final standard deviations out (within nuisance_min_z; or beyond it and the criterion against
 // it) and moved the lamp by more than kShiftInSd of the lamp's bars (BenchEffects: room light at
 // 5 % of the lamp, z 2.5, moves the lamp by 6 % of its distance; a 4 mm sample and room light at
@@ -60,7 +60,7 @@ void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
 // off). The data neither keep nor exclude it, and the result depends on it.
 void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
                           double scale, std::vector<NuisanceSensitivity>* sensitivity,
-                          std::optional<UnresolvedNuisance>* unresolved);
+                          std::vector<UnresolvedNuisance>* unresolved);
 
 // What the result rests on if the terms kept (`pick`) are all dropped at the end: each term
 // not kept (with one kept) or each of the two (with both kept) judged alone against the trial

@@ -70,6 +70,17 @@ void UnresolvedNuisance::SetParamShift(const BrdfFitResult& with, const BrdfFitR
   }
 }
 
+void KeepTheWorseOfItsTerm(const std::optional<UnresolvedNuisance>& candidate,
+                           std::vector<UnresolvedNuisance>* per_term) {
+  if (!candidate) return;
+  for (UnresolvedNuisance& u : *per_term) {
+    if (u.term != candidate->term) continue;
+    if (candidate->shift_in_sd > u.shift_in_sd) u = *candidate;
+    return;
+  }
+  per_term->push_back(*candidate);
+}
+
 std::optional<UnresolvedNuisance> UnresolvedAfterDrop(const NuisanceDrop& drop,
                                                       const JointFitResult& kept,
                                                       const JointFitResult& without) {

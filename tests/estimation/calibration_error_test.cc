@@ -564,24 +564,34 @@ TEST(CalibrationError, TheRefitsSpreadTheNuisanceTermsToo) {
 // A nuisance the selection could not resolve moved the lamp by more than 3 of its statistical
 // standard deviations (nuisance_choice.cc NoteEffectsOnTheLamp). The calibration's part widens the
 // lamp's bar; the shift is judged again against it: kept (warned) when it still exceeds 3 of
-// the widened bar, dropped when the bar covers it.
+// the widened bar, dropped when the bar covers it. Each term is judged on its own: of room light
+// and a height both unresolved, the bar can hold one and not the other.
 TEST(CalibrationError, AnUnresolvedNuisanceIsJudgedAgainstTheWidenedLampBar) {
   JointFitResult fit;
   fit.lamp_stddev = Eigen::Vector3d(0.001, 0.001, 0.001);
   UnresolvedNuisance u;
   u.lamp_shift = Eigen::Vector3d(0.006, 0.0, -0.002);
   u.shift_in_sd = 6.0;
-  fit.unresolved_nuisance = u;
+  UnresolvedNuisance height = u;
+  height.term = UnresolvedNuisance::Term::kHeight;
+  height.lamp_shift = Eigen::Vector3d(0.0, 0.0, -0.005);
+  fit.unresolved_nuisances = {u, height};
   CalibrationPropagation p;
   p.lamp_stddev = Eigen::Vector3d(0.001, 0.0, 0.0);  // x: sqrt(2) mm, 4.2 bars: still out
   JointFitResult narrow = fit;
   AddCalibrationUncertainty(p, &narrow);
-  ASSERT_TRUE(narrow.unresolved_nuisance);
-  EXPECT_NEAR(narrow.unresolved_nuisance->shift_in_sd, 6.0 / std::sqrt(2.0), 1e-9);
+  ASSERT_EQ(narrow.unresolved_nuisances.size(), 2u);  // z untouched: the height's 5 bars stay
+  EXPECT_NEAR(narrow.unresolved_nuisances[0].shift_in_sd, 6.0 / std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(narrow.unresolved_nuisances[1].shift_in_sd, 5.0, 1e-9);
   p.lamp_stddev = Eigen::Vector3d(0.003, 0.0, 0.0);  // x: 3.2 mm, 1.9 bars; z: 2 bars
   JointFitResult wide = fit;
   AddCalibrationUncertainty(p, &wide);
-  EXPECT_FALSE(wide.unresolved_nuisance);
+  ASSERT_EQ(wide.unresolved_nuisances.size(), 1u);  // the room light held, the height not
+  EXPECT_EQ(wide.unresolved_nuisances[0].term, UnresolvedNuisance::Term::kHeight);
+  p.lamp_stddev = Eigen::Vector3d(0.003, 0.0, 0.002);  // z: sqrt(5) mm, 2.2 bars
+  JointFitResult both_held = fit;
+  AddCalibrationUncertainty(p, &both_held);
+  EXPECT_TRUE(both_held.unresolved_nuisances.empty());
 }
 
 }  // namespace

@@ -164,8 +164,9 @@ TEST(BenchEffects, AmbientLightNeedsLampOffFramesOrAFittedTerm) {
     bool warned = false;
     for (const RunWarning& w : fit.warnings) warned |= w.cause == WarningCause::kAmbientLight;
     EXPECT_TRUE(warned) << fit.report;
-    ASSERT_TRUE(fit.fit.unresolved_nuisance) << fit.report;
-    EXPECT_EQ(fit.fit.unresolved_nuisance->term, UnresolvedNuisance::Term::kAmbient) << fit.report;
+    ASSERT_EQ(fit.fit.unresolved_nuisances.size(), 1u) << fit.report;
+    EXPECT_EQ(fit.fit.unresolved_nuisances[0].term, UnresolvedNuisance::Term::kAmbient)
+        << fit.report;
     fit = RunOn(dir.path(), scene, AmbientTerm::kFit);
   }
   ASSERT_EQ(fit.fit.ambient, AmbientTerm::kFit) << fit.report;
@@ -192,7 +193,7 @@ TEST(BenchEffects, AmbientAutoLeavesTheTermOutInADarkRoom) {
   const Outcome r = RunOn(dir.path(), scene, AmbientTerm::kAuto);
   EXPECT_EQ(r.fit.ambient, AmbientTerm::kNone) << r.report;
   EXPECT_NE(r.fit.ambient_reason.find("none kept"), std::string::npos) << r.report;
-  EXPECT_FALSE(r.fit.unresolved_nuisance) << r.report;
+  EXPECT_TRUE(r.fit.unresolved_nuisances.empty()) << r.report;
   EXPECT_NEAR(r.albedo, kAlbedo, 0.003) << r.report;
 }
 
@@ -212,7 +213,7 @@ TEST(BenchEffects, RoomLightTheDataCannotExcludeIsAnAssumptionWithItsReach) {
   WriteTruePhotometric(dark_dir.path());
   const Outcome dark = RunOn(dark_dir.path(), scene, AmbientTerm::kAuto);
   ASSERT_EQ(dark.fit.ambient, AmbientTerm::kNone) << dark.report;
-  ASSERT_FALSE(dark.fit.unresolved_nuisance) << dark.report;
+  ASSERT_TRUE(dark.fit.unresolved_nuisances.empty()) << dark.report;
   Eigen::Vector3d per_sd = Eigen::Vector3d::Constant(NAN);
   for (const auto& n : dark.fit.nuisance_sensitivity) {
     if (n.term == UnresolvedNuisance::Term::kAmbient) per_sd = n.lamp_per_term_sd;

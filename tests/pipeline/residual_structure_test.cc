@@ -223,7 +223,7 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
   u.z = 2.4;
   u.lamp_shift = Eigen::Vector3d(0.005, 0.0, 0.001);
   u.shift_in_sd = 6;
-  f.unresolved_nuisance = u;
+  f.unresolved_nuisances = {u};
   const FitChecks c;
   const auto third = c.Warnings(f, SweepRemedy(1.0 / 3));
   ASSERT_EQ(third.size(), 1u);
@@ -239,8 +239,8 @@ TEST(RunWarnings, RoomLightThatCannotBeExcludedNamesTheSweepsRemedy) {
       << third[0].message;
   // Beyond nuisance_min_z but not preferred by the criterion (the pitted kind in a dark room,
   // third stops: 3 of 13 such warnings stood 3.3-4.5 out), the warning must not say too few.
-  f.unresolved_nuisance->z = 4.5;
-  f.unresolved_nuisance->lost_by_the_criterion = true;
+  f.unresolved_nuisances[0].z = 4.5;
+  f.unresolved_nuisances[0].lost_by_the_criterion = true;
   const std::string lost = c.Warnings(f, SweepRemedy(1.0 / 3)).at(0).message;
   EXPECT_NE(lost.find("4.5 standard deviations out (enough to keep it, but the criterion did not "
                       "prefer the fit with it)"),
@@ -269,7 +269,7 @@ TEST(RunWarnings, ADroppedTermThatMovedTheLampIsUnresolved) {
   EXPECT_EQ(FitChecks()
                 .Warnings([&] {
                   JointFitResult f = without;
-                  f.unresolved_nuisance = u;
+                  f.unresolved_nuisances = {*u};
                   return f;
                 }())
                 .at(0)
@@ -307,7 +307,7 @@ TEST(RunWarnings, ADroppedTermThatMovedTheMaterialIsUnresolved) {
   EXPECT_EQ(u->moved_param, "sigma");
   EXPECT_NEAR(u->shift_in_sd, 25.0, 1e-6);
   JointFitResult f = without;
-  f.unresolved_nuisance = u;
+  f.unresolved_nuisances = {*u};
   const auto w = FitChecks().Warnings(f);
   ASSERT_EQ(w.size(), 1u);
   EXPECT_EQ(w[0].cause, WarningCause::kSampleHeight);
@@ -334,7 +334,7 @@ TEST(RunWarnings, ATermTheDroppedOneBeatSaysWhyItWasNotKept) {
   u.beside_a_dropped_term = true;
   u.moved_param = "albedo";
   u.shift_in_sd = 6;
-  f.unresolved_nuisance = u;
+  f.unresolved_nuisances = {u};
   const auto w = FitChecks().Warnings(f);
   ASSERT_EQ(w.size(), 1u);
   EXPECT_EQ(w[0].cause, WarningCause::kSampleHeight);
@@ -352,10 +352,33 @@ TEST(RunWarnings, ATermTheDroppedOneBeatSaysWhyItWasNotKept) {
                               "radiance this way (narrowed by a finer sweep or RAW)"),
             std::string::npos)
       << w[0].message;
-  f.unresolved_nuisance->kept_beside_the_other = true;
+  f.unresolved_nuisances[0].kept_beside_the_other = true;
   EXPECT_NE(FitChecks().Warnings(f).at(0).message.find(
                 "(the selection kept it with room light, and the final bars then left both out)"),
             std::string::npos);
+}
+
+// Room light and a height both unresolved: a warning for each, each with its own cause and
+// remedy, so a user who settles one is not surprised by the other on the next run.
+TEST(RunWarnings, TwoUnresolvedTermsAreTwoWarnings) {
+  JointFitResult f = TrueFit();
+  UnresolvedNuisance room_light{UnresolvedNuisance::Term::kAmbient, 2.6,
+                                Eigen::Vector3d(0.005, 0, 0), 5.0};
+  UnresolvedNuisance height{UnresolvedNuisance::Term::kHeight, 3.4, Eigen::Vector3d(0, 0, -0.002),
+                            4.0};
+  height.lost_by_the_criterion = true;
+  f.unresolved_nuisances = {room_light, height};
+  const auto w = FitChecks().Warnings(f);
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_EQ(w[0].cause, WarningCause::kAmbientLight);
+  EXPECT_NE(w[0].message.find("2.6 standard deviations out (too few to keep it)"),
+            std::string::npos)
+      << w[0].message;
+  EXPECT_NE(w[0].message.find("lamp-off frames"), std::string::npos) << w[0].message;
+  EXPECT_EQ(w[1].cause, WarningCause::kSampleHeight);
+  EXPECT_NE(w[1].message.find("3.4 standard deviations out (enough to keep it"), std::string::npos)
+      << w[1].message;
+  EXPECT_NE(w[1].message.find("sample_height_m"), std::string::npos) << w[1].message;
 }
 
 // A term the data left out within its bar is written as an assumption when kAssumedAbsentSd of
@@ -381,9 +404,17 @@ TEST(RunWarnings, ATermTheDataCannotExcludeIsAnAssumption) {
   EXPECT_TRUE(AssumedAbsentNuisanceNotes(f).empty());
   f.ambient_sample.clear();
   f.sample_height_offset.reset();
-  f.unresolved_nuisance = UnresolvedNuisance{UnresolvedNuisance::Term::kAmbient, 2.4,
-                                             Eigen::Vector3d(0, 0, 5e-3), 12.5};
-  ASSERT_EQ(AssumedAbsentNuisanceNotes(f).size(), 1u);  // the warning says it for room light
+  const UnresolvedNuisance room_light{UnresolvedNuisance::Term::kAmbient, 2.4,
+                                      Eigen::Vector3d(0, 0, 5e-3), 12.5};
+  f.unresolved_nuisances = {room_light};
+  const auto height_only = AssumedAbsentNuisanceNotes(f);  // the warning says it for room light
+  ASSERT_EQ(height_only.size(), 1u);
+  EXPECT_NE(height_only[0].find("sample_height_m"), std::string::npos) << height_only[0];
+  UnresolvedNuisance height = room_light;
+  height.term = UnresolvedNuisance::Term::kHeight;
+  f.unresolved_nuisances.push_back(height);
+  EXPECT_TRUE(AssumedAbsentNuisanceNotes(f).empty());  // both warned
+  f.unresolved_nuisances.clear();
   f.lamp_stddev.reset();
   EXPECT_TRUE(AssumedAbsentNuisanceNotes(f).empty());
 }
