@@ -342,6 +342,16 @@ TEST(NuisanceChoice, TheTermTheKeptOneBeatIsJudgedBesideNone) {
   EXPECT_FALSE(UnkeptBesideNone(trials, ambient, 2.0));
 }
 
+// The trial without terms of the tests of NoteEffectsOnTheLamp: scored, the lamp's bars 1 mm.
+joint_fit_internal::NuisanceTrial TrialWithoutTerms() {
+  joint_fit_internal::NuisanceTrial none;
+  none.converged = true;
+  none.value = -1000;
+  none.lamp = Eigen::Vector3d(0.1, 0.0, 0.5);
+  none.lamp_sd = Eigen::Vector3d(1e-3, 1e-3, 1e-3);
+  return none;
+}
+
 // A term left out beside the terms picked that stood more than 2 of its final bars out and moved
 // the lamp beyond kShiftInSd of them is unresolved, and says whether it was within
 // nuisance_min_z (its trial not scored) or beyond it and lost by the criterion (scored): the
@@ -349,11 +359,7 @@ TEST(NuisanceChoice, TheTermTheKeptOneBeatIsJudgedBesideNone) {
 TEST(NuisanceChoice, ATermLeftOutSaysWhetherTheCriterionOrItsSizeLeftItOut) {
   using joint_fit_internal::NoteEffectsOnTheLamp;
   using joint_fit_internal::NuisanceTrial;
-  NuisanceTrial none;
-  none.converged = true;
-  none.value = -1000;
-  none.lamp = Eigen::Vector3d(0.1, 0.0, 0.5);
-  none.lamp_sd = Eigen::Vector3d(1e-3, 1e-3, 1e-3);
+  const NuisanceTrial none = TrialWithoutTerms();
   NuisanceTrial ambient = none;
   ambient.ambient = true;
   ambient.value = -995;  // scored, and worse by the criterion
@@ -391,11 +397,7 @@ TEST(NuisanceChoice, ATermLeftOutSaysWhetherTheCriterionOrItsSizeLeftItOut) {
 TEST(NuisanceChoice, TwoTermsLeftOutAreEachNoted) {
   using joint_fit_internal::NoteEffectsOnTheLamp;
   using joint_fit_internal::NuisanceTrial;
-  NuisanceTrial none;
-  none.converged = true;
-  none.value = -1000;
-  none.lamp = Eigen::Vector3d(0.1, 0.0, 0.5);
-  none.lamp_sd = Eigen::Vector3d(1e-3, 1e-3, 1e-3);
+  const NuisanceTrial none = TrialWithoutTerms();
   NuisanceTrial ambient = none, height = none;
   ambient.ambient = true;
   ambient.value = INFINITY;
