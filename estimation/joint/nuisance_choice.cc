@@ -77,13 +77,6 @@ std::optional<UnresolvedNuisance> AloneAgainstNone(const std::vector<NuisanceTri
 
 }  // namespace
 
-void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
-                  std::optional<UnresolvedNuisance>* worst) {
-  if (candidate && (!*worst || candidate->shift_in_sd > (*worst)->shift_in_sd)) {
-    *worst = candidate;
-  }
-}
-
 // The header says what it notes (nuisance_choice.h).
 void NoteEffectsOnTheLamp(const std::vector<NuisanceTrial>& trials, const NuisanceTrial& pick,
                           double scale, std::vector<NuisanceSensitivity>* sensitivity,
@@ -126,7 +119,7 @@ std::optional<UnresolvedNuisance> UnkeptBesideNone(const std::vector<NuisanceTri
     auto u = AloneAgainstNone(trials, term, scale);
     if (!u) continue;
     u->kept_beside_the_other = kept;
-    KeepTheWorse(u, &worst);
+    if (!worst || u->shift_in_sd > worst->shift_in_sd) worst = u;
   }
   return worst;
 }

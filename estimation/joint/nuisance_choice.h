@@ -45,10 +45,6 @@ NuisanceChoice ChooseNuisances(const ObservationSet& data, const std::vector<siz
                                size_t final_n, const JointFitResult& chosen,
                                const JointFitOptions& search, const JointFitOptions& options);
 
-// `candidate` into `worst` when it moved more, in its standard deviations (shift_in_sd).
-void KeepTheWorse(const std::optional<UnresolvedNuisance>& candidate,
-                  std::optional<UnresolvedNuisance>* worst);
-
 // What each term tried does to the lamp beside the terms picked (`pick`): its trial with the
 // term on and the one with it off, the rest as picked (for a term not picked: the pick with it
 // added). Each term's NuisanceSensitivity (the bars' difference at the final size: divided by
